@@ -1,0 +1,256 @@
+//! Building particle assemblies: regular lattices (for tests and benchmarks) and MatDEM's
+//! box builder (`obj_Box`): a loose arrangement of a gradation inside a container, ready for
+//! deposition and compaction.
+
+use crate::error::{check_positive, Error, Result};
+use crate::model::Model;
+use crate::physics::Vec3;
+use crate::walls::Wall;
+use serde::{Deserialize, Serialize};
+
+/// A small deterministic generator (SplitMix64): the same seed gives the same model on every
+/// machine, which a shared script relies on.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Centres of a face-centred cubic block of spheres of diameter `d`, stacked as close-packed
+/// layers (ABC) along z, so z is the lattice's [111] direction. `nx` × `ny` per layer.
+pub fn fcc_111_block(nx: usize, ny: usize, layers: usize, d: f64) -> Vec<Vec3> {
+    let row = d * 3f64.sqrt() / 2.0;
+    let layer_h = d * (2.0f64 / 3.0).sqrt();
+    let mut out = Vec::with_capacity(nx * ny * layers);
+    for k in 0..layers {
+        // B and C layers sit over the triangle centres of the layer below.
+        let (sx, sy) = match k % 3 {
+            0 => (0.0, 0.0),
+            1 => (d / 2.0, row / 3.0),
+            _ => (d, 2.0 * row / 3.0),
+        };
+        for j in 0..ny {
+            for i in 0..nx {
+                let x = i as f64 * d + if j % 2 == 1 { d / 2.0 } else { 0.0 } + sx;
+                out.push(Vec3::new(x, j as f64 * row + sy, k as f64 * layer_h));
+            }
+        }
+    }
+    out
+}
+
+/// Centres of a simple cubic lattice with spacing `s`, first centre at `origin`.
+pub fn simple_cubic(nx: usize, ny: usize, nz: usize, s: f64, origin: Vec3) -> Vec<Vec3> {
+    let mut out = Vec::with_capacity(nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                out.push(origin + Vec3::new(i as f64, j as f64, k as f64) * s);
+            }
+        }
+    }
+    out
+}
+
+/// One size class of a gradation: radii uniform in [r_min, r_max], a share of the mass.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SizeClass {
+    pub r_min: f64,
+    pub r_max: f64,
+    pub mass_ratio: f64,
+}
+
+/// The container of a box model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Container {
+    /// width (x) × length (y), sides as planes.
+    Cuboid { width: f64, length: f64 },
+    /// A vertical cylinder of this radius (the oedometer ring), centred on the origin.
+    Cylinder { radius: f64 },
+}
+
+/// MatDEM's box: a sample of `height` in a container, filled loosely with the gradation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoxSpec {
+    pub container: Container,
+    pub height: f64,
+    pub classes: Vec<SizeClass>,
+    /// Porosity the settled sample is expected to reach (sets the particle count).
+    pub target_porosity: f64,
+    pub seed: u64,
+    /// Add a top platen (a plane that can be moved or servo-controlled).
+    pub top_platen: bool,
+}
+
+/// The particles of a built box: ids per size class, and the loose height reached.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuiltBox {
+    pub class_ids: Vec<Vec<u32>>,
+    pub loose_height: f64,
+}
+
+impl BoxSpec {
+    pub fn validate(&self) -> Result<()> {
+        check_positive("height", self.height, false)?;
+        match self.container {
+            Container::Cuboid { width, length } => {
+                check_positive("width", width, false)?;
+                check_positive("length", length, false)?;
+            }
+            Container::Cylinder { radius } => {
+                check_positive("radius", radius, false)?;
+            }
+        }
+        if self.classes.is_empty() {
+            return Err(Error::InvalidScene("a box needs at least one size class".into()));
+        }
+        for c in &self.classes {
+            check_positive("r_min", c.r_min, false)?;
+            check_positive("r_max", c.r_max, false)?;
+            check_positive("mass_ratio", c.mass_ratio, false)?;
+            if c.r_max < c.r_min {
+                return Err(Error::InvalidScene(format!(
+                    "size class with r_min {} > r_max {}: give the smaller radius first",
+                    c.r_min, c.r_max
+                )));
+            }
+        }
+        if !(0.0..0.9).contains(&self.target_porosity) {
+            return Err(Error::param("target_porosity", self.target_porosity, "must be in [0, 0.9)"));
+        }
+        Ok(())
+    }
+
+    fn cross_section(&self) -> f64 {
+        match self.container {
+            Container::Cuboid { width, length } => width * length,
+            Container::Cylinder { radius } => std::f64::consts::PI * radius * radius,
+        }
+    }
+
+    /// Particles per class so the settled sample fills `height` at `target_porosity`.
+    pub fn counts(&self) -> Vec<usize> {
+        let solid = self.cross_section() * self.height * (1.0 - self.target_porosity);
+        let total_ratio: f64 = self.classes.iter().map(|c| c.mass_ratio).sum();
+        self.classes
+            .iter()
+            .map(|c| {
+                // Mean volume of a sphere with r uniform in [a, b]: (4π/3)·(b⁴ − a⁴)/(4(b − a)).
+                let v = if c.r_max > c.r_min {
+                    std::f64::consts::PI / 3.0 * (c.r_max.powi(4) - c.r_min.powi(4)) / (c.r_max - c.r_min)
+                } else {
+                    4.0 / 3.0 * std::f64::consts::PI * c.r_min.powi(3)
+                };
+                (solid * c.mass_ratio / total_ratio / v).round().max(1.0) as usize
+            })
+            .collect()
+    }
+
+    /// Adds the particles (material 0 must exist) and the walls to `m`: `bottom`, the sides
+    /// (`left`, `right`, `front`, `back`, or `ring`) and, if asked, `top_platen`.
+    pub fn build_into(&self, m: &mut Model) -> Result<BuiltBox> {
+        self.validate()?;
+        if m.materials.is_empty() {
+            return Err(Error::InvalidScene("add a material before building a box".into()));
+        }
+        let counts = self.counts();
+        let total: usize = counts.iter().sum();
+        if total > 50_000_000 {
+            return Err(Error::InvalidScene(format!(
+                "the box would hold {total} particles; reduce its size or enlarge the grains"
+            )));
+        }
+        let r_max = self.classes.iter().map(|c| c.r_max).fold(0.0, f64::max);
+        let mut rng = Rng::new(self.seed);
+        // Shuffle the classes so every layer of the loose grid holds the gradation.
+        let mut labels: Vec<usize> = counts.iter().enumerate().flat_map(|(k, &n)| std::iter::repeat_n(k, n)).collect();
+        for i in (1..labels.len()).rev() {
+            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+            labels.swap(i, j);
+        }
+        // Loose grid with a little jitter: cell size 2.1·r_max.
+        let s = 2.1 * r_max;
+        let slots = self.layer_slots(s, r_max);
+        if slots.is_empty() {
+            return Err(Error::InvalidScene(format!(
+                "the container is narrower than one grain (largest radius {r_max}): enlarge it"
+            )));
+        }
+        let mut class_ids = vec![Vec::new(); self.classes.len()];
+        for (k, &class) in labels.iter().enumerate() {
+            let layer = k / slots.len();
+            let (x, y) = slots[k % slots.len()];
+            let c = &self.classes[class];
+            let r = c.r_min + (c.r_max - c.r_min) * rng.uniform();
+            let room = (s / 2.0 - r).max(0.0) * 0.8;
+            let jitter = |rng: &mut Rng| (rng.uniform() - 0.5) * room;
+            let pos = Vec3::new(x + jitter(&mut rng), y + jitter(&mut rng), r_max * 1.05 + layer as f64 * s);
+            let id = m.add_particle(pos, r, 0)?;
+            class_ids[class].push(id as u32);
+        }
+        let layers = total.div_ceil(slots.len());
+        let loose_height = layers as f64 * s + 0.1 * r_max;
+        let top = loose_height.max(self.height);
+        let z = Vec3::z();
+        m.add_wall(Wall::plane("bottom", Vec3::zeros(), z, self.cross_section())?)?;
+        match self.container {
+            Container::Cuboid { width, length } => {
+                m.add_wall(Wall::plane("left", Vec3::zeros(), Vec3::x(), length * top)?)?;
+                m.add_wall(Wall::plane("right", Vec3::new(width, 0.0, 0.0), -Vec3::x(), length * top)?)?;
+                m.add_wall(Wall::plane("front", Vec3::zeros(), Vec3::y(), width * top)?)?;
+                m.add_wall(Wall::plane("back", Vec3::new(0.0, length, 0.0), -Vec3::y(), width * top)?)?;
+            }
+            Container::Cylinder { radius } => {
+                let area = 2.0 * std::f64::consts::PI * radius * self.height;
+                m.add_wall(Wall::cylinder("ring", Vec3::zeros(), radius, area)?)?;
+            }
+        }
+        if self.top_platen {
+            m.add_wall(Wall::plane("top_platen", Vec3::new(0.0, 0.0, top), -z, self.cross_section())?)?;
+        }
+        Ok(BuiltBox { class_ids, loose_height })
+    }
+
+    /// Grid positions of one loose layer inside the container.
+    fn layer_slots(&self, s: f64, r_max: f64) -> Vec<(f64, f64)> {
+        let mut out = Vec::new();
+        match self.container {
+            Container::Cuboid { width, length } => {
+                let (nx, ny) = ((width / s) as usize, (length / s) as usize);
+                for j in 0..ny {
+                    for i in 0..nx {
+                        out.push(((i as f64 + 0.5) * s, (j as f64 + 0.5) * s));
+                    }
+                }
+            }
+            Container::Cylinder { radius } => {
+                let n = (radius / s).ceil() as i64 + 1;
+                for j in -n..=n {
+                    for i in -n..=n {
+                        let (x, y) = (i as f64 * s, j as f64 * s);
+                        if (x * x + y * y).sqrt() + r_max * 1.05 <= radius {
+                            out.push((x, y));
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,118 @@
+//! Errors the engine reports. User mistakes, numerical instability and cancellation are
+//! kept apart so the host can word each one and choose an exit code.
+
+/// Everything the engine can refuse or stop with.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        name: &'static str,
+        value: f64,
+        reason: String,
+    },
+    #[error("material `{material}`: {reason}")]
+    InvalidMaterial { material: String, reason: String },
+    #[error("unknown {kind} `{name}`{}", hint(.suggestion, .known))]
+    Unknown {
+        kind: &'static str,
+        name: String,
+        suggestion: Option<String>,
+        known: Vec<String>,
+    },
+    #[error("particle id {id} is out of range (the model has {count} particles; ids are 0-based)")]
+    BadParticleId { id: usize, count: usize },
+    #[error("{0}")]
+    InvalidScene(String),
+    /// The stability guard stopped the run before it produced NaNs.
+    #[error("{0}")]
+    Unstable(Box<Instability>),
+    #[error("run cancelled after {completed_steps} step(s)")]
+    Cancelled { completed_steps: u64 },
+}
+
+fn hint(suggestion: &Option<String>, known: &[String]) -> String {
+    match suggestion {
+        Some(s) => format!(" (did you mean `{s}`?)"),
+        None if !known.is_empty() => format!("; known: {}", known.join(", ")),
+        None => String::new(),
+    }
+}
+
+/// What the stability guard found: enough to name the particle, the step and the fix.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Instability {
+    pub step: u64,
+    pub particle: usize,
+    pub what: String,
+    pub dt: f64,
+    pub critical_dt: f64,
+    pub standard_dt: f64,
+}
+
+impl std::fmt::Display for Instability {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "unstable at step {}: particle {} {}; time step dt = {:.3e} s, critical time step {:.3e} s \
+             (standard {:.3e} s). Fix: use the standard time step (set_standard_dt) or a dt below \
+             {:.3e} s, or soften the stiffest material",
+            self.step, self.particle, self.what, self.dt, self.critical_dt, self.standard_dt, self.critical_dt
+        )
+    }
+}
+
+impl Error {
+    pub(crate) fn param(name: &'static str, value: f64, reason: impl Into<String>) -> Self {
+        Error::InvalidParameter {
+            name,
+            value,
+            reason: reason.into(),
+        }
+    }
+
+    /// An `Unknown` error with the closest known name as a suggestion.
+    pub fn unknown(kind: &'static str, name: &str, known: &[&str]) -> Self {
+        let suggestion = known
+            .iter()
+            .map(|k| (edit_distance(name, k), *k))
+            .filter(|(d, k)| *d <= 2.max(k.len() / 3))
+            .min()
+            .map(|(_, k)| k.to_string());
+        Error::Unknown {
+            kind,
+            name: name.to_string(),
+            suggestion,
+            known: known.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+}
+
+/// Checks that `value` is finite and positive (or zero when `allow_zero`).
+pub(crate) fn check_positive(name: &'static str, value: f64, allow_zero: bool) -> Result<f64, Error> {
+    if !value.is_finite() {
+        return Err(Error::param(name, value, "must be a finite number"));
+    }
+    if value < 0.0 || (!allow_zero && value == 0.0) {
+        let what = if allow_zero { "must be ≥ 0" } else { "must be > 0" };
+        return Err(Error::param(name, value, what));
+    }
+    Ok(value)
+}
+
+/// Levenshtein distance, for "did you mean" hints.
+pub fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,39 @@
+//! # matdem-engine
+//!
+//! The simulation engine of matdem-rs: a discrete element method in the manner of MatDEM.
+//! It knows nothing of scripts, plots or terminals; a Rust program can use it directly.
+//!
+//! A tour:
+//! - [`model::Model`] holds the state: [`state::particles::Particles`] (struct of arrays),
+//!   neighbour rows with per-pair state ([`state::contacts::Contacts`]), materials, groups,
+//!   walls, settings and the clock.
+//! - [`physics`] holds the pure laws: MatDEM's linear elastic-brittle bonded contact, Hertz,
+//!   Mindlin, dashpots from restitution, time-step estimates.
+//! - [`materials`] converts macro properties (E, ν, Tu, Cu, μi) to micro parameters and back.
+//! - [`plan::StepPlan`] decides once which effects a scene needs.
+//! - [`backend::cpu::CpuBackend`] runs one step as named stages; [`simulation::Simulation`]
+//!   runs many, with MatDEM's `balance` and the stability [`guard`].
+//! - [`status`] measures energies, heat, coordination number and porosity.
+//!
+//! Units are SI; particle ids are 0-based.
+
+pub mod backend;
+pub mod builder;
+pub mod error;
+pub mod guard;
+pub mod materials;
+pub mod model;
+pub mod physics;
+pub mod plan;
+pub mod simulation;
+pub mod state;
+pub mod status;
+pub mod walls;
+
+pub use error::{Error, Result};
+pub use materials::{MacroProperties, Material};
+pub use model::{Model, NormalKind, Settings, TangentialKind};
+pub use physics::Vec3;
+pub use plan::StepPlan;
+pub use simulation::{Balance, Simulation};
+pub use walls::{Wall, WallMotion, WallShape};

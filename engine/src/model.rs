@@ -1,0 +1,427 @@
+//! The model: particles, contact rows, materials, groups, walls, settings and the clock.
+//! Mutating calls validate their input and mark what a run must rebuild.
+
+use crate::error::{check_positive, Error, Result};
+use crate::materials::Material;
+use crate::physics::contact_law::{BreakKind, PairState};
+use crate::physics::timestep::{critical_step, element_period, STANDARD_FRACTION};
+use crate::physics::Vec3;
+use crate::state::contacts::Contacts;
+use crate::state::groups::Groups;
+use crate::state::particles::Particles;
+use crate::walls::{Wall, MAX_WALLS};
+use serde::{Deserialize, Serialize};
+use std::str::FromStr;
+
+/// The compressive normal law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum NormalKind {
+    /// Kn·δ (MatDEM's default).
+    Linear,
+    /// (4/3)·E*·√R*·δ^(3/2), from each material's E and ν (paper 000: E = Kn/(πR), ν = 0).
+    Hertz,
+}
+
+/// The shear spring.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TangentialKind {
+    /// Constant Ks (MatDEM).
+    Linear,
+    /// Mindlin's 8·G*·√(R*·δ).
+    Mindlin,
+}
+
+impl FromStr for NormalKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "linear" => Ok(NormalKind::Linear),
+            "hertz" => Ok(NormalKind::Hertz),
+            _ => Err(Error::unknown("normal contact law", s, &["linear", "hertz"])),
+        }
+    }
+}
+
+impl FromStr for TangentialKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "linear" => Ok(TangentialKind::Linear),
+            "mindlin" => Ok(TangentialKind::Mindlin),
+            _ => Err(Error::unknown("tangential contact law", s, &["linear", "mindlin"])),
+        }
+    }
+}
+
+/// Scene-wide choices.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// Gravitational acceleration (m/s²).
+    pub gravity: Vec3,
+    /// MatDEM's global viscous damping, as a ratio of each element's critical damping.
+    pub damping: f64,
+    pub normal: NormalKind,
+    pub tangential: TangentialKind,
+    /// Simulate particle rotation (torques from shear forces).
+    pub rotation: bool,
+    /// Neighbour skin as a fraction of the mean radius.
+    pub skin_ratio: f64,
+    /// Steps between stability checks.
+    pub guard_every: u64,
+    /// Largest overlap the guard accepts, as a fraction of the smaller radius.
+    pub max_overlap_ratio: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            gravity: Vec3::zeros(),
+            damping: 0.0,
+            normal: NormalKind::Linear,
+            tangential: TangentialKind::Linear,
+            rotation: false,
+            skin_ratio: 0.4,
+            guard_every: 100,
+            max_overlap_ratio: 0.5,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Clock {
+    pub step: u64,
+    pub time: f64,
+    pub dt: f64,
+}
+
+/// A bond that broke: when, which pair (i < j) and how.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Breakage {
+    pub step: u64,
+    pub time: f64,
+    pub i: u32,
+    pub j: u32,
+    pub kind: BreakKind,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Model {
+    pub particles: Particles,
+    pub contacts: Contacts,
+    /// Shear state of particle–wall contacts: `wall_contacts[i * walls.len() + w]`.
+    pub wall_contacts: Vec<PairState>,
+    pub materials: Vec<Material>,
+    pub groups: Groups,
+    pub walls: Vec<Wall>,
+    pub settings: Settings,
+    pub clock: Clock,
+    pub breakages: Vec<Breakage>,
+    /// Bumped by every change that invalidates a step plan.
+    pub revision: u64,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Model {
+    pub fn new() -> Self {
+        Model {
+            particles: Particles::default(),
+            contacts: Contacts { stale: true, ..Contacts::default() },
+            wall_contacts: Vec::new(),
+            materials: Vec::new(),
+            groups: Groups::default(),
+            walls: Vec::new(),
+            settings: Settings::default(),
+            clock: Clock { step: 0, time: 0.0, dt: 0.0 },
+            breakages: Vec::new(),
+            revision: 0,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    fn touch(&mut self) {
+        self.revision += 1;
+    }
+
+    /// Adds a material, or replaces the one with the same name; returns its index.
+    pub fn add_material(&mut self, m: Material) -> Result<u32> {
+        m.validate()?;
+        self.touch();
+        if let Some(k) = self.materials.iter().position(|x| x.name == m.name) {
+            self.materials[k] = m;
+            for i in 0..self.len() {
+                if self.particles.material[i] as usize == k {
+                    self.particles.mass[i] = self.sphere_mass(k, self.particles.radius[i]);
+                }
+            }
+            return Ok(k as u32);
+        }
+        self.materials.push(m);
+        Ok(self.materials.len() as u32 - 1)
+    }
+
+    pub fn material_index(&self, name: &str) -> Result<u32> {
+        self.materials.iter().position(|m| m.name == name).map(|k| k as u32).ok_or_else(|| {
+            let known: Vec<&str> = self.materials.iter().map(|m| m.name.as_str()).collect();
+            Error::unknown("material", name, &known)
+        })
+    }
+
+    fn sphere_mass(&self, material: usize, r: f64) -> f64 {
+        self.materials[material].density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    }
+
+    /// Adds a sphere and returns its id.
+    pub fn add_particle(&mut self, pos: Vec3, radius: f64, material: u32) -> Result<usize> {
+        check_positive("radius", radius, false)?;
+        if !pos.iter().all(|v| v.is_finite()) {
+            return Err(Error::InvalidScene(format!("particle position {pos:?} is not finite")));
+        }
+        if material as usize >= self.materials.len() {
+            return Err(Error::InvalidScene(format!(
+                "material index {material} does not exist (the model has {})",
+                self.materials.len()
+            )));
+        }
+        let mass = self.sphere_mass(material as usize, radius);
+        let id = self.particles.push(pos, radius, mass, material);
+        let w = self.walls.len();
+        self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
+        self.contacts.stale = true;
+        self.touch();
+        Ok(id)
+    }
+
+    pub fn check_ids(&self, ids: &[u32]) -> Result<()> {
+        let n = self.len();
+        match ids.iter().find(|&&i| i as usize >= n) {
+            Some(&bad) => Err(Error::BadParticleId { id: bad as usize, count: n }),
+            None => Ok(()),
+        }
+    }
+
+    /// Assigns a material to particles (mass follows the density).
+    pub fn set_material(&mut self, ids: &[u32], material: u32) -> Result<()> {
+        self.check_ids(ids)?;
+        if material as usize >= self.materials.len() {
+            return Err(Error::InvalidScene(format!("material index {material} does not exist")));
+        }
+        for &i in ids {
+            let i = i as usize;
+            self.particles.material[i] = material;
+            self.particles.mass[i] = self.sphere_mass(material as usize, self.particles.radius[i]);
+        }
+        self.touch();
+        Ok(())
+    }
+
+    /// Blocks (or frees) translational degrees of freedom; blocked components keep their
+    /// current velocity (zero unless a script sets one).
+    pub fn fix(&mut self, ids: &[u32], dofs: u8, fixed: bool) -> Result<()> {
+        self.check_ids(ids)?;
+        for &i in ids {
+            let f = &mut self.particles.fixed[i as usize];
+            *f = if fixed { *f | dofs } else { *f & !dofs };
+        }
+        Ok(())
+    }
+
+    pub fn add_wall(&mut self, wall: Wall) -> Result<usize> {
+        if self.walls.len() >= MAX_WALLS {
+            return Err(Error::InvalidScene(format!("a scene may have at most {MAX_WALLS} walls")));
+        }
+        if self.walls.iter().any(|w| w.name == wall.name) {
+            return Err(Error::InvalidScene(format!("a wall named `{}` already exists", wall.name)));
+        }
+        // Re-stride the wall contact states.
+        let w_old = self.walls.len();
+        let mut states = vec![PairState::default(); self.len() * (w_old + 1)];
+        for i in 0..self.len() {
+            states[i * (w_old + 1)..i * (w_old + 1) + w_old]
+                .copy_from_slice(&self.wall_contacts[i * w_old..(i + 1) * w_old]);
+        }
+        self.wall_contacts = states;
+        self.walls.push(wall);
+        self.touch();
+        Ok(self.walls.len() - 1)
+    }
+
+    pub fn wall_index(&self, name: &str) -> Result<usize> {
+        self.walls.iter().position(|w| w.name == name).ok_or_else(|| {
+            let known: Vec<&str> = self.walls.iter().map(|w| w.name.as_str()).collect();
+            Error::unknown("wall", name, &known)
+        })
+    }
+
+    pub fn wall_mut(&mut self, name: &str) -> Result<&mut Wall> {
+        let k = self.wall_index(name)?;
+        self.touch();
+        Ok(&mut self.walls[k])
+    }
+
+    /// Removes particles (ids refer to the current numbering); groups are renumbered.
+    pub fn remove_particles(&mut self, ids: &[u32]) -> Result<()> {
+        self.check_ids(ids)?;
+        let mut keep = vec![true; self.len()];
+        for &i in ids {
+            keep[i as usize] = false;
+        }
+        let w = self.walls.len();
+        let mut idx = 0usize;
+        self.wall_contacts.retain(|_| {
+            let r = keep[idx / w.max(1)];
+            idx += 1;
+            r
+        });
+        let map = self.particles.retain(&keep);
+        self.groups.remap(&map);
+        // Rows refer to old ids: rebuild, keeping bonds between survivors.
+        let mut bonds = Vec::new();
+        for i in 0..self.contacts.row_start.len().saturating_sub(1) {
+            for e in self.contacts.row(i) {
+                let j = self.contacts.other[e] as usize;
+                if i < j && self.contacts.state[e].bonded {
+                    if let (Some(a), Some(b)) = (map[i], map[j]) {
+                        bonds.push((a, b));
+                    }
+                }
+            }
+        }
+        self.contacts = Contacts { stale: true, skin: self.contacts.skin, ..Contacts::default() };
+        crate::backend::cpu::neighbours::rebuild(self);
+        for (a, b) in bonds {
+            self.contacts.set_bond(a as usize, b as usize, true);
+        }
+        self.touch();
+        Ok(())
+    }
+
+    /// Bonds every pair among `ids` (all particles when `None`) whose gap is at most
+    /// `tolerance` (m), like MatDEM's `connectGroup`. Returns the number of new bonds.
+    pub fn connect(&mut self, ids: Option<&[u32]>, tolerance: f64) -> Result<usize> {
+        check_positive("tolerance", tolerance, true)?;
+        let mut member = vec![ids.is_none(); self.len()];
+        if let Some(ids) = ids {
+            self.check_ids(ids)?;
+            for &i in ids {
+                member[i as usize] = true;
+            }
+        }
+        let skin_needed = tolerance;
+        if self.contacts.skin < skin_needed || self.contacts.stale {
+            self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
+            crate::backend::cpu::neighbours::rebuild(self);
+        }
+        let p = &self.particles;
+        let c = &mut self.contacts;
+        let mut count = 0;
+        for i in 0..p.len() {
+            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
+                let j = c.other[e] as usize;
+                if !(member[i] && member[j]) {
+                    continue;
+                }
+                let gap = (p.pos[j] - p.pos[i]).norm() - p.radius[i] - p.radius[j];
+                if gap <= tolerance && !c.state[e].bonded {
+                    c.state[e].bonded = true;
+                    c.state[e].shear = Vec3::zeros();
+                    if i < j {
+                        count += 1;
+                    }
+                }
+            }
+        }
+        self.touch();
+        Ok(count)
+    }
+
+    /// Breaks every bond that has at least one end among `ids` (all when `None`).
+    pub fn break_bonds(&mut self, ids: Option<&[u32]>) -> Result<usize> {
+        let mut member = vec![ids.is_none(); self.len()];
+        if let Some(ids) = ids {
+            self.check_ids(ids)?;
+            for &i in ids {
+                member[i as usize] = true;
+            }
+        }
+        let c = &mut self.contacts;
+        let mut count = 0;
+        for i in 0..c.row_start.len().saturating_sub(1) {
+            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
+                let j = c.other[e] as usize;
+                if (member[i] || member[j]) && c.state[e].bonded {
+                    c.state[e].bonded = false;
+                    c.state[e].shear = Vec3::zeros();
+                    if i < j {
+                        count += 1;
+                    }
+                }
+            }
+        }
+        self.touch();
+        Ok(count)
+    }
+
+    /// Bonded pairs (each once).
+    pub fn bond_count(&self) -> usize {
+        self.contacts.state.iter().filter(|s| s.bonded).count() / 2
+    }
+
+    /// The stiffness an element meets in its stiffest likely contact (a rigid wall): the
+    /// element spring 2·Kn, or for Hertz the tangent stiffness at an overlap of 5% of r.
+    pub fn element_stiffness(&self, i: usize) -> f64 {
+        let m = &self.materials[self.particles.material[i] as usize];
+        match self.settings.normal {
+            NormalKind::Linear => 2.0 * m.kn,
+            NormalKind::Hertz => {
+                let r = self.particles.radius[i];
+                let e_star = m.young / (1.0 - m.poisson * m.poisson);
+                2.0 * e_star * r * 0.05f64.sqrt()
+            }
+        }
+    }
+
+    /// The particle with the shortest element period and that period's critical step.
+    pub fn critical_dt(&self) -> Option<(usize, f64)> {
+        (0..self.len())
+            .map(|i| (i, critical_step(self.particles.mass[i], self.element_stiffness(i))))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// MatDEM's standard step: 1/50 of the smallest element period.
+    pub fn standard_dt(&self) -> Result<f64> {
+        (0..self.len())
+            .map(|i| element_period(self.particles.mass[i], self.element_stiffness(i)) * STANDARD_FRACTION)
+            .min_by(f64::total_cmp)
+            .ok_or_else(|| Error::InvalidScene("the model has no particles: add some before choosing a time step".into()))
+    }
+
+    pub fn set_dt(&mut self, dt: f64) -> Result<()> {
+        check_positive("dt", dt, false)?;
+        self.clock.dt = dt;
+        Ok(())
+    }
+
+    pub fn set_standard_dt(&mut self) -> Result<f64> {
+        let dt = self.standard_dt()?;
+        self.clock.dt = dt;
+        Ok(dt)
+    }
+
+    /// Mean radius (m).
+    pub fn mean_radius(&self) -> f64 {
+        let n = self.len().max(1) as f64;
+        self.particles.radius.iter().sum::<f64>() / n
+    }
+}

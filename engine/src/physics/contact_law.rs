@@ -1,0 +1,410 @@
+//! Contact laws between two elements, or an element and a rigid wall.
+//!
+//! MatDEM's linear elastic-brittle bonded model (paper 003, §2): normal force Kn·δ, tension
+//! allowed while bonded up to the breaking force Kn·Xb; an incremental shear spring Ks
+//! capped at Fs0 + μp·Fn while bonded and at μp·Fn once broken. Hertz (paper 000, eq. 7;
+//! Johnson 1985 §4) replaces the compressive normal law; Mindlin's no-slip stiffness
+//! 8·G*·a is the Hertz tangential option. A normal dashpot is set from a restitution.
+//!
+//! Sign conventions: `n` is the unit vector from this element towards the other body; the
+//! overlap δ > 0 in compression; `v_rel` is the velocity of this element's contact point
+//! relative to the other's. Every operation is odd in (n, v_rel, shear), so the two rows
+//! of a pair compute exactly opposite forces and keep identical state.
+
+use super::Vec3;
+
+/// Pair constants, combined once per pair of materials (springs in series, smaller strength).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PairParams {
+    /// Normal spring (N/m).
+    pub kn: f64,
+    /// Shear spring (N/m).
+    pub ks: f64,
+    /// Bond breaking force in tension, Kn·Xb (N).
+    pub breaking_force: f64,
+    /// Initial shear resistance of the bond (N).
+    pub fs0: f64,
+    /// Friction coefficient.
+    pub mu: f64,
+    /// Effective Young's modulus E* (Pa).
+    pub e_star: f64,
+    /// Effective shear modulus G* (Pa), for Mindlin's tangential stiffness.
+    pub g_star: f64,
+    /// Linear dashpot: damping ratio ζ relative to critical.
+    pub zeta: f64,
+    /// Hertz dashpot: dimensionless α in c = α·√(m*·Kh)·δ^(1/4).
+    pub alpha: f64,
+}
+
+/// Per-contact state carried from step to step, aligned with the neighbour rows.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PairState {
+    /// Shear spring force on this element (N).
+    pub shear: Vec3,
+    /// Whether the pair is bonded (MatDEM's intact connection).
+    pub bonded: bool,
+}
+
+/// How a bond broke.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum BreakKind {
+    Tension,
+    Shear,
+}
+
+/// Geometry and kinematics of one contact as seen from one element.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactGeometry {
+    pub n: Vec3,
+    pub overlap: f64,
+    pub v_rel: Vec3,
+    pub r_star: f64,
+    pub m_star: f64,
+}
+
+/// What one contact does to this element in one step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ContactResult {
+    /// Total force on this element (N).
+    pub force: Vec3,
+    /// Shear force on this element (N), for torque.
+    pub shear: Vec3,
+    pub broke: Option<BreakKind>,
+    /// Energy this contact turned into heat during the step, split by cause (J, whole pair).
+    pub heat_damping: f64,
+    pub heat_friction: f64,
+    pub heat_breakage: f64,
+    /// Normal stiffness at this overlap (N/m), for servo gains and time-step checks.
+    pub stiffness: f64,
+}
+
+/// The compressive normal law of a scene.
+pub trait NormalLaw: Copy + Send + Sync + 'static {
+    const NAME: &'static str;
+    /// Elastic normal force for overlap δ > 0.
+    fn force(p: &PairParams, r_star: f64, overlap: f64) -> f64;
+    /// Tangent stiffness dF/dδ at overlap δ > 0.
+    fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64;
+    /// Dashpot coefficient c (N·s/m) at overlap δ > 0.
+    fn dashpot(p: &PairParams, r_star: f64, m_star: f64, overlap: f64) -> f64;
+    /// Elastic energy stored at overlap δ > 0 (J).
+    fn energy(p: &PairParams, r_star: f64, overlap: f64) -> f64;
+}
+
+/// Linear spring Kn·δ (MatDEM's default).
+#[derive(Debug, Clone, Copy)]
+pub struct Linear;
+
+/// Hertz: F = (4/3)·E*·√R*·δ^(3/2).
+#[derive(Debug, Clone, Copy)]
+pub struct Hertz;
+
+impl NormalLaw for Linear {
+    const NAME: &'static str = "linear";
+    #[inline(always)]
+    fn force(p: &PairParams, _r: f64, overlap: f64) -> f64 {
+        p.kn * overlap
+    }
+    #[inline(always)]
+    fn stiffness(p: &PairParams, _r: f64, _overlap: f64) -> f64 {
+        p.kn
+    }
+    #[inline(always)]
+    fn dashpot(p: &PairParams, _r: f64, m_star: f64, _overlap: f64) -> f64 {
+        2.0 * p.zeta * (p.kn * m_star).sqrt()
+    }
+    #[inline(always)]
+    fn energy(p: &PairParams, _r: f64, overlap: f64) -> f64 {
+        0.5 * p.kn * overlap * overlap
+    }
+}
+
+/// Hertz's constant Kh = (4/3)·E*·√R*, so that F = Kh·δ^(3/2).
+#[inline(always)]
+pub fn hertz_constant(e_star: f64, r_star: f64) -> f64 {
+    4.0 / 3.0 * e_star * r_star.sqrt()
+}
+
+impl NormalLaw for Hertz {
+    const NAME: &'static str = "hertz";
+    #[inline(always)]
+    fn force(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
+        hertz_constant(p.e_star, r_star) * overlap * overlap.sqrt()
+    }
+    #[inline(always)]
+    fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
+        1.5 * hertz_constant(p.e_star, r_star) * overlap.sqrt()
+    }
+    #[inline(always)]
+    fn dashpot(p: &PairParams, r_star: f64, m_star: f64, overlap: f64) -> f64 {
+        p.alpha * (m_star * hertz_constant(p.e_star, r_star)).sqrt() * overlap.sqrt().sqrt()
+    }
+    #[inline(always)]
+    fn energy(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
+        0.4 * hertz_constant(p.e_star, r_star) * overlap * overlap * overlap.sqrt()
+    }
+}
+
+/// The shear spring's stiffness.
+pub trait TangentialLaw: Copy + Send + Sync + 'static {
+    const NAME: &'static str;
+    fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64;
+}
+
+/// A constant shear spring Ks (MatDEM).
+#[derive(Debug, Clone, Copy)]
+pub struct LinearShear;
+
+/// Mindlin's no-slip stiffness kt = 8·G*·√(R*·δ) (as in LIGGGHTS' `tangential history`).
+#[derive(Debug, Clone, Copy)]
+pub struct MindlinShear;
+
+impl TangentialLaw for LinearShear {
+    const NAME: &'static str = "linear shear spring";
+    #[inline(always)]
+    fn stiffness(p: &PairParams, _r: f64, _overlap: f64) -> f64 {
+        p.ks
+    }
+}
+
+impl TangentialLaw for MindlinShear {
+    const NAME: &'static str = "mindlin shear spring";
+    #[inline(always)]
+    fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
+        8.0 * p.g_star * (r_star * overlap.max(0.0)).sqrt()
+    }
+}
+
+/// One contact for one step: updates `state` (shear spring, bond) and returns the force on
+/// this element. Call only for bonded pairs or pairs with δ > 0.
+///
+/// `DASHPOT` folds the normal dashpot away at compile time when no material asks for one.
+#[inline(always)]
+pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
+    g: &ContactGeometry,
+    p: &PairParams,
+    state: &mut PairState,
+    dt: f64,
+) -> ContactResult {
+    let mut out = ContactResult::default();
+    let overlap = g.overlap;
+    let touching = overlap > 0.0;
+    // Elastic normal force: the law in compression, the bond's linear spring in tension.
+    let (fn_el, kn) = if touching {
+        (N::force(p, g.r_star, overlap), N::stiffness(p, g.r_star, overlap))
+    } else {
+        (p.kn * overlap, p.kn)
+    };
+    out.stiffness = kn;
+    if state.bonded && fn_el < -p.breaking_force {
+        // Broken in tension: the stretched bond's energy becomes heat; no contact remains.
+        out.heat_breakage = 0.5 * p.kn * overlap * overlap + shear_energy(state.shear, p.ks);
+        out.broke = Some(BreakKind::Tension);
+        state.bonded = false;
+        state.shear = Vec3::zeros();
+        return out;
+    }
+    let vn = g.v_rel.dot(&g.n); // > 0 while the overlap grows
+    let mut fn_total = fn_el;
+    if DASHPOT && touching {
+        let c = N::dashpot(p, g.r_star, g.m_star, overlap);
+        fn_total += c * vn;
+        out.heat_damping = c * vn * vn * dt;
+    }
+
+    // Shear spring: carry the old force into the current tangent plane, then add Ks·Δu_t.
+    let kt = T::stiffness(p, g.r_star, overlap);
+    let vt = g.v_rel - g.n * vn;
+    let mut s = rotate_into_plane(state.shear, &g.n);
+    s -= vt * (kt * dt);
+    let mut limit = if state.bonded {
+        (p.fs0 + p.mu * fn_el).max(0.0)
+    } else {
+        p.mu * fn_el.max(0.0)
+    };
+    let s2 = s.norm_squared();
+    if s2 > limit * limit {
+        if state.bonded {
+            // The bond fails in shear; from now on only friction holds.
+            state.bonded = false;
+            out.broke = Some(BreakKind::Shear);
+            out.heat_breakage = bond_tension_energy(p, overlap);
+            limit = p.mu * fn_el.max(0.0);
+            if !touching {
+                fn_total = 0.0;
+            }
+        }
+        if s2 > limit * limit {
+            let mag = s2.sqrt();
+            let capped = s * (limit / mag);
+            let released = shear_energy(s, kt) - shear_energy(capped, kt);
+            if out.broke.is_some() {
+                out.heat_breakage += released;
+            } else {
+                out.heat_friction = released;
+            }
+            s = capped;
+        }
+    }
+    state.shear = s;
+    out.shear = s;
+    out.force = s - g.n * fn_total;
+    out
+}
+
+/// Energy of a bond stretched in tension (δ < 0), released when it breaks.
+#[inline(always)]
+fn bond_tension_energy(p: &PairParams, overlap: f64) -> f64 {
+    if overlap < 0.0 {
+        0.5 * p.kn * overlap * overlap
+    } else {
+        0.0
+    }
+}
+
+/// Elastic energy of a shear spring carrying force `s` (J).
+#[inline(always)]
+pub fn shear_energy(s: Vec3, kt: f64) -> f64 {
+    if kt > 0.0 {
+        0.5 * s.norm_squared() / kt
+    } else {
+        0.0
+    }
+}
+
+/// Projects a shear force onto the plane normal to `n`, keeping its magnitude, so that a
+/// rotating contact carries its spring force along instead of losing or creating energy.
+#[inline(always)]
+pub fn rotate_into_plane(s: Vec3, n: &Vec3) -> Vec3 {
+    let s2 = s.norm_squared();
+    if s2 == 0.0 {
+        return s;
+    }
+    let p = s - n * n.dot(&s);
+    let p2 = p.norm_squared();
+    if p2 == 0.0 {
+        return Vec3::zeros();
+    }
+    p * (s2 / p2).sqrt()
+}
+
+/// Elastic energy stored in a contact at this overlap, for energy bookkeeping (J).
+#[inline(always)]
+pub fn normal_energy<N: NormalLaw>(p: &PairParams, r_star: f64, overlap: f64, bonded: bool) -> f64 {
+    if overlap > 0.0 {
+        N::energy(p, r_star, overlap)
+    } else if bonded {
+        0.5 * p.kn * overlap * overlap
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> PairParams {
+        PairParams {
+            kn: 1e6,
+            ks: 4e5,
+            breaking_force: 1e6 * 1e-5,
+            fs0: 2.0,
+            mu: 0.5,
+            e_star: 1e9,
+            g_star: 4e8,
+            zeta: 0.0,
+            alpha: 0.0,
+        }
+    }
+
+    fn geometry(overlap: f64, v_rel: Vec3) -> ContactGeometry {
+        ContactGeometry { n: Vec3::x(), overlap, v_rel, r_star: 0.5e-3, m_star: 1e-3 }
+    }
+
+    #[test]
+    fn hertz_force_is_four_thirds_e_sqrt_r_delta_three_halves() {
+        let p = params();
+        let f = Hertz::force(&p, 0.01, 1e-4);
+        let expected = 4.0 / 3.0 * 1e9 * 0.1 * 1e-6;
+        assert!(((f - expected) / expected).abs() < 1e-14);
+        // Energy is the integral of the force: check by the trapezoid rule.
+        let n = 10_000;
+        let mut w = 0.0;
+        for k in 0..n {
+            let (a, b) = (1e-4 * k as f64 / n as f64, 1e-4 * (k + 1) as f64 / n as f64);
+            w += 0.5 * (Hertz::force(&p, 0.01, a) + Hertz::force(&p, 0.01, b)) * (b - a);
+        }
+        assert!((w - Hertz::energy(&p, 0.01, 1e-4)).abs() / w < 1e-6);
+    }
+
+    #[test]
+    fn bonded_pair_breaks_in_tension_at_kn_xb() {
+        let p = params();
+        let mut s = PairState { shear: Vec3::zeros(), bonded: true };
+        // Just below the breaking displacement the bond holds and pulls.
+        let r = contact::<Linear, LinearShear, false>(&geometry(-0.999e-5, Vec3::zeros()), &p, &mut s, 1e-6);
+        assert!(r.broke.is_none() && s.bonded);
+        assert!((r.force.x - 9.99).abs() < 1e-9, "tension pulls towards the other: {:?}", r.force);
+        let r = contact::<Linear, LinearShear, false>(&geometry(-1.001e-5, Vec3::zeros()), &p, &mut s, 1e-6);
+        assert_eq!(r.broke, Some(BreakKind::Tension));
+        assert!(!s.bonded && r.force == Vec3::zeros());
+    }
+
+    #[test]
+    fn shear_spring_slips_at_fs0_plus_mu_fn_while_bonded_then_mu_fn_once_broken() {
+        let p = params();
+        let overlap = 1e-5; // Fn = 10 N
+        let mut s = PairState { shear: Vec3::zeros(), bonded: true };
+        let dt = 1e-6;
+        let v = Vec3::new(0.0, 1.0, 0.0); // 1 µm of sliding per step → 0.4 N per step
+        let mut broke_at = None;
+        for k in 0..100 {
+            let r = contact::<Linear, LinearShear, false>(&geometry(overlap, v), &p, &mut s, dt);
+            if r.broke.is_some() {
+                broke_at = Some((k, r));
+                break;
+            }
+            assert!(r.shear.norm() <= 2.0 + 0.5 * 10.0 + 1e-12);
+        }
+        let (k, r) = broke_at.expect("bond must fail in shear");
+        assert_eq!(r.broke, Some(BreakKind::Shear));
+        // 7 N = Fs0 + μ·Fn is reached after 17.5 increments of 0.4 N.
+        assert_eq!(k, 17);
+        assert!((r.shear.norm() - 5.0).abs() < 1e-12, "after breaking the cap is μ·Fn");
+        let r = contact::<Linear, LinearShear, false>(&geometry(overlap, v), &p, &mut s, dt);
+        assert!((r.shear.norm() - 5.0).abs() < 1e-12 && r.heat_friction > 0.0);
+    }
+
+    #[test]
+    fn rotate_into_plane_keeps_magnitude_and_is_odd() {
+        let s = Vec3::new(0.3, 1.0, -0.2);
+        let n = Vec3::new(1.0, 0.2, 0.1).normalize();
+        let r = rotate_into_plane(s, &n);
+        assert!((r.norm() - s.norm()).abs() < 1e-15);
+        assert!(r.dot(&n).abs() < 1e-15);
+        assert_eq!(rotate_into_plane(-s, &-n), -r);
+    }
+
+    #[test]
+    fn pair_rows_compute_exactly_opposite_forces() {
+        let p = PairParams { zeta: 0.3, ..params() };
+        let g = ContactGeometry {
+            n: Vec3::new(0.6, 0.0, 0.8),
+            overlap: 3e-6,
+            v_rel: Vec3::new(0.1, -0.7, 0.05),
+            r_star: 1e-3,
+            m_star: 1e-3,
+        };
+        let g2 = ContactGeometry { n: -g.n, v_rel: -g.v_rel, ..g };
+        let mut a = PairState { shear: Vec3::new(0.0, 0.2, 0.0), bonded: true };
+        let mut b = PairState { shear: -a.shear, bonded: true };
+        for _ in 0..50 {
+            let ra = contact::<Hertz, MindlinShear, true>(&g, &p, &mut a, 1e-6);
+            let rb = contact::<Hertz, MindlinShear, true>(&g2, &p, &mut b, 1e-6);
+            assert_eq!(ra.force, -rb.force);
+            assert_eq!(a.shear, -b.shear);
+            assert_eq!(a.bonded, b.bonded);
+        }
+    }
+}

@@ -1,0 +1,183 @@
+//! The step plan: which stages and effects this scene needs, decided once before a run.
+//! An effect that is off has no lane, no loop and no branch in a hot loop: the CPU backend
+//! picks a loop monomorphised for the plan's laws.
+
+use crate::materials::Material;
+use crate::model::{Model, NormalKind, TangentialKind};
+use crate::physics::contact_law::PairParams;
+use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
+use crate::walls::WallMotion;
+use std::fmt;
+
+#[derive(Debug, Clone)]
+pub struct StepPlan {
+    pub normal: NormalKind,
+    pub tangential: TangentialKind,
+    /// Any material asks for a contact dashpot (restitution < 1).
+    pub dashpot: bool,
+    pub rotation: bool,
+    pub gravity: bool,
+    /// Global viscous damping ratio (0 = off).
+    pub damping: f64,
+    /// Bonded pairs exist.
+    pub bonds: bool,
+    pub walls: usize,
+    pub moving_walls: usize,
+    pub servo_walls: usize,
+    pub materials: usize,
+    /// Pair constants per (material, material): `pair[a * materials + b]`.
+    pub pair: Vec<PairParams>,
+    /// Constants of a particle of each material against each wall: `wall[w * materials + a]`.
+    pub wall: Vec<PairParams>,
+}
+
+impl StepPlan {
+    pub fn build(m: &Model) -> Self {
+        let nm = m.materials.len();
+        let mut pair = Vec::with_capacity(nm * nm);
+        for a in &m.materials {
+            for b in &m.materials {
+                pair.push(pair_params(a, b));
+            }
+        }
+        let mut wall = Vec::with_capacity(m.walls.len() * nm);
+        for w in &m.walls {
+            for a in &m.materials {
+                let mut p = rigid_wall_params(a);
+                if let Some(mu) = w.friction {
+                    p.mu = mu;
+                }
+                wall.push(p);
+            }
+        }
+        let s = &m.settings;
+        StepPlan {
+            normal: s.normal,
+            tangential: s.tangential,
+            dashpot: m.materials.iter().any(|a| a.restitution < 1.0),
+            rotation: s.rotation,
+            gravity: s.gravity.norm() > 0.0,
+            damping: s.damping,
+            bonds: m.contacts.state.iter().any(|p| p.bonded),
+            walls: m.walls.len(),
+            moving_walls: m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count(),
+            servo_walls: m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count(),
+            materials: nm,
+            pair,
+            wall,
+        }
+    }
+
+    #[inline(always)]
+    pub fn pair(&self, a: u32, b: u32) -> &PairParams {
+        &self.pair[a as usize * self.materials + b as usize]
+    }
+}
+
+/// Two elements in contact: springs in series, the smaller strength, the smaller restitution.
+pub fn pair_params(a: &Material, b: &Material) -> PairParams {
+    let series = |x: f64, y: f64| if x + y > 0.0 { x * y / (x + y) } else { 0.0 };
+    // Each element carries twice the lattice spring, so identical elements give back kn.
+    let kn = series(2.0 * a.kn, 2.0 * b.kn);
+    let ks = series(2.0 * a.ks, 2.0 * b.ks);
+    let e_star = 1.0 / ((1.0 - a.poisson.powi(2)) / a.young + (1.0 - b.poisson.powi(2)) / b.young);
+    let ga = a.young / (2.0 * (1.0 + a.poisson));
+    let gb = b.young / (2.0 * (1.0 + b.poisson));
+    let g_star = 1.0 / ((2.0 - a.poisson) / ga + (2.0 - b.poisson) / gb);
+    let e = a.restitution.min(b.restitution);
+    PairParams {
+        kn,
+        ks,
+        breaking_force: kn * a.xb.min(b.xb),
+        fs0: a.fs0.min(b.fs0),
+        mu: a.mu_p.min(b.mu_p),
+        e_star,
+        g_star,
+        zeta: linear_damping_ratio(e),
+        alpha: hertz_damping_alpha(e),
+    }
+}
+
+/// An element against a rigid wall: the element's own springs, E* = E/(1−ν²).
+pub fn rigid_wall_params(a: &Material) -> PairParams {
+    let g = a.young / (2.0 * (1.0 + a.poisson));
+    PairParams {
+        kn: 2.0 * a.kn,
+        ks: 2.0 * a.ks,
+        breaking_force: 0.0,
+        fs0: 0.0,
+        mu: a.mu_p,
+        e_star: a.young / (1.0 - a.poisson * a.poisson),
+        g_star: g / (2.0 - a.poisson),
+        zeta: linear_damping_ratio(a.restitution),
+        alpha: hertz_damping_alpha(a.restitution),
+    }
+}
+
+impl fmt::Display for StepPlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut stages = Vec::new();
+        if self.walls > 0 {
+            stages.push(format!(
+                "walls({} fixed, {} moving, {} servo)",
+                self.walls - self.moving_walls - self.servo_walls,
+                self.moving_walls,
+                self.servo_walls
+            ));
+        }
+        stages.push("neighbours(cell list, skin rebuild)".to_string());
+        let normal = match self.normal {
+            NormalKind::Linear => "linear",
+            NormalKind::Hertz => "hertz",
+        };
+        let tangential = match self.tangential {
+            TangentialKind::Linear => "shear spring Ks",
+            TangentialKind::Mindlin => "mindlin shear spring",
+        };
+        let mut c = format!("contacts({normal} + {tangential} + coulomb");
+        if self.bonds {
+            c.push_str(", bonds");
+        }
+        if self.dashpot {
+            c.push_str(", normal dashpot");
+        }
+        if self.rotation {
+            c.push_str(", torques");
+        }
+        c.push(')');
+        stages.push(c);
+        let mut body = Vec::new();
+        if self.gravity {
+            body.push("gravity".to_string());
+        }
+        if self.damping > 0.0 {
+            body.push(format!("viscous damping {:.3} of critical", self.damping));
+        }
+        if !body.is_empty() {
+            stages.push(body.join(" + "));
+        }
+        stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
+        writeln!(f, "step plan: {}", stages.join(" → "))?;
+        let mut off = Vec::new();
+        if !self.rotation {
+            off.push("rotation");
+        }
+        if !self.bonds {
+            off.push("bonds");
+        }
+        if !self.dashpot {
+            off.push("contact dashpot");
+        }
+        if !self.gravity {
+            off.push("gravity");
+        }
+        if self.damping == 0.0 {
+            off.push("viscous damping");
+        }
+        if self.walls == 0 {
+            off.push("walls");
+        }
+        off.extend(["heat", "fluid", "rolling resistance"]);
+        write!(f, "not simulated: {}", off.join(", "))
+    }
+}

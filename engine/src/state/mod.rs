@@ -1,0 +1,5 @@
+//! The model's state: particles (struct of arrays), contact rows with per-pair state, groups.
+
+pub mod contacts;
+pub mod groups;
+pub mod particles;

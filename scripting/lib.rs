@@ -1,0 +1,1 @@
+//! matdem-rs host: Rhai bindings, CLI, plots and outputs around `matdem-engine`.
