@@ -1,1 +1,121 @@
-fn main() {}
+//! The `matdem-rs` command: parses arguments and hands off to the library.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "matdem-rs",
+    version,
+    about = "A discrete element method workbench scripted in Rhai, modelled on MatDEM",
+    after_help = "Examples:\n  matdem-rs run examples/compress.rhai\n  matdem-rs run examples/compress.rhai --out out/full --set full=true\n  matdem-rs plan examples/compress.rhai"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Backend {
+    /// A hardware GPU when one is present, else the CPU backend.
+    Auto,
+    /// The native CPU backend (f64, multithreaded): the reference.
+    Cpu,
+    /// The wgpu compute backend (f32).
+    Gpu,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a script; everything it writes goes into one output folder.
+    #[command(after_help = "Example:\n  matdem-rs run examples/compress.rhai --out out/compress --set quick=true")]
+    Run {
+        script: PathBuf,
+        /// Output folder (default: out/<script name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A parameter the script reads as `params.NAME`; repeatable.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+    },
+    /// Print what a script's scene simulates and what it leaves out, without running it.
+    Plan {
+        script: PathBuf,
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+    },
+}
+
+fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
+    set.iter()
+        .map(|s| match s.split_once('=') {
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), parse_value(v.trim()))),
+            _ => Err(format!("error: --set expects NAME=VALUE, got `{s}`")),
+        })
+        .collect()
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let (cfg, backend) = match cli.command {
+        Command::Run { script, out, set, backend } => {
+            let out_dir = out.unwrap_or_else(|| {
+                PathBuf::from("out").join(script.file_stem().unwrap_or_default())
+            });
+            let params = match params(&set) {
+                Ok(p) => p,
+                Err(e) => {
+                    eprintln!("{e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let progress = std::io::stderr().is_terminal();
+            (RunConfig { script, out_dir, params, progress, plan_only: false }, backend)
+        }
+        Command::Plan { script, set } => {
+            let params = match params(&set) {
+                Ok(p) => p,
+                Err(e) => {
+                    eprintln!("{e}");
+                    return ExitCode::from(2);
+                }
+            };
+            (RunConfig { script, out_dir: PathBuf::from("out/plan"), params, progress: false, plan_only: true }, Backend::Cpu)
+        }
+    };
+    match backend {
+        Backend::Gpu => {
+            eprintln!(
+                "error: this build has no GPU backend yet; use --backend cpu (or auto, which uses the CPU)"
+            );
+            return ExitCode::from(2);
+        }
+        Backend::Auto if !cfg.plan_only => eprintln!("backend: cpu (f64, {} threads); this build has no GPU backend", rayon_threads()),
+        _ => {}
+    }
+    match run_script(&cfg) {
+        Ok(written) => {
+            if !cfg.plan_only && !written.is_empty() {
+                eprintln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(RunError::Setup(msg)) => {
+            eprintln!("{msg}");
+            ExitCode::from(2)
+        }
+        Err(RunError::Script(msg)) => {
+            eprint!("{msg}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}

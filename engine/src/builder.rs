@@ -178,34 +178,24 @@ impl BoxSpec {
         }
         let r_max = self.classes.iter().map(|c| c.r_max).fold(0.0, f64::max);
         let mut rng = Rng::new(self.seed);
-        // Shuffle the classes so every layer of the loose grid holds the gradation.
-        let mut labels: Vec<usize> = counts.iter().enumerate().flat_map(|(k, &n)| std::iter::repeat_n(k, n)).collect();
-        for i in (1..labels.len()).rev() {
-            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
-            labels.swap(i, j);
+        let mut grains: Vec<(usize, f64)> = Vec::with_capacity(total);
+        for (k, (&n, c)) in counts.iter().zip(&self.classes).enumerate() {
+            for _ in 0..n {
+                grains.push((k, c.r_min + (c.r_max - c.r_min) * rng.uniform()));
+            }
         }
-        // Loose grid with a little jitter: cell size 2.1·r_max.
-        let s = 2.1 * r_max;
-        let slots = self.layer_slots(s, r_max);
-        if slots.is_empty() {
-            return Err(Error::InvalidScene(format!(
-                "the container is narrower than one grain (largest radius {r_max}): enlarge it"
-            )));
-        }
+        // Largest first: random sequential addition packs a wide gradation far better so.
+        grains.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let solid: f64 = grains.iter().map(|g| 4.0 / 3.0 * std::f64::consts::PI * g.1.powi(3)).sum();
+        // A loose column at ~33% solids: grains fall less than a grid would make them.
+        let loose_height = (solid / (LOOSE_SOLID_FRACTION * self.cross_section())).max(2.0 * r_max);
+        let placed = self.random_sequential_addition(&grains, loose_height, &mut rng)?;
         let mut class_ids = vec![Vec::new(); self.classes.len()];
-        for (k, &class) in labels.iter().enumerate() {
-            let layer = k / slots.len();
-            let (x, y) = slots[k % slots.len()];
-            let c = &self.classes[class];
-            let r = c.r_min + (c.r_max - c.r_min) * rng.uniform();
-            let room = (s / 2.0 - r).max(0.0) * 0.8;
-            let jitter = |rng: &mut Rng| (rng.uniform() - 0.5) * room;
-            let pos = Vec3::new(x + jitter(&mut rng), y + jitter(&mut rng), r_max * 1.05 + layer as f64 * s);
-            let id = m.add_particle(pos, r, 0)?;
-            class_ids[class].push(id as u32);
+        for (pos, (class, r)) in placed.iter().zip(&grains) {
+            let id = m.add_particle(*pos, *r, 0)?;
+            class_ids[*class].push(id as u32);
         }
-        let layers = total.div_ceil(slots.len());
-        let loose_height = layers as f64 * s + 0.1 * r_max;
+        let loose_height = placed.iter().zip(&grains).map(|(p, g)| p.z + g.1).fold(0.0, f64::max);
         let top = loose_height.max(self.height);
         let z = Vec3::z();
         m.add_wall(Wall::plane("bottom", Vec3::zeros(), z, self.cross_section())?)?;
@@ -227,30 +217,68 @@ impl BoxSpec {
         Ok(BuiltBox { class_ids, loose_height })
     }
 
-    /// Grid positions of one loose layer inside the container.
-    fn layer_slots(&self, s: f64, r_max: f64) -> Vec<(f64, f64)> {
-        let mut out = Vec::new();
-        match self.container {
-            Container::Cuboid { width, length } => {
-                let (nx, ny) = ((width / s) as usize, (length / s) as usize);
-                for j in 0..ny {
-                    for i in 0..nx {
-                        out.push(((i as f64 + 0.5) * s, (j as f64 + 0.5) * s));
+    /// Places grains one by one at random non-overlapping positions inside the container,
+    /// in a column of height `height` that grows when it runs out of room.
+    fn random_sequential_addition(&self, grains: &[(usize, f64)], height: f64, rng: &mut Rng) -> Result<Vec<Vec3>> {
+        let r_max = grains.iter().map(|g| g.1).fold(0.0, f64::max);
+        let (lo, hi) = match self.container {
+            Container::Cuboid { width, length } => (Vec3::zeros(), Vec3::new(width, length, 0.0)),
+            Container::Cylinder { radius } => (Vec3::new(-radius, -radius, 0.0), Vec3::new(radius, radius, 0.0)),
+        };
+        let h = 2.0 * r_max;
+        let (nx, ny) = (((hi.x - lo.x) / h) as usize + 1, ((hi.y - lo.y) / h) as usize + 1);
+        let mut height = height;
+        let mut cells: std::collections::HashMap<(usize, usize, usize), Vec<u32>> = Default::default();
+        let mut placed: Vec<Vec3> = Vec::with_capacity(grains.len());
+        for (k, &(_, r)) in grains.iter().enumerate() {
+            let mut tries = 0;
+            let pos = loop {
+                tries += 1;
+                if tries % 200 == 0 {
+                    height *= 1.05; // crowded: let the column grow a little
+                }
+                if tries > 100_000 {
+                    return Err(Error::InvalidScene(format!(
+                        "could not place grain {k} (radius {r}) in the container: it is too small for the gradation"
+                    )));
+                }
+                let x = lo.x + r + (hi.x - lo.x - 2.0 * r) * rng.uniform();
+                let y = lo.y + r + (hi.y - lo.y - 2.0 * r) * rng.uniform();
+                let z = r + (height - 2.0 * r).max(0.0) * rng.uniform();
+                if let Container::Cylinder { radius } = self.container {
+                    if (x * x + y * y).sqrt() + r > radius {
+                        continue;
                     }
                 }
-            }
-            Container::Cylinder { radius } => {
-                let n = (radius / s).ceil() as i64 + 1;
-                for j in -n..=n {
-                    for i in -n..=n {
-                        let (x, y) = (i as f64 * s, j as f64 * s);
-                        if (x * x + y * y).sqrt() + r_max * 1.05 <= radius {
-                            out.push((x, y));
+                let c = Vec3::new(x, y, z);
+                let cell = |v: &Vec3| {
+                    (((v.x - lo.x) / h) as usize, ((v.y - lo.y) / h) as usize, (v.z / h) as usize)
+                };
+                let (cx, cy, cz) = cell(&c);
+                let mut free = true;
+                'search: for iz in cz.saturating_sub(1)..=cz + 1 {
+                    for iy in cy.saturating_sub(1)..=(cy + 1).min(ny) {
+                        for ix in cx.saturating_sub(1)..=(cx + 1).min(nx) {
+                            for &j in cells.get(&(ix, iy, iz)).map(|v| v.as_slice()).unwrap_or(&[]) {
+                                let rj = grains[j as usize].1;
+                                if (placed[j as usize] - c).norm() < r + rj {
+                                    free = false;
+                                    break 'search;
+                                }
+                            }
                         }
                     }
                 }
-            }
+                if free {
+                    cells.entry(cell(&c)).or_default().push(k as u32);
+                    break c;
+                }
+            };
+            placed.push(pos);
         }
-        out
+        Ok(placed)
     }
 }
+
+/// Solid fraction of the loose column the box builder fills before deposition.
+const LOOSE_SOLID_FRACTION: f64 = 0.3;

@@ -156,7 +156,14 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
         .map(|i| (p.force[i] + g * p.mass[i]).norm())
         .sum::<f64>()
         / n;
-    s.unbalanced_ratio = if s.mean_normal_force > 0.0 { net / s.mean_normal_force } else { 0.0 };
+    // With no contacts anything moving is unbalanced (free fall): report infinity, not 0.
+    s.unbalanced_ratio = if s.mean_normal_force > 0.0 {
+        net / s.mean_normal_force
+    } else if net > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
     s
 }
 
@@ -200,4 +207,29 @@ pub fn porosity(m: &Model, region: &Region) -> f64 {
     } else {
         f64::NAN
     }
+}
+
+/// Sum of the normal contact forces each particle carries from other particles (N): the
+/// load a grain transmits, for "mean force per size class".
+pub fn contact_loads(m: &Model, plan: &StepPlan) -> Vec<f64> {
+    let (p, c) = (&m.particles, &m.contacts);
+    (0..p.len())
+        .map(|i| {
+            c.row(i)
+                .map(|k| {
+                    let j = c.other[k] as usize;
+                    let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+                    if overlap <= 0.0 {
+                        return 0.0;
+                    }
+                    let pp = plan.pair(p.material[i], p.material[j]);
+                    let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
+                    match plan.normal {
+                        NormalKind::Linear => Linear::force(pp, r_star, overlap),
+                        NormalKind::Hertz => Hertz::force(pp, r_star, overlap),
+                    }
+                })
+                .sum()
+        })
+        .collect()
 }

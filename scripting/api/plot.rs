@@ -1,0 +1,137 @@
+//! Plots and particle pictures (MatDEM: `d.show('aZ')`, `fs.plot`), rendered headlessly to
+//! SVG and PNG under the run's output folder.
+
+use super::field::{to_numbers, Field};
+use super::model::ModelHandle;
+use super::table::Table;
+use super::{err, Host, RhaiResult};
+use crate::plot::{LineChart, ParticlePicture};
+use matdem_engine::status::contact_loads;
+use rhai::{Dynamic, Engine};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// A line chart being assembled by a script.
+#[derive(Clone)]
+pub struct Chart(pub Rc<RefCell<LineChart>>);
+
+fn save_figure(host: &Host, name: &str, save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>) -> RhaiResult<rhai::Array> {
+    let path = host.out_path(name)?;
+    let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
+    host.note_written(written.iter().cloned());
+    Ok(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect())
+}
+
+/// The values of a named per-particle field for pictures.
+fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)> {
+    let mut data = d.data();
+    let m = &data.sim.model;
+    let n = m.len();
+    let p = &m.particles;
+    let v: Vec<f64> = match name {
+        "x" => p.pos.iter().map(|x| x.x).collect(),
+        "y" => p.pos.iter().map(|x| x.y).collect(),
+        "z" => p.pos.iter().map(|x| x.z).collect(),
+        "r" | "radius" => p.radius.clone(),
+        "displacement" => (0..n).map(|i| (p.pos[i] - p.origin[i]).norm()).collect(),
+        "dz" => (0..n).map(|i| p.pos[i].z - p.origin[i].z).collect(),
+        "speed" => p.vel.iter().map(|v| v.norm()).collect(),
+        "material" => p.material.iter().map(|&k| k as f64).collect(),
+        "size_class" => {
+            let mut v = vec![0.0; n];
+            for k in 1.. {
+                match m.groups.get(&format!("class{k}")) {
+                    Ok(ids) => ids.iter().for_each(|&i| v[i as usize] = k as f64),
+                    Err(_) => break,
+                }
+            }
+            v
+        }
+        "contact_load" | "force" => {
+            let plan = data.sim.plan().clone();
+            contact_loads(&data.sim.model, &plan)
+        }
+        other => {
+            return Err(super::raise(matdem_engine::Error::unknown(
+                "particle field",
+                other,
+                &["x", "y", "z", "r", "displacement", "dz", "speed", "material", "size_class", "contact_load"],
+            )))
+        }
+    };
+    let label = match name {
+        "displacement" | "dz" | "x" | "y" | "z" | "r" | "radius" => format!("{name} [m]"),
+        "speed" => "speed [m/s]".to_string(),
+        "contact_load" | "force" => "contact load [N]".to_string(),
+        other => other.to_string(),
+    };
+    Ok((v, label))
+}
+
+fn picture(d: &ModelHandle, values: Vec<f64>, label: String) -> ParticlePicture {
+    let data = d.data();
+    let p = &data.sim.model.particles;
+    ParticlePicture {
+        title: format!("{} — {}", data.name, label),
+        field: label,
+        x_label: "x [m]".into(),
+        y_label: "z [m]".into(),
+        x: p.pos.iter().map(|x| x.x).collect(),
+        y: p.pos.iter().map(|x| x.z).collect(),
+        r: p.radius.clone(),
+        value: values,
+    }
+}
+
+pub fn register(engine: &mut Engine, host: Rc<Host>) {
+    engine.register_type_with_name::<Chart>("Chart");
+    engine
+        .register_fn("chart", |title: &str, x_label: &str, y_label: &str| {
+            Chart(Rc::new(RefCell::new(LineChart::new(title, x_label, y_label))))
+        })
+        .register_fn("series", |c: &mut Chart, name: &str, x: Dynamic, y: Dynamic| -> RhaiResult<Chart> {
+            let (x, y) = (to_numbers(&x, "series x")?, to_numbers(&y, "series y")?);
+            if x.len() != y.len() {
+                return Err(err(format!("series `{name}`: x has {} values but y has {}", x.len(), y.len())));
+            }
+            c.0.borrow_mut().add_series(name, x, y);
+            Ok(c.clone())
+        })
+        .register_fn("plot", |t: Table, x: &str, y: &str| -> RhaiResult<Chart> {
+            let data = t.0.borrow();
+            let mut c = LineChart::new(&format!("{y} vs {x}"), x, y);
+            c.add_series(y, data.column(x)?.to_vec(), data.column(y)?.to_vec());
+            Ok(Chart(Rc::new(RefCell::new(c))))
+        })
+        .register_fn("plot", |x: Field, y: Field| -> RhaiResult<Chart> {
+            let mut c = LineChart::new("", "x", "y");
+            if x.0.len() != y.0.len() {
+                return Err(err(format!("plot: x has {} values but y has {}", x.0.len(), y.0.len())));
+            }
+            c.add_series("y", x.0.to_vec(), y.0.to_vec());
+            Ok(Chart(Rc::new(RefCell::new(c))))
+        });
+    let h = host.clone();
+    engine.register_fn("save", move |c: &mut Chart, name: &str| {
+        let chart = c.0.borrow();
+        save_figure(&h, name, |p| chart.save(p))
+    });
+    let h = host.clone();
+    engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str| {
+        let (values, label) = particle_field(d, field)?;
+        let pic = picture(d, values, label);
+        save_figure(&h, name, |p| pic.save(p))
+    });
+    let h = host;
+    engine.register_fn("show", move |d: &mut ModelHandle, values: Field, label: &str, name: &str| {
+        if values.0.len() != d.data().sim.model.len() {
+            return Err(err(format!(
+                "show: {} values for {} particles",
+                values.0.len(),
+                d.data().sim.model.len()
+            )));
+        }
+        let pic = picture(d, values.0.to_vec(), label.to_string());
+        save_figure(&h, name, |p| pic.save(p))
+    });
+}

@@ -1,0 +1,101 @@
+//! Tables of records (MatDEM's `d.status` history): named columns of numbers, one row per
+//! `record`, saved as CSV.
+
+use super::field::{number, Field};
+use super::{err, write_atomic, Host, RhaiResult};
+use rhai::{Dynamic, Engine, Map, INT};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+#[derive(Debug, Default)]
+pub struct TableData {
+    pub columns: Vec<(String, Vec<f64>)>,
+    pub rows: usize,
+}
+
+/// A shared table handle: every copy in the script refers to the same rows.
+#[derive(Debug, Clone, Default)]
+pub struct Table(pub Rc<RefCell<TableData>>);
+
+impl TableData {
+    /// Appends a row; a new column is back-filled with NaN, a missing value is NaN.
+    pub fn push(&mut self, row: &[(String, f64)]) {
+        for (name, _) in row {
+            if !self.columns.iter().any(|(c, _)| c == name) {
+                self.columns.push((name.clone(), vec![f64::NAN; self.rows]));
+            }
+        }
+        for (name, col) in &mut self.columns {
+            col.push(row.iter().find(|(n, _)| n == name).map_or(f64::NAN, |(_, v)| *v));
+        }
+        self.rows += 1;
+    }
+
+    pub fn column(&self, name: &str) -> RhaiResult<&[f64]> {
+        self.columns.iter().find(|(c, _)| c == name).map(|(_, v)| v.as_slice()).ok_or_else(|| {
+            let known: Vec<&str> = self.columns.iter().map(|(c, _)| c.as_str()).collect();
+            let hint = known
+                .iter()
+                .map(|k| (matdem_engine::error::edit_distance(name, k), *k))
+                .min()
+                .filter(|(d, _)| *d <= 3)
+                .map(|(_, k)| format!(" (did you mean `{k}`?)"))
+                .unwrap_or_default();
+            err(format!("no column `{name}`{hint}; columns: {}", known.join(", ")))
+        })
+    }
+
+    pub fn to_csv(&self) -> String {
+        let mut s = self.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(",");
+        s.push('\n');
+        for r in 0..self.rows {
+            let row: Vec<String> = self.columns.iter().map(|(_, v)| format!("{}", v[r])).collect();
+            s.push_str(&row.join(","));
+            s.push('\n');
+        }
+        s
+    }
+}
+
+/// A row from a script map of numbers.
+pub fn row_from_map(map: &Map) -> RhaiResult<Vec<(String, f64)>> {
+    map.iter()
+        .map(|(k, v)| {
+            number(v)
+                .map(|x| (k.to_string(), x))
+                .ok_or_else(|| err(format!("record value `{k}` is a {}, expected a number", v.type_name())))
+        })
+        .collect()
+}
+
+pub fn register(engine: &mut Engine, host: Rc<Host>) {
+    engine.register_type_with_name::<Table>("Table");
+    engine
+        .register_fn("new_table", Table::default)
+        .register_fn("add_row", |t: &mut Table, row: Map| -> RhaiResult<()> {
+            t.0.borrow_mut().push(&row_from_map(&row)?);
+            Ok(())
+        })
+        .register_get("rows", |t: &mut Table| t.0.borrow().rows as INT)
+        .register_fn("len", |t: &mut Table| t.0.borrow().rows as INT)
+        .register_get("columns", |t: &mut Table| {
+            t.0.borrow().columns.iter().map(|(c, _)| Dynamic::from(c.clone())).collect::<rhai::Array>()
+        })
+        .register_indexer_get(|t: &mut Table, name: &str| -> RhaiResult<Field> {
+            Ok(Field::new(t.0.borrow().column(name)?.to_vec()))
+        })
+        .register_fn("last", |t: &mut Table, name: &str| -> RhaiResult<f64> {
+            t.0.borrow().column(name)?.last().copied().ok_or_else(|| err("the table has no rows yet"))
+        })
+        .register_fn("to_string", |t: &mut Table| {
+            let d = t.0.borrow();
+            format!("Table({} rows; {})", d.rows, d.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(", "))
+        });
+    engine.register_fn("save", move |t: &mut Table, name: &str| -> RhaiResult<String> {
+        let path = host.out_path(name)?;
+        write_atomic(&path, t.0.borrow().to_csv().as_bytes())
+            .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+        host.note_written([path.clone()]);
+        Ok(path.display().to_string())
+    });
+}

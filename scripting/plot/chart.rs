@@ -1,0 +1,447 @@
+//! Line charts: several `y(x)` series with point markers, a legend and labelled axes.
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::style::{self, FONT};
+use super::{draw_err, PlotError};
+
+/// Size of a rendered chart in pixels.
+pub const CHART_SIZE: (u32, u32) = (800, 500);
+
+/// One named curve: `y[i]` against `x[i]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub name: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+}
+
+/// A chart of one or more series drawn as lines with point markers.
+///
+/// Axis labels are free text and carry their units, e.g.
+/// `"axial stress σzz [MPa]"`. Ranges are chosen from the data with a small
+/// margin; points with a non-finite coordinate (or one beyond ±1e300) are
+/// skipped and break the line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineChart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+/// A series ready to draw: unbroken runs of finite points.
+struct Prepared<'a> {
+    name: &'a str,
+    runs: Vec<Vec<(f64, f64)>>,
+}
+
+impl LineChart {
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
+        LineChart {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: Vec::new(),
+        }
+    }
+
+    /// Appends a series. Lengths are checked when the chart is rendered.
+    pub fn add_series(
+        &mut self,
+        name: impl Into<String>,
+        x: impl Into<Vec<f64>>,
+        y: impl Into<Vec<f64>>,
+    ) -> &mut Self {
+        self.series.push(Series {
+            name: name.into(),
+            x: x.into(),
+            y: y.into(),
+        });
+        self
+    }
+
+    /// Renders the chart as an SVG document.
+    pub fn render_svg(&self) -> Result<String, PlotError> {
+        style::ensure_fonts()?;
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, CHART_SIZE).into_drawing_area();
+            self.draw(&root, true)?;
+            root.present().map_err(draw_err)?;
+        }
+        Ok(svg)
+    }
+
+    /// Renders the chart as PNG-encoded bytes.
+    pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
+        style::ensure_fonts()?;
+        let (w, h) = CHART_SIZE;
+        let mut rgb = vec![0u8; w as usize * h as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, CHART_SIZE).into_drawing_area();
+            self.draw(&root, false)?;
+            root.present().map_err(draw_err)?;
+        }
+        super::encode_png(&rgb, w, h)
+    }
+
+    /// Writes the chart to `path`: `.svg` or `.png` by extension, or both
+    /// `<path>.svg` and `<path>.png` when `path` has no extension. Returns the
+    /// files written.
+    pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        super::save_figure(path, || self.render_svg(), || self.render_png())
+    }
+
+    /// Checks the data and splits each series into runs of finite points.
+    fn prepare(&self) -> Result<Vec<Prepared<'_>>, PlotError> {
+        if self.series.is_empty() {
+            return Err(PlotError::Empty {
+                figure: self.title.clone(),
+                reason: "the chart has no series".into(),
+            });
+        }
+        self.series
+            .iter()
+            .map(|s| {
+                if s.x.len() != s.y.len() {
+                    return Err(PlotError::LengthMismatch {
+                        series: s.name.clone(),
+                        detail: format!("x has {} values, y has {}", s.x.len(), s.y.len()),
+                    });
+                }
+                let mut runs: Vec<Vec<(f64, f64)>> = Vec::new();
+                let mut current = Vec::new();
+                for (&x, &y) in s.x.iter().zip(&s.y) {
+                    if style::plottable(x) && style::plottable(y) {
+                        current.push((x, y));
+                    } else if !current.is_empty() {
+                        runs.push(std::mem::take(&mut current));
+                    }
+                }
+                if !current.is_empty() {
+                    runs.push(current);
+                }
+                if runs.is_empty() {
+                    return Err(PlotError::EmptySeries {
+                        series: s.name.clone(),
+                    });
+                }
+                Ok(Prepared {
+                    name: &s.name,
+                    runs,
+                })
+            })
+            .collect()
+    }
+
+    /// Draws the chart; `vector` selects markers suited to SVG over raster output.
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        vector: bool,
+    ) -> Result<(), PlotError> {
+        let prepared = self.prepare()?;
+
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in prepared.iter().flat_map(|p| p.runs.iter().flatten()) {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        let (x0, x1) = style::padded_range(x0, x1, 0.04);
+        let (y0, y1) = style::padded_range(y0, y1, 0.06);
+        let fmt_x = style::tick_formatter(x0, x1);
+        let fmt_y = style::tick_formatter(y0, y1);
+        let y_area = style::y_label_area_width(&style::sample_labels(&fmt_y, y0, y1));
+
+        root.fill(&WHITE).map_err(draw_err)?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, (FONT, style::TITLE_SIZE))
+            .margin(style::MARGIN)
+            .margin_right(style::MARGIN + 10)
+            .x_label_area_size(style::X_LABEL_AREA)
+            .y_label_area_size(y_area)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(draw_err)?;
+
+        chart
+            .configure_mesh()
+            .x_desc(self.x_label.as_str())
+            .y_desc(self.y_label.as_str())
+            .x_label_formatter(&fmt_x)
+            .y_label_formatter(&fmt_y)
+            .x_labels(9)
+            .y_labels(8)
+            .label_style((FONT, style::TICK_SIZE))
+            .axis_desc_style((FONT, style::LABEL_SIZE))
+            .bold_line_style(BLACK.mix(0.12))
+            .light_line_style(BLACK.mix(0.04))
+            .draw()
+            .map_err(draw_err)?;
+
+        // Markers shrink as series get dense, where they would merge into a band.
+        let most_points = prepared
+            .iter()
+            .map(|p| p.runs.iter().map(Vec::len).sum::<usize>())
+            .max()
+            .unwrap_or(0);
+        let marker: u32 = match most_points {
+            0..=200 => 3,
+            201..=1000 => 2,
+            _ => 1,
+        };
+
+        let mut labelled = 0;
+        for (i, p) in prepared.iter().enumerate() {
+            let colour = style::categorical(i);
+            for (k, run) in p.runs.iter().enumerate() {
+                let drawn = chart
+                    .draw_series(LineSeries::new(run.iter().copied(), colour.stroke_width(2)))
+                    .map_err(draw_err)?;
+                if k == 0 && !p.name.is_empty() {
+                    labelled += 1;
+                    drawn.label(p.name).legend(move |(x, y)| {
+                        EmptyElement::at((x, y))
+                            + PathElement::new(vec![(-10, 0), (10, 0)], colour.stroke_width(2))
+                            + Circle::new((0, 0), marker, colour.filled())
+                    });
+                }
+                if vector {
+                    chart
+                        .draw_series(
+                            run.iter()
+                                .map(|&pt| Circle::new(pt, marker, colour.filled())),
+                        )
+                        .map_err(draw_err)?;
+                } else {
+                    let area = chart.plotting_area().strip_coord_spec();
+                    let (bx, by) = area.get_base_pixel();
+                    for pt in run {
+                        let (x, y) = chart.backend_coord(pt);
+                        style::draw_dot(&area, (x - bx, y - by), f64::from(marker) + 0.3, colour)?;
+                    }
+                }
+            }
+        }
+
+        if labelled > 0 {
+            let (pw, ph) = chart.plotting_area().dim_in_pixel();
+            let longest = prepared
+                .iter()
+                .map(|p| p.name.chars().count())
+                .max()
+                .unwrap_or(0);
+            // Legend box as a fraction of the plotting area.
+            let box_w =
+                (longest as f64 * f64::from(style::LEGEND_SIZE) * 0.6 + 50.0) / f64::from(pw);
+            let box_h =
+                (labelled as f64 * (f64::from(style::LEGEND_SIZE) + 8.0) + 16.0) / f64::from(ph);
+            let position = quietest_corner(&prepared, (x0, x1), (y0, y1), (box_w, box_h));
+            chart
+                .configure_series_labels()
+                .position(position)
+                .margin(10)
+                .label_font((FONT, style::LEGEND_SIZE))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK.mix(0.4))
+                .draw()
+                .map_err(draw_err)?;
+        }
+        Ok(())
+    }
+}
+
+/// The corner of the plot where a legend of `size` (fractions of the plot)
+/// covers the fewest data points and line samples; upper right on ties.
+fn quietest_corner(
+    prepared: &[Prepared<'_>],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    (w, h): (f64, f64),
+) -> SeriesLabelPosition {
+    // Corners in order of preference: (fx at right?, fy at top?).
+    let corners = [
+        (true, true, SeriesLabelPosition::UpperRight),
+        (false, true, SeriesLabelPosition::UpperLeft),
+        (true, false, SeriesLabelPosition::LowerRight),
+        (false, false, SeriesLabelPosition::LowerLeft),
+    ];
+    let mut counts = [0usize; 4];
+    let mut visit = |u: f64, v: f64| {
+        for (c, &(right, top, _)) in corners.iter().enumerate() {
+            let in_x = if right { u >= 1.0 - w } else { u <= w };
+            let in_y = if top { v >= 1.0 - h } else { v <= h };
+            if in_x && in_y {
+                counts[c] += 1;
+            }
+        }
+    };
+    let norm = |(x, y): (f64, f64)| ((x - x0) / (x1 - x0), (y - y0) / (y1 - y0));
+    for run in prepared.iter().flat_map(|p| &p.runs) {
+        for (k, &pt) in run.iter().enumerate() {
+            let (u, v) = norm(pt);
+            visit(u, v);
+            if let Some(&next) = run.get(k + 1) {
+                let (u1, v1) = norm(next);
+                for s in 1..8 {
+                    let f = f64::from(s) / 8.0;
+                    visit(u + (u1 - u) * f, v + (v1 - v) * f);
+                }
+            }
+        }
+    }
+    let best = (0..4).min_by_key(|&c| (counts[c], c)).unwrap_or(0);
+    corners[best].2.clone()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_util::{png_size, TempDir};
+    use super::*;
+
+    fn stress_strain() -> LineChart {
+        let strain: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.0005).collect();
+        let dense: Vec<f64> = strain
+            .iter()
+            .map(|e| 50e3 * e * (-e / 0.012).exp())
+            .collect();
+        let loose: Vec<f64> = strain
+            .iter()
+            .map(|e| 30e3 * e * (-e / 0.016).exp())
+            .collect();
+        let mut chart = LineChart::new(
+            "Triaxial test",
+            "axial strain εzz [-]",
+            "axial stress σzz [MPa]",
+        );
+        chart
+            .add_series("dense sample", strain.clone(), dense)
+            .add_series("loose sample", strain, loose);
+        chart
+    }
+
+    #[test]
+    fn svg_contains_title_legend_names_and_axis_labels() {
+        let svg = stress_strain().render_svg().unwrap();
+        assert!(svg.starts_with("<svg"), "not an SVG document");
+        for text in [
+            "Triaxial test",
+            "dense sample",
+            "loose sample",
+            "axial strain εzz [-]",
+            "axial stress σzz [MPa]",
+        ] {
+            assert!(svg.contains(text), "SVG lacks {text:?}");
+        }
+    }
+
+    #[test]
+    fn png_has_signature_and_decodes_to_chart_size() {
+        let png = stress_strain().render_png().unwrap();
+        assert_eq!(png_size(&png), CHART_SIZE);
+    }
+
+    #[test]
+    fn save_without_extension_writes_svg_and_png_and_no_temp_files() {
+        let tmp = TempDir::new("chart-save");
+        let written = stress_strain().save(&tmp.0.join("curve")).unwrap();
+        assert_eq!(
+            written,
+            vec![tmp.0.join("curve.svg"), tmp.0.join("curve.png")]
+        );
+        assert_eq!(tmp.listing(), vec!["curve.png", "curve.svg"]);
+        let png = std::fs::read(tmp.0.join("curve.png")).unwrap();
+        assert_eq!(png_size(&png), CHART_SIZE);
+        let svg = std::fs::read_to_string(tmp.0.join("curve.svg")).unwrap();
+        assert!(svg.contains("Triaxial test"));
+    }
+
+    #[test]
+    fn save_picks_format_from_extension() {
+        let tmp = TempDir::new("chart-ext");
+        let chart = stress_strain();
+        let svg_path = tmp.0.join("sub/c.svg");
+        assert_eq!(chart.save(&svg_path).unwrap(), vec![svg_path.clone()]);
+        assert!(std::fs::read_to_string(&svg_path)
+            .unwrap()
+            .starts_with("<svg"));
+        let png_path = tmp.0.join("c.PNG");
+        chart.save(&png_path).unwrap();
+        assert_eq!(png_size(&std::fs::read(&png_path).unwrap()), CHART_SIZE);
+    }
+
+    #[test]
+    fn save_with_bad_extension_is_an_error_and_writes_nothing() {
+        let tmp = TempDir::new("chart-bad-ext");
+        let err = stress_strain().save(&tmp.0.join("c.pdf")).unwrap_err();
+        assert!(matches!(err, PlotError::UnsupportedExtension { .. }));
+        assert!(err.to_string().contains(".svg"), "{err}");
+        assert!(tmp.listing().is_empty());
+    }
+
+    #[test]
+    fn mismatched_lengths_are_an_error_naming_the_series() {
+        let mut chart = LineChart::new("t", "x", "y");
+        chart.add_series("ok", vec![1.0, 2.0], vec![1.0, 2.0]);
+        chart.add_series("broken", vec![1.0, 2.0, 3.0], vec![1.0, 2.0]);
+        for result in [
+            chart.render_svg().map(|_| ()),
+            chart.render_png().map(|_| ()),
+        ] {
+            let err = result.unwrap_err();
+            assert!(matches!(err, PlotError::LengthMismatch { .. }));
+            assert!(err.to_string().contains("broken"), "{err}");
+        }
+    }
+
+    #[test]
+    fn chart_without_series_or_finite_points_is_an_error() {
+        let chart = LineChart::new("empty", "x", "y");
+        assert!(matches!(chart.render_png(), Err(PlotError::Empty { .. })));
+        let mut chart = LineChart::new("nan", "x", "y");
+        chart.add_series("all nan", vec![f64::NAN], vec![1.0]);
+        let err = chart.render_svg().unwrap_err();
+        assert!(matches!(err, PlotError::EmptySeries { .. }));
+        assert!(err.to_string().contains("all nan"), "{err}");
+        let mut chart = LineChart::new("none", "x", "y");
+        chart.add_series("no points", Vec::new(), Vec::new());
+        assert!(matches!(
+            chart.render_svg(),
+            Err(PlotError::EmptySeries { .. })
+        ));
+    }
+
+    #[test]
+    fn single_point_and_constant_data_render() {
+        let mut chart = LineChart::new("degenerate", "x", "y");
+        chart.add_series("one point", vec![2.0], vec![3.0]);
+        chart.add_series("flat", vec![1.0, 2.0, 3.0], vec![3.0, 3.0, 3.0]);
+        assert_eq!(png_size(&chart.render_png().unwrap()), CHART_SIZE);
+        let mut chart = LineChart::new("zero", "x", "y");
+        chart.add_series("origin", vec![0.0], vec![0.0]);
+        assert!(chart.render_svg().unwrap().contains("origin"));
+    }
+
+    #[test]
+    fn non_finite_points_are_skipped() {
+        let mut chart = LineChart::new("gaps", "x", "y");
+        chart.add_series(
+            "gappy",
+            vec![0.0, 1.0, f64::NAN, 3.0, 4.0, 5.0],
+            vec![0.0, 1.0, 2.0, f64::INFINITY, 4.0, 1e300],
+        );
+        let svg = chart.render_svg().unwrap();
+        assert!(svg.contains("gappy"));
+        assert!(!svg.contains("NaN") && !svg.contains("inf"));
+        chart.render_png().unwrap();
+    }
+}

@@ -1,0 +1,258 @@
+//! Figures for simulation results, rendered headlessly to SVG or PNG.
+//!
+//! - [`LineChart`]: one or more `y(x)` series with markers, a legend and
+//!   labelled axes, e.g. a stress–strain curve.
+//! - [`ParticlePicture`]: particles drawn as filled circles of their true
+//!   radius on equal-scale axes, coloured by a per-particle value through a
+//!   perceptual colour map with a colour bar, or through a discrete palette
+//!   with a legend when the values are a few integer classes.
+//!
+//! Text uses the DejaVu Sans font compiled into the binary, so rendering needs
+//! no system fonts, fontconfig or display. Every figure has `render_svg`,
+//! `render_png` and `save`; [`save`](LineChart::save) picks the format from the
+//! file extension and writes files atomically (see [`write_atomic`]).
+
+pub mod chart;
+pub mod picture;
+mod style;
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+pub use chart::{LineChart, Series};
+pub use picture::ParticlePicture;
+
+/// Why a figure could not be rendered or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The drawing backend failed.
+    #[error("drawing failed: {0}")]
+    Draw(String),
+    /// The rendered image could not be encoded as PNG.
+    #[error("png encoding failed: {0}")]
+    Encode(String),
+    /// The built-in font could not be loaded.
+    #[error("font setup failed: {0}")]
+    Font(String),
+    /// A figure with nothing in it.
+    #[error("nothing to plot in `{figure}`: {reason}")]
+    Empty { figure: String, reason: String },
+    /// A series (or the particle set) without a single finite point.
+    #[error("series `{series}` has no finite points to plot")]
+    EmptySeries { series: String },
+    /// Parallel data vectors of different lengths.
+    #[error("series `{series}` has mismatched lengths: {detail}")]
+    LengthMismatch { series: String, detail: String },
+    /// `save` was given a file extension it cannot write.
+    #[error(
+        "cannot save `{}`: unsupported extension `.{ext}`; use .svg, .png, \
+         or no extension to write both",
+        path.display()
+    )]
+    UnsupportedExtension { path: PathBuf, ext: String },
+    /// Reading or writing a file failed.
+    #[error("cannot write `{}`: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Turns any backend error into [`PlotError::Draw`].
+pub(crate) fn draw_err(e: impl std::fmt::Display) -> PlotError {
+    PlotError::Draw(e.to_string())
+}
+
+/// Writes `bytes` to `path` so that readers never see a partial file: the
+/// data goes to a temporary file in the same folder, is flushed to disk, and
+/// is then renamed over `path`. Missing parent folders are created. On error
+/// the temporary file is removed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let io_err = |source| PlotError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let name = path.file_name().ok_or_else(|| {
+        io_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "the path does not name a file",
+        ))
+    })?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    fs::create_dir_all(&dir).map_err(io_err)?;
+
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(
+        ".{}-{}.tmp",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let tmp = dir.join(tmp_name);
+
+    let result = (|| {
+        let mut file = fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        drop(file);
+        fs::rename(&tmp, path)
+    })();
+    if let Err(source) = result {
+        let _ = fs::remove_file(&tmp);
+        return Err(io_err(source));
+    }
+    Ok(())
+}
+
+/// Shared body of every figure's `save`: `.svg` writes SVG, `.png` writes PNG,
+/// no extension writes both `<path>.svg` and `<path>.png`. Everything is
+/// rendered before anything is written, so a rendering error leaves no files.
+pub(crate) fn save_figure(
+    path: &Path,
+    svg: impl FnOnce() -> Result<String, PlotError>,
+    png: impl FnOnce() -> Result<Vec<u8>, PlotError>,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("svg") => {
+            write_atomic(path, svg()?.as_bytes())?;
+            Ok(vec![path.to_path_buf()])
+        }
+        Some("png") => {
+            write_atomic(path, &png()?)?;
+            Ok(vec![path.to_path_buf()])
+        }
+        None => {
+            let (svg, png) = (svg()?, png()?);
+            let with = |ext: &str| {
+                let mut p = path.as_os_str().to_owned();
+                p.push(".");
+                p.push(ext);
+                PathBuf::from(p)
+            };
+            let (svg_path, png_path) = (with("svg"), with("png"));
+            write_atomic(&svg_path, svg.as_bytes())?;
+            write_atomic(&png_path, &png)?;
+            Ok(vec![svg_path, png_path])
+        }
+        Some(other) => Err(PlotError::UnsupportedExtension {
+            path: path.to_path_buf(),
+            ext: other.to_string(),
+        }),
+    }
+}
+
+/// Encodes a packed RGB buffer as PNG.
+pub(crate) fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, PlotError> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(rgb, width, height, image::ColorType::Rgb8)
+        .map_err(|e| PlotError::Encode(e.to_string()))?;
+    Ok(out)
+}
+
+#[cfg(test)]
+pub(crate) mod test_util {
+    use std::path::PathBuf;
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    /// A fresh, empty folder under the system temp dir, removed on drop.
+    pub(crate) struct TempDir(pub PathBuf);
+
+    impl TempDir {
+        pub(crate) fn new(tag: &str) -> Self {
+            static N: AtomicU64 = AtomicU64::new(0);
+            let dir = std::env::temp_dir().join(format!(
+                "matdem-plot-{tag}-{}-{}",
+                std::process::id(),
+                N.fetch_add(1, Ordering::Relaxed)
+            ));
+            let _ = std::fs::remove_dir_all(&dir);
+            std::fs::create_dir_all(&dir).unwrap();
+            TempDir(dir)
+        }
+
+        /// Names of the files in the folder, sorted.
+        pub(crate) fn listing(&self) -> Vec<String> {
+            let mut names: Vec<String> = std::fs::read_dir(&self.0)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// Width and height of a PNG, decoded for real.
+    pub(crate) fn png_size(bytes: &[u8]) -> (u32, u32) {
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n"),
+            "missing PNG signature"
+        );
+        let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
+            .expect("PNG decodes");
+        (img.width(), img.height())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_util::TempDir;
+    use super::*;
+
+    #[test]
+    fn write_atomic_creates_parent_folders_and_leaves_no_temp_file() {
+        let tmp = TempDir::new("atomic");
+        let path = tmp.0.join("a/b/out.txt");
+        write_atomic(&path, b"first").unwrap();
+        write_atomic(&path, b"second").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"second");
+        let names: Vec<_> = fs::read_dir(tmp.0.join("a/b"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("out.txt")]);
+    }
+
+    #[test]
+    fn write_atomic_reports_the_path_when_it_cannot_write() {
+        let tmp = TempDir::new("atomic-err");
+        // A file standing where a folder is needed.
+        fs::write(tmp.0.join("blocker"), b"x").unwrap();
+        let path = tmp.0.join("blocker/out.txt");
+        let err = write_atomic(&path, b"data").unwrap_err();
+        assert!(matches!(err, PlotError::Io { .. }));
+        assert!(err.to_string().contains("out.txt"), "{err}");
+    }
+
+    #[test]
+    fn save_rejects_unknown_extensions_naming_the_supported_ones() {
+        let err = save_figure(
+            Path::new("figure.jpg"),
+            || Ok(String::new()),
+            || Ok(Vec::new()),
+        )
+        .unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains(".jpg") && msg.contains(".svg") && msg.contains(".png"),
+            "{msg}"
+        );
+    }
+}
