@@ -60,6 +60,9 @@ pub struct Settings {
     pub gravity: Vec3,
     /// MatDEM's global viscous damping, as a ratio of each element's critical damping.
     pub damping: f64,
+    /// Cundall's local damping coefficient α in [0, 1): −α·|F|·sign(v). It removes kinetic
+    /// energy without slowing steady motion, which suits quasi-static balancing.
+    pub local_damping: f64,
     pub normal: NormalKind,
     pub tangential: TangentialKind,
     /// Simulate particle rotation (torques from shear forces).
@@ -77,6 +80,7 @@ impl Default for Settings {
         Settings {
             gravity: Vec3::zeros(),
             damping: 0.0,
+            local_damping: 0.0,
             normal: NormalKind::Linear,
             tangential: TangentialKind::Linear,
             rotation: false,

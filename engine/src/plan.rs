@@ -19,6 +19,8 @@ pub struct StepPlan {
     pub gravity: bool,
     /// Global viscous damping ratio (0 = off).
     pub damping: f64,
+    /// Local (Cundall) damping coefficient (0 = off).
+    pub local_damping: f64,
     /// Bonded pairs exist.
     pub bonds: bool,
     pub walls: usize,
@@ -58,6 +60,7 @@ impl StepPlan {
             rotation: s.rotation,
             gravity: s.gravity.norm() > 0.0,
             damping: s.damping,
+            local_damping: s.local_damping,
             bonds: m.contacts.state.iter().any(|p| p.bonded),
             walls: m.walls.len(),
             moving_walls: m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count(),
@@ -153,6 +156,9 @@ impl fmt::Display for StepPlan {
         if self.damping > 0.0 {
             body.push(format!("viscous damping {:.3} of critical", self.damping));
         }
+        if self.local_damping > 0.0 {
+            body.push(format!("local damping α = {:.2}", self.local_damping));
+        }
         if !body.is_empty() {
             stages.push(body.join(" + "));
         }
@@ -173,6 +179,9 @@ impl fmt::Display for StepPlan {
         }
         if self.damping == 0.0 {
             off.push("viscous damping");
+        }
+        if self.local_damping == 0.0 {
+            off.push("local damping");
         }
         if self.walls == 0 {
             off.push("walls");

@@ -139,6 +139,7 @@ impl Simulation {
 
     /// Energies now (kinetic from the stored half-step velocities).
     pub fn energies(&mut self) -> Energies {
+        self.refresh_rows();
         let plan = self.plan().clone();
         let mut e = potential_energies(&self.model, &plan);
         e.kinetic = kinetic_energy(&self.model);
@@ -146,11 +147,18 @@ impl Simulation {
     }
 
     pub fn contact_stats(&mut self) -> ContactStats {
-        if self.model.contacts.stale {
-            crate::backend::cpu::neighbours::rebuild(&mut self.model);
-        }
+        self.refresh_rows();
         let plan = self.plan().clone();
         contact_stats(&self.model, &plan)
+    }
+
+    /// Rebuilds the neighbour rows if they do not cover the current positions (never built,
+    /// particles added, or drifted past half the skin), so observers see every contact.
+    fn refresh_rows(&mut self) {
+        use crate::backend::cpu::neighbours::{is_stale, rebuild};
+        if is_stale(&self.model.contacts, &self.model.particles.pos) {
+            rebuild(&mut self.model);
+        }
     }
 }
 

@@ -202,6 +202,14 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             d.model().settings.damping = z;
             Ok(())
         })
+        .register_get("local_damping", |d: &mut ModelHandle| d.model().settings.local_damping)
+        .register_set("local_damping", |d: &mut ModelHandle, a: FLOAT| -> RhaiResult<()> {
+            if !(0.0..1.0).contains(&a) {
+                return Err(err(format!("local_damping is Cundall's α in [0, 1) (0.7 is usual), got {a}")));
+            }
+            d.model().settings.local_damping = a;
+            Ok(())
+        })
         .register_set("contact_law", |d: &mut ModelHandle, s: &str| -> RhaiResult<()> {
             d.model().settings.normal = s.parse().map_err(raise)?;
             Ok(())
@@ -303,6 +311,18 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_fn("move_boundary", |d: &mut ModelHandle, name: &str, v: Array| -> RhaiResult<()> {
             let v = vec3(&Dynamic::from_array(v), "boundary velocity")?;
             d.model().wall_mut(name).map_err(raise)?.motion = WallMotion::Velocity(v);
+            Ok(())
+        })
+        .register_fn("place_boundary", |d: &mut ModelHandle, name: &str, to: Array| -> RhaiResult<()> {
+            let to = vec3(&Dynamic::from_array(to), "boundary position")?;
+            let mut m = d.model();
+            let w = m.wall_mut(name).map_err(raise)?;
+            match &mut w.shape {
+                matdem_engine::WallShape::Plane { point, .. } => *point = to,
+                matdem_engine::WallShape::Cylinder { .. } => {
+                    return Err(err(format!("place_boundary: `{name}` is a ring; only planes can be placed")))
+                }
+            }
             Ok(())
         })
         .register_fn("stop_boundary", |d: &mut ModelHandle, name: &str| -> RhaiResult<()> {

@@ -41,6 +41,11 @@ impl CpuBackend {
     /// forces are complete before integration.
     pub fn step(&mut self, m: &mut Model, observe: bool) -> Option<Energies> {
         let dt = m.clock.dt;
+        if self.plan.rotation && m.particles.rotation.is_none() {
+            // `settings.rotation` was switched on without the angular lanes: allocate them,
+            // or the contact and integration loops would silently skip rotation.
+            m.particles.enable_rotation();
+        }
         for w in &mut m.walls {
             w.advance(dt);
         }
@@ -48,14 +53,26 @@ impl CpuBackend {
             neighbours::rebuild(m);
         }
         let breaks = compute_contact_forces(m, &self.plan);
+        let work_before: f64 = if observe { m.particles.heat.wall_work.iter().sum() } else { 0.0 };
         compute_wall_forces(m, &self.plan);
         for (i, j, kind) in breaks.0 {
             m.breakages.push(Breakage { step: m.clock.step, time: m.clock.time, i, j, kind });
         }
-        let mut energies = observe.then(|| potential_energies(m, &self.plan));
-        let ke = integrate(m, &self.damping_c, observe);
+        let mut energies = observe.then(|| {
+            let mut e = potential_energies(m, &self.plan);
+            // This step's wall work, F·Δp over the wall's move to its position now, was booked
+            // with the force at the end of the move; count half of it (the trapezoid rule), or
+            // while a platen loads the sample the account runs ahead by F·v·dt/2.
+            e.wall_work -= 0.5 * (e.wall_work - work_before);
+            e
+        });
+        let obs = integrate(m, &self.damping_c, self.plan.rotation, observe);
         if let Some(e) = &mut energies {
-            e.kinetic = ke;
+            e.kinetic = obs.kinetic;
+            // The kinetic energy is that of the integer time, half way through this step's
+            // damping: book half of it, or the account runs half a step behind (an offset of
+            // ζ·ω·dt of the kinetic energy, frozen in when the motion starts or stops).
+            e.heat_damping += 0.5 * obs.damping_heat;
         }
         m.clock.step += 1;
         m.clock.time += dt;

@@ -164,8 +164,10 @@ pub fn is_stale(c: &Contacts, pos: &[Vec3]) -> bool {
         return true;
     }
     let limit = 0.25 * c.skin * c.skin;
-    pos.par_iter()
-        .zip(c.built_at.par_iter())
-        .with_min_len(4096)
-        .any(|(a, b)| (a - b).norm_squared() > limit)
+    let moved = |(a, b): (&Vec3, &Vec3)| (a - b).norm_squared() > limit;
+    // Small models: waking the thread pool every step costs more than the check.
+    if pos.len() < 16_384 {
+        return pos.iter().zip(&c.built_at).any(moved);
+    }
+    pos.par_iter().zip(c.built_at.par_iter()).with_min_len(4096).any(moved)
 }

@@ -1,0 +1,86 @@
+//! The command line end to end: `run` on the oedometer example in quick mode, `plan`,
+//! `--set` parameters and `--help`.
+
+mod common;
+use common::*;
+
+fn csv_column(text: &str, name: &str) -> Vec<f64> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+}
+
+#[test]
+fn compress_example_quick_writes_outputs_and_strain_and_coordination_grow() {
+    let dir = temp_dir("compress_quick");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/compress.rhai");
+    let o = bin().args(["run", example, "--set", "quick=true", "--out"]).arg(&dir).output().unwrap();
+    assert!(o.status.success(), "stderr:\n{}\nstdout:\n{}", stderr(&o), stdout(&o));
+    for f in [
+        "stages_sample1.csv",
+        "stages_sample2.csv",
+        "stages_sample3.csv",
+        "stages_all.csv",
+        "stress_strain.svg",
+        "stress_strain.png",
+        "coordination.svg",
+        "coordination.png",
+        "void_ratio_change.png",
+        "class_displacement_sample1.png",
+        "class_force_sample3.svg",
+        "sample1_size_class.png",
+        "sample2_contact_load.svg",
+    ] {
+        assert!(dir.join(f).is_file(), "missing {f}");
+    }
+    for k in 1..=3 {
+        let csv = std::fs::read_to_string(dir.join(format!("stages_sample{k}.csv"))).unwrap();
+        let strain = csv_column(&csv, "strain");
+        let nc = csv_column(&csv, "coordination");
+        assert_eq!(strain.len(), 8, "preload + 7 stages");
+        assert!(strain.windows(2).all(|w| w[1] > w[0]), "sample {k}: strain grows with every stage: {strain:?}");
+        assert!(nc.last() > nc.first(), "sample {k}: coordination grows: {nc:?}");
+    }
+    assert!(stdout(&o).contains("strain at 3.2 MPa"));
+}
+
+#[test]
+fn plan_prints_what_is_simulated_and_what_is_not() {
+    let dir = temp_dir("plan");
+    std::fs::write(
+        dir.join("p.rhai"),
+        r#"let b = new_box("p"); b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+           let d = b.build_initial_model(); d.contact_law = "hertz"; d.set_standard_dt(); d.gravity = [0.0, 0.0, -9.81];
+           d.balance(100); print("not reached");"#,
+    )
+    .unwrap();
+    let o = bin().arg("plan").arg(dir.join("p.rhai")).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("step plan:") && out.contains("hertz") && out.contains("gravity"), "{out}");
+    assert!(out.contains("not simulated:") && out.contains("rotation") && out.contains("heat"), "{out}");
+    assert!(!out.contains("not reached"));
+}
+
+#[test]
+fn set_values_reach_the_script_as_params() {
+    let dir = temp_dir("params");
+    let o = run_script(&dir, "s.rhai", "print(`${params.n + 1} ${params.name} ${params.flag}`);", &["--set", "n=41", "--set", "name=oed", "--set", "flag=true"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), "42 oed true");
+}
+
+#[test]
+fn help_shows_examples() {
+    let o = bin().arg("--help").output().unwrap();
+    assert!(stdout(&o).contains("matdem-rs run examples/compress.rhai"));
+}
+
+#[test]
+fn gpu_backend_without_adapter_is_a_clear_error() {
+    let dir = temp_dir("gpu");
+    let o = run_script(&dir, "s.rhai", "print(1);", &["--backend", "gpu"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no GPU backend"));
+}

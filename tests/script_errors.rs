@@ -1,0 +1,89 @@
+//! Error reports as a user sees them: file:line:column, the source line, a caret, and a
+//! non-zero exit. Checked as snapshots (with the temporary path normalised).
+
+mod common;
+use common::*;
+
+fn report(name: &str, script: &str) -> (i32, String) {
+    let dir = temp_dir(name);
+    let o = run_script(&dir, "s.rhai", script, &[]);
+    let err = stderr(&o).replace(&dir.join("s.rhai").display().to_string(), "s.rhai");
+    // Drop the backend line; keep the report.
+    let err: String = err.lines().filter(|l| !l.starts_with("backend:")).map(|l| format!("{l}\n")).collect();
+    (o.status.code().unwrap_or(-1), err)
+}
+
+#[test]
+fn syntax_error_points_at_line_and_column() {
+    let (code, err) = report("syntax", "let a = 1;\nlet b = (a + ;\n");
+    assert_eq!(code, 1);
+    assert_eq!(
+        err,
+        "error: Syntax error: Unexpected ';'\n  ┌─ s.rhai:2:14\n  │\n2 │ let b = (a + ;\n  │              ^\n"
+    );
+}
+
+#[test]
+fn unknown_function_names_it_with_caret() {
+    let (code, err) = report("unknown_fn", "let b = new_box(\"x\");\nb.buld_initial_model();\n");
+    assert_eq!(code, 1);
+    assert!(err.starts_with("error: Function not found: buld_initial_model (Box)"), "{err}");
+    assert!(err.contains("s.rhai:2:3\n  │\n2 │ b.buld_initial_model();\n  │   ^\n"), "{err}");
+}
+
+#[test]
+fn bad_parameter_says_what_to_do_instead() {
+    let (code, err) = report(
+        "bad_param",
+        "let m = material(\"rock\", #{ E: 2e10, nu: 0.25, Tu: 5e6, Cu: 5e7, mu_i: 0.6, d: 1e-3 });\n",
+    );
+    assert_eq!(code, 1);
+    assert!(err.contains("ν ≤ 0.2"), "{err}");
+    assert!(err.contains("Ks would be negative"), "{err}");
+    assert!(err.contains("s.rhai:1:9"), "{err}");
+}
+
+#[test]
+fn unknown_material_key_suggests_the_right_one() {
+    let (_, err) = report("bad_key", "let m = material(\"rock\", #{ E: 2e10, nuu: 0.1, Cu: 5e7, mu_i: 0.6, d: 1e-3 });\n");
+    assert!(err.contains("unknown material key `nuu` (did you mean `nu`?)"), "{err}");
+}
+
+#[test]
+fn unstable_time_step_reports_particle_critical_step_and_fix() {
+    let script = r#"
+let b = new_box("u");
+b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+let d = b.build_initial_model();
+d.dt = d.critical_dt() * 10.0;
+d.run(100);
+"#;
+    let (code, err) = report("unstable", script);
+    assert_eq!(code, 1);
+    assert!(err.starts_with("error: unstable at step 0: particle "), "{err}");
+    assert!(err.contains("critical time step"), "{err}");
+    assert!(err.contains("Fix: use the standard time step"), "{err}");
+    assert!(err.contains("s.rhai:6:3"), "{err}");
+}
+
+#[test]
+fn error_inside_stdlib_shows_the_call_site_in_the_script() {
+    let (code, err) = report("stdlib_err", "let t = new_table();\nstage_load(t, \"top\", 1.0, #{});\n");
+    assert_eq!(code, 1);
+    assert!(err.contains("in call to `stage_load`"), "{err}");
+    assert!(err.contains("s.rhai:2:1"), "{err}");
+}
+
+#[test]
+fn missing_script_exits_2() {
+    let o = bin().args(["run", "/nonexistent/x.rhai"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("cannot read script /nonexistent/x.rhai"));
+}
+
+#[test]
+fn output_outside_the_run_folder_is_refused() {
+    let (code, err) = report("escape", "let t = new_table();\nt.add_row(#{a: 1});\nt.save(\"../x.csv\");\n");
+    assert_eq!(code, 1);
+    assert!(err.contains("outside the allowed folders"), "{err}");
+}
