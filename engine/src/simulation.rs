@@ -79,18 +79,27 @@ impl Simulation {
         let guard_every = self.model.settings.guard_every.max(1);
         let Simulation { model, backend } = self;
         let backend = prepared(backend, model);
-        for k in 0..steps {
-            let observe = every > 0 && k % every == 0;
-            let (step, time) = (model.clock.step, model.clock.time);
-            if let Some(energies) = backend.step(model, observe) {
-                sample(EnergySample { step, time, energies });
-            }
-            if (k + 1) % guard_every == 0 || k + 1 == steps {
-                check_state(model)?;
-                progress(k + 1);
-                if ctl.is_cancelled() {
-                    return Err(Error::Cancelled { completed_steps: k + 1 });
+        let mut samples = Vec::new();
+        let mut done = 0;
+        while done < steps {
+            let chunk = guard_every.min(steps - done);
+            // Step a chunk on a pool thread: the stages' parallel loops then join within
+            // the pool instead of waking it from outside several times per step.
+            rayon::scope(|_| {
+                for k in done..done + chunk {
+                    let observe = every > 0 && k % every == 0;
+                    let (step, time) = (model.clock.step, model.clock.time);
+                    if let Some(energies) = backend.step(model, observe) {
+                        samples.push(EnergySample { step, time, energies });
+                    }
                 }
+            });
+            done += chunk;
+            samples.drain(..).for_each(&mut *sample);
+            check_state(model)?;
+            progress(done);
+            if ctl.is_cancelled() {
+                return Err(Error::Cancelled { completed_steps: done });
             }
         }
         Ok(RunReport { steps, unbalanced_ratio: None })

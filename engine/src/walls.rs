@@ -53,7 +53,7 @@ impl Wall {
     /// A fixed plane; `normal` points into the region particles occupy.
     pub fn plane(name: &str, point: Vec3, normal: Vec3, area: f64) -> Result<Self> {
         let len = normal.norm();
-        if !(len.is_finite() && len > 0.0) || !point.iter().all(|v| v.is_finite()) {
+        if !(len.is_finite() && len > 0.0 && point.iter().all(|v| v.is_finite())) {
             return Err(Error::InvalidScene(format!(
                 "wall `{name}`: the normal must be a finite non-zero vector and the point finite"
             )));

@@ -116,6 +116,8 @@ pub fn register(engine: &mut Engine) {
         .register_fn("sqrt", |f: &mut Field| f.map(f64::sqrt))
         .register_fn("to_array", |f: &mut Field| f.0.iter().map(|v| Dynamic::from_float(*v)).collect::<Array>())
         .register_fn("select", |f: &mut Field, m: Mask| f.select(&m))
+        .register_fn("fmt", |x: FLOAT, decimals: INT| format!("{x:.*}", decimals.clamp(0, 17) as usize))
+        .register_fn("fmt", |x: INT, _decimals: INT| x.to_string())
         .register_fn("to_string", |f: &mut Field| summary(&f.0))
         .register_fn("to_debug", |f: &mut Field| summary(&f.0))
         .register_indexer_get(|f: &mut Field, i: INT| -> RhaiResult<FLOAT> {

@@ -99,7 +99,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         })
         .register_fn("plot", |t: Table, x: &str, y: &str| -> RhaiResult<Chart> {
             let data = t.0.borrow();
-            let mut c = LineChart::new(&format!("{y} vs {x}"), x, y);
+            let mut c = LineChart::new(format!("{y} vs {x}"), x, y);
             c.add_series(y, data.column(x)?.to_vec(), data.column(y)?.to_vec());
             Ok(Chart(Rc::new(RefCell::new(c))))
         })

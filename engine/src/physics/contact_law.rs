@@ -43,6 +43,10 @@ pub struct PairState {
     pub shear: Vec3,
     /// Whether the pair is bonded (MatDEM's intact connection).
     pub bonded: bool,
+    /// Normal dashpot force of the last step (N, positive against approach): its work over
+    /// the half step after it is booked with the next step's heat (f32 fits the padding).
+    #[serde(default)]
+    pub dashpot: f32,
 }
 
 /// How a bond broke.
@@ -205,6 +209,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     if state.bonded && fn_el < -p.breaking_force {
         // Broken in tension: the stretched bond's energy becomes heat; no contact remains.
         out.heat_breakage = bond_tension_release(p, overlap, vn, dt) + released(s, Vec3::zeros(), s_prev, kt);
+        out.heat_damping = dashpot_release(state, vn, dt);
         out.broke = Some(BreakKind::Tension);
         state.bonded = false;
         state.shear = Vec3::zeros();
@@ -213,8 +218,16 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     let mut fn_total = fn_el;
     if DASHPOT && touching {
         let c = N::dashpot(p, g.r_star, g.m_star, overlap);
-        fn_total += c * vn;
-        out.heat_damping = c * vn * vn * dt;
+        let f_dash = c * vn;
+        fn_total += f_dash;
+        // The dashpot force works over the step at the mean of its last and present values
+        // (the trapezoid rule): booking c·vn²·dt instead counts the force of the first
+        // touching step over a whole step although it acted from the middle of it, about
+        // ζ·ω·dt too much heat per impact.
+        out.heat_damping = 0.5 * (f64::from(state.dashpot) + f_dash) * vn * dt;
+        state.dashpot = f_dash as f32;
+    } else if DASHPOT {
+        out.heat_damping = dashpot_release(state, vn, dt);
     }
 
     let mut limit = if state.bonded {
@@ -254,6 +267,34 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     out.shear = s;
     out.force = s - g.n * fn_total;
     out
+}
+
+/// Heat of the dashpot force of the last touching step over the step in which the contact
+/// opened (the second half of its trapezoid), for the normal relative velocity `vn` of this
+/// step; clears it.
+#[inline(always)]
+fn dashpot_release(state: &mut PairState, vn: f64, dt: f64) -> f64 {
+    let f = f64::from(state.dashpot);
+    state.dashpot = 0.0;
+    0.5 * f * vn * dt
+}
+
+/// An unbonded contact that is open this step (no overlap): backends call this instead of
+/// [`contact`]. If it was closed until now, its shear spring lets go, and the energy it held
+/// is dissipated (booked as friction heat, else it would vanish from the account), and its
+/// dashpot force still worked over this step. Returns (friction heat, damping heat) for the
+/// whole pair and clears the state.
+#[inline(always)]
+pub fn contact_opened<T: TangentialLaw>(
+    p: &PairParams,
+    r_star: f64,
+    state: &mut PairState,
+    vn: f64,
+    dt: f64,
+) -> (f64, f64) {
+    let friction = shear_energy(state.shear, T::stiffness(p, r_star, 0.0));
+    state.shear = Vec3::zeros();
+    (friction, dashpot_release(state, vn, dt))
 }
 
 /// Energy a spring of stiffness `k` releases when its force drops, within one step, from
@@ -366,7 +407,7 @@ mod tests {
     #[test]
     fn bonded_pair_breaks_in_tension_at_kn_xb() {
         let p = params();
-        let mut s = PairState { shear: Vec3::zeros(), bonded: true };
+        let mut s = PairState { shear: Vec3::zeros(), bonded: true, ..Default::default() };
         // Just below the breaking displacement the bond holds and pulls.
         let r = contact::<Linear, LinearShear, false>(&geometry(-0.999e-5, Vec3::zeros()), &p, &mut s, 1e-6);
         assert!(r.broke.is_none() && s.bonded);
@@ -380,7 +421,7 @@ mod tests {
     fn shear_spring_slips_at_fs0_plus_mu_fn_while_bonded_then_mu_fn_once_broken() {
         let p = params();
         let overlap = 1e-5; // Fn = 10 N
-        let mut s = PairState { shear: Vec3::zeros(), bonded: true };
+        let mut s = PairState { shear: Vec3::zeros(), bonded: true, ..Default::default() };
         let dt = 1e-6;
         let v = Vec3::new(0.0, 1.0, 0.0); // 1 µm of sliding per step → 0.4 N per step
         let mut broke_at = None;
@@ -422,8 +463,8 @@ mod tests {
             m_star: 1e-3,
         };
         let g2 = ContactGeometry { n: -g.n, v_rel: -g.v_rel, ..g };
-        let mut a = PairState { shear: Vec3::new(0.0, 0.2, 0.0), bonded: true };
-        let mut b = PairState { shear: -a.shear, bonded: true };
+        let mut a = PairState { shear: Vec3::new(0.0, 0.2, 0.0), bonded: true, ..Default::default() };
+        let mut b = PairState { shear: -a.shear, bonded: true, ..Default::default() };
         for _ in 0..50 {
             let ra = contact::<Hertz, MindlinShear, true>(&g, &p, &mut a, 1e-6);
             let rb = contact::<Hertz, MindlinShear, true>(&g2, &p, &mut b, 1e-6);

@@ -5,8 +5,8 @@
 use super::blocks::{for_blocks, Reduce, Rows};
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{
-    contact, BreakKind, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState,
-    TangentialLaw,
+    contact, contact_opened, BreakKind, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw,
+    PairState, TangentialLaw,
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
@@ -85,7 +85,14 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
                     let touch = ri + rj;
                     let dist2 = d.norm_squared();
                     if !st.bonded && dist2 >= touch * touch {
-                        st.shear = Vec3::zeros();
+                        if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
+                            // The contact has just opened.
+                            let vn = (vi - vel[j]).dot(&d) / dist2.sqrt();
+                            let pp = plan.pair(mati, material[j]);
+                            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, st, vn, dt);
+                            hf += friction;
+                            hd += damping;
+                        }
                         continue;
                     }
                     let dist = dist2.sqrt();

@@ -4,7 +4,8 @@
 use super::blocks::{for_blocks, Reduce, Rows};
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{
-    contact, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState, TangentialLaw,
+    contact, contact_opened, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState,
+    TangentialLaw,
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
@@ -96,8 +97,15 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                     let st = &mut state[li * nw + w];
                     let (inward, gap) = wall.normal_and_distance(&xi);
                     let overlap = ri - gap;
+                    let params = &plan.wall[w * plan.materials + material[i] as usize];
                     if overlap <= 0.0 {
-                        st.shear = Vec3::zeros();
+                        if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
+                            // The contact has just opened.
+                            let vn = -(vel[i] - wall.surface_velocity(&inward)).dot(&inward);
+                            let (friction, damping) = contact_opened::<T>(params, ri, st, vn, dt);
+                            h_fric[li] += friction;
+                            h_damp[li] += damping;
+                        }
                         continue;
                     }
                     let nrm = -inward; // from the particle towards the wall
@@ -108,7 +116,6 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                         v_rel += wi.cross(&(nrm * ri));
                     }
                     let g = ContactGeometry { n: nrm, overlap, v_rel, r_star: ri, m_star: mass[i] };
-                    let params = &plan.wall[w * plan.materials + material[i] as usize];
                     let r = contact::<N, T, DASHPOT>(&g, params, st, dt);
                     force[li] += r.force;
                     if let Some(tq) = torque.as_deref_mut() {
