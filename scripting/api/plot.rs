@@ -7,7 +7,7 @@ use super::table::Table;
 use super::{err, Host, RhaiResult};
 use crate::plot::{LineChart, ParticlePicture};
 use matdem_engine::status::contact_loads;
-use rhai::{Dynamic, Engine};
+use rhai::{Dynamic, Engine, FLOAT};
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -68,18 +68,27 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
     Ok((v, label))
 }
 
-fn picture(d: &ModelHandle, values: Vec<f64>, label: String) -> ParticlePicture {
+/// A side view (x–z) of the particles; with `slice`, only those within that distance of
+/// the model's mid-plane in y, so the inside of a sample shows.
+fn picture(d: &ModelHandle, values: Vec<f64>, label: String, slice: Option<f64>) -> ParticlePicture {
     let data = d.data();
     let p = &data.sim.model.particles;
+    let n = p.len().max(1) as f64;
+    let y_mid = p.pos.iter().map(|x| x.y).sum::<f64>() / n;
+    let keep: Vec<usize> = (0..p.len()).filter(|&i| slice.is_none_or(|w| (p.pos[i].y - y_mid).abs() <= w)).collect();
+    let title = match slice {
+        Some(w) => format!("{} — {} (slice |y − ȳ| ≤ {:.2e} m)", data.name, label, w),
+        None => format!("{} — {}", data.name, label),
+    };
     ParticlePicture {
-        title: format!("{} — {}", data.name, label),
+        title,
         field: label,
         x_label: "x [m]".into(),
         y_label: "z [m]".into(),
-        x: p.pos.iter().map(|x| x.x).collect(),
-        y: p.pos.iter().map(|x| x.z).collect(),
-        r: p.radius.clone(),
-        value: values,
+        x: keep.iter().map(|&i| p.pos[i].x).collect(),
+        y: keep.iter().map(|&i| p.pos[i].z).collect(),
+        r: keep.iter().map(|&i| p.radius[i]).collect(),
+        value: keep.iter().map(|&i| values[i]).collect(),
     }
 }
 
@@ -119,7 +128,16 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     let h = host.clone();
     engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str| {
         let (values, label) = particle_field(d, field)?;
-        let pic = picture(d, values, label);
+        let pic = picture(d, values, label, None);
+        save_figure(&h, name, |p| pic.save(p))
+    });
+    let h = host.clone();
+    engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str, slice: FLOAT| {
+        if !(slice.is_finite() && slice > 0.0) {
+            return Err(err(format!("show: the slice half-width must be > 0 m, got {slice}")));
+        }
+        let (values, label) = particle_field(d, field)?;
+        let pic = picture(d, values, label, Some(slice));
         save_figure(&h, name, |p| pic.save(p))
     });
     let h = host;
@@ -131,7 +149,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 d.data().sim.model.len()
             )));
         }
-        let pic = picture(d, values.0.to_vec(), label.to_string());
+        let pic = picture(d, values.0.to_vec(), label.to_string(), None);
         save_figure(&h, name, |p| pic.save(p))
     });
 }
