@@ -5,6 +5,7 @@
 //! [`report`] renders errors with file, line, column and a caret.
 
 pub mod api;
+pub mod bench;
 pub mod plot;
 pub mod report;
 pub mod run;

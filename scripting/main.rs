@@ -1,6 +1,7 @@
 //! The `matdem-rs` command: parses arguments and hands off to the library.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use matdem_rs::bench::{run_bench, BenchConfig};
 use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -11,7 +12,7 @@ use std::process::ExitCode;
     name = "matdem-rs",
     version,
     about = "A discrete element method workbench scripted in Rhai, modelled on MatDEM",
-    after_help = "Examples:\n  matdem-rs run examples/compress.rhai\n  matdem-rs run examples/compress.rhai --out out/full --set full=true\n  matdem-rs plan examples/compress.rhai"
+    after_help = "Examples:\n  matdem-rs run examples/compress.rhai\n  matdem-rs run examples/compress.rhai --out out/full --set full=true\n  matdem-rs plan examples/compress.rhai\n  matdem-rs bench --json"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -48,6 +49,25 @@ enum Command {
         script: PathBuf,
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
+    },
+    /// Time the standard lattice scene (20×20×50 Hertz–Mindlin spheres in a box of five walls,
+    /// as LIGGGHTS is measured on) and print particle-steps per second.
+    #[command(after_help = "Example:\n  RAYON_NUM_THREADS=2 matdem-rs bench --particles 100000 --json")]
+    Bench {
+        #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+        backend: Backend,
+        /// About this many particles, keeping the 20:20:50 aspect (default: 20000).
+        #[arg(long)]
+        particles: Option<usize>,
+        /// Timed steps.
+        #[arg(long, default_value_t = 1000)]
+        steps: u64,
+        /// Untimed steps before timing.
+        #[arg(long, default_value_t = 100)]
+        warmup: u64,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -87,6 +107,9 @@ fn main() -> ExitCode {
             };
             (RunConfig { script, out_dir: PathBuf::from("out/plan"), params, progress: false, plan_only: true }, Backend::Cpu)
         }
+        Command::Bench { backend, particles, steps, warmup, json } => {
+            return bench(backend, BenchConfig { particles, warmup, steps, json });
+        }
     };
     match backend {
         Backend::Gpu => {
@@ -112,6 +135,23 @@ fn main() -> ExitCode {
         Err(RunError::Script(msg)) => {
             eprint!("{msg}");
             ExitCode::from(1)
+        }
+    }
+}
+
+fn bench(backend: Backend, cfg: BenchConfig) -> ExitCode {
+    if backend == Backend::Gpu {
+        eprintln!("error: the GPU backend is not built yet; bench the CPU backend with --backend cpu");
+        return ExitCode::from(2);
+    }
+    match run_bench(&cfg) {
+        Ok(out) => {
+            print!("{out}");
+            ExitCode::SUCCESS
+        }
+        Err(msg) => {
+            eprintln!("{msg}");
+            ExitCode::from(2)
         }
     }
 }

@@ -14,10 +14,12 @@
 //! - [`backend::cpu::CpuBackend`] runs one step as named stages; [`simulation::Simulation`]
 //!   runs many, with MatDEM's `balance` and the stability [`guard`].
 //! - [`status`] measures energies, heat, coordination number and porosity.
+//! - [`bench`] builds the standard throughput scene and times it.
 //!
 //! Units are SI; particle ids are 0-based.
 
 pub mod backend;
+pub mod bench;
 pub mod builder;
 pub mod error;
 pub mod guard;

@@ -200,7 +200,8 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         (p.kn * overlap, p.kn)
     };
     out.stiffness = kn;
-    let vn = g.v_rel.dot(&g.n); // > 0 while the overlap grows
+    // Normal relative velocity, > 0 while the overlap grows.
+    let vn = g.v_rel.dot(&g.n);
     // Shear spring: carry the old force into the current tangent plane, then add Ks·Δu_t.
     let kt = T::stiffness(p, g.r_star, overlap);
     let vt = g.v_rel - g.n * vn;
@@ -280,21 +281,26 @@ fn dashpot_release(state: &mut PairState, vn: f64, dt: f64) -> f64 {
 }
 
 /// An unbonded contact that is open this step (no overlap): backends call this instead of
-/// [`contact`]. If it was closed until now, its shear spring lets go, and the energy it held
-/// is dissipated (booked as friction heat, else it would vanish from the account), and its
-/// dashpot force still worked over this step. Returns (friction heat, damping heat) for the
-/// whole pair and clears the state.
+/// [`contact`], with `n` towards the other body and the contact points' relative velocity
+/// `v_rel`, as for a closed contact. If the contact was closed until now, its shear spring
+/// lets go and the energy it held is dissipated (`released`: booked as friction heat, or it
+/// would vanish from the account), and its last dashpot force still worked over this step.
+/// Returns (friction heat, damping heat) for the whole pair and clears the state.
 #[inline(always)]
 pub fn contact_opened<T: TangentialLaw>(
     p: &PairParams,
     r_star: f64,
     state: &mut PairState,
-    vn: f64,
+    n: &Vec3,
+    v_rel: Vec3,
     dt: f64,
 ) -> (f64, f64) {
-    let friction = shear_energy(state.shear, T::stiffness(p, r_star, 0.0));
+    let vn = v_rel.dot(n);
+    let kt = T::stiffness(p, r_star, 0.0);
+    let s_prev = rotate_into_plane(state.shear, n);
+    let trial = s_prev - (v_rel - n * vn) * (kt * dt);
     state.shear = Vec3::zeros();
-    (friction, dashpot_release(state, vn, dt))
+    (released(trial, Vec3::zeros(), s_prev, kt), dashpot_release(state, vn, dt))
 }
 
 /// Energy a spring of stiffness `k` releases when its force drops, within one step, from

@@ -87,9 +87,14 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
                     if !st.bonded && dist2 >= touch * touch {
                         if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
                             // The contact has just opened.
-                            let vn = (vi - vel[j]).dot(&d) / dist2.sqrt();
+                            let nrm = d / dist2.sqrt();
+                            let mut v_rel = vi - vel[j];
+                            if ROT {
+                                let wj = ang_vel.map_or(Vec3::zeros(), |w| w[j]);
+                                v_rel += wi.cross(&(nrm * ri)) - wj.cross(&(nrm * -rj));
+                            }
                             let pp = plan.pair(mati, material[j]);
-                            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, st, vn, dt);
+                            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, st, &nrm, v_rel, dt);
                             hf += friction;
                             hd += damping;
                         }

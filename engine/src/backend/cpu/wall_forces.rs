@@ -101,8 +101,13 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                     if overlap <= 0.0 {
                         if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
                             // The contact has just opened.
-                            let vn = -(vel[i] - wall.surface_velocity(&inward)).dot(&inward);
-                            let (friction, damping) = contact_opened::<T>(params, ri, st, vn, dt);
+                            let nrm = -inward;
+                            let mut v_rel = vel[i] - wall.surface_velocity(&inward);
+                            if ROT {
+                                let wi = ang_vel.map_or(Vec3::zeros(), |a| a[i]);
+                                v_rel += wi.cross(&(nrm * ri));
+                            }
+                            let (friction, damping) = contact_opened::<T>(params, ri, st, &nrm, v_rel, dt);
                             h_fric[li] += friction;
                             h_damp[li] += damping;
                         }

@@ -1,0 +1,242 @@
+//! The standard throughput scene and its measurement, shared by `matdem-rs bench` and any
+//! Rust program that wants comparable figures.
+//!
+//! The scene is the one other DEM codes are measured on (LIGGGHTS input
+//! `shared/bench/liggghts_lattice.in`): a simple cubic lattice of equal spheres, spaced a
+//! hair closer than their diameter so every lattice neighbour touches, standing in a box of
+//! five planes under gravity, with Hertz–Mindlin contacts, friction, a restitution dashpot
+//! and rotation. Nothing here prints: the caller formats the [`BenchReport`].
+
+use crate::backend::RunControl;
+use crate::builder::simple_cubic;
+use crate::error::Result;
+use crate::materials::Material;
+use crate::model::{Model, NormalKind, TangentialKind};
+use crate::physics::contact_law::PairState;
+use crate::physics::Vec3;
+use crate::simulation::Simulation;
+use crate::walls::Wall;
+use std::mem::size_of;
+use std::time::Instant;
+
+/// The lattice scene. [`Default`] is the standard 20 × 20 × 50 one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LatticeScene {
+    pub nx: usize,
+    pub ny: usize,
+    pub nz: usize,
+    /// Sphere diameter (m).
+    pub diameter: f64,
+    /// Lattice spacing (m); a little under the diameter, so neighbours touch.
+    pub spacing: f64,
+    /// Density (kg/m³).
+    pub density: f64,
+    /// Young's modulus (Pa) and Poisson's ratio of the Hertz–Mindlin contact.
+    pub young: f64,
+    pub poisson: f64,
+    /// Friction coefficient, between particles and against the walls.
+    pub friction: f64,
+    pub restitution: f64,
+    /// Gravitational acceleration, pointing down −z (m/s²).
+    pub gravity: f64,
+    /// Simulate rotation (LIGGGHTS' `nve/sphere` integrates it, so the standard scene does).
+    pub rotation: bool,
+    /// Time step (s).
+    pub dt: f64,
+}
+
+impl Default for LatticeScene {
+    fn default() -> Self {
+        LatticeScene {
+            nx: 20,
+            ny: 20,
+            nz: 50,
+            diameter: 1e-3,
+            spacing: 0.99999e-3,
+            density: 2650.0,
+            young: 5e6,
+            poisson: 0.3,
+            friction: 0.5,
+            restitution: 0.5,
+            gravity: 9.81,
+            rotation: true,
+            dt: 1e-6,
+        }
+    }
+}
+
+impl LatticeScene {
+    /// The standard scene scaled to about `n` particles, keeping its 20:20:50 aspect:
+    /// nx = ny = round((n/2.5)^(1/3)), nz = round(n/(nx·ny)).
+    pub fn with_particles(n: usize) -> Self {
+        let side = ((n as f64 / 2.5).cbrt().round() as usize).max(1);
+        let nz = ((n as f64 / (side * side) as f64).round() as usize).max(1);
+        LatticeScene { nx: side, ny: side, nz, ..Self::default() }
+    }
+
+    pub fn particles(&self) -> usize {
+        self.nx * self.ny * self.nz
+    }
+
+    /// Builds the model: spheres on the lattice with the first centres half a spacing from
+    /// the floor and the side walls, planes at x = 0, x = Lx, y = 0, y = Ly and z = 0
+    /// (L = n·spacing), rows built, time step set.
+    pub fn build(&self) -> Result<Model> {
+        let mut m = Model::new();
+        let r = 0.5 * self.diameter;
+        m.add_material(Material {
+            name: "bench".into(),
+            density: self.density,
+            // Only bonds use the linear springs; give the Hertz-equivalent ones (E = Kn/(πR)).
+            kn: self.young * std::f64::consts::PI * r,
+            ks: 0.0,
+            xb: 0.0,
+            fs0: 0.0,
+            mu_p: self.friction,
+            young: self.young,
+            poisson: self.poisson,
+            restitution: self.restitution,
+        })?;
+        m.settings.normal = NormalKind::Hertz;
+        m.settings.tangential = TangentialKind::Mindlin;
+        m.settings.gravity = Vec3::new(0.0, 0.0, -self.gravity);
+        m.settings.rotation = self.rotation;
+        let s = self.spacing;
+        let (lx, ly, lz) = (self.nx as f64 * s, self.ny as f64 * s, self.nz as f64 * s);
+        for x in simple_cubic(self.nx, self.ny, self.nz, s, Vec3::repeat(0.5 * s)) {
+            m.add_particle(x, r, 0)?;
+        }
+        m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), lx * ly)?)?;
+        m.add_wall(Wall::plane("x0", Vec3::zeros(), Vec3::x(), ly * lz)?)?;
+        m.add_wall(Wall::plane("x1", Vec3::new(lx, 0.0, 0.0), -Vec3::x(), ly * lz)?)?;
+        m.add_wall(Wall::plane("y0", Vec3::zeros(), Vec3::y(), lx * lz)?)?;
+        m.add_wall(Wall::plane("y1", Vec3::new(0.0, ly, 0.0), -Vec3::y(), lx * lz)?)?;
+        if self.rotation {
+            m.particles.enable_rotation();
+        }
+        m.set_dt(self.dt)?;
+        crate::backend::cpu::neighbours::rebuild(&mut m);
+        Ok(m)
+    }
+}
+
+/// What one benchmark run measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchReport {
+    pub particles: usize,
+    pub warmup: u64,
+    pub steps: u64,
+    /// Wall-clock time of the timed steps (s).
+    pub seconds: f64,
+    pub particle_steps_per_s: f64,
+    /// Mean particle–particle contacts per particle at the end, each pair counted at both
+    /// ends, walls not counted: what LIGGGHTS' `compute contact/atom` sums.
+    pub contacts_per_particle: f64,
+    /// Mean particle–wall contacts per particle at the end (during the last step).
+    pub wall_contacts_per_particle: f64,
+    /// Model memory per particle (bytes), from [`model_bytes`].
+    pub bytes_per_particle: f64,
+    /// Worker threads of the rayon pool the steps ran on.
+    pub threads: usize,
+}
+
+/// Runs `warmup` untimed steps, then `steps` timed ones, through [`Simulation::run`] (so
+/// neighbour rebuilds and the stability guard are part of the time, as in a real run).
+pub fn run(model: Model, warmup: u64, steps: u64) -> Result<(BenchReport, Simulation)> {
+    let mut sim = Simulation::new(model);
+    let ctl = RunControl::default();
+    sim.run(warmup, &ctl, &mut |_| {})?;
+    let t0 = Instant::now();
+    sim.run(steps, &ctl, &mut |_| {})?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let m = &sim.model;
+    let n = m.len();
+    let nf = n.max(1) as f64;
+    let wall_contacts: u64 = m.walls.iter().map(|w| u64::from(w.contacts)).sum();
+    let report = BenchReport {
+        particles: n,
+        warmup,
+        steps,
+        seconds,
+        particle_steps_per_s: if seconds > 0.0 { n as f64 * steps as f64 / seconds } else { 0.0 },
+        contacts_per_particle: 2.0 * touching_pairs(m) as f64 / nf,
+        wall_contacts_per_particle: wall_contacts as f64 / nf,
+        bytes_per_particle: model_bytes(m) as f64 / nf,
+        threads: rayon::current_num_threads(),
+    };
+    Ok((report, sim))
+}
+
+/// Particle pairs in the rows that touch now (centre distance < r_i + r_j), each once.
+pub fn touching_pairs(m: &Model) -> usize {
+    let (p, c) = (&m.particles, &m.contacts);
+    if c.row_start.len() != p.len() + 1 {
+        return 0;
+    }
+    (0..p.len())
+        .map(|i| {
+            c.row(i)
+                .filter(|&e| {
+                    let j = c.other[e] as usize;
+                    let touch = p.radius[i] + p.radius[j];
+                    i < j && (p.pos[j] - p.pos[i]).norm_squared() < touch * touch
+                })
+                .count()
+        })
+        .sum()
+}
+
+/// Heap bytes the model holds for its particles (the capacities of the particle lanes,
+/// the neighbour rows with their pair state and build positions, and the wall contact
+/// states). Materials, walls, groups and the transient buffers of a rebuild are left out.
+pub fn model_bytes(m: &Model) -> usize {
+    fn cap<T>(v: &Vec<T>) -> usize {
+        v.capacity() * size_of::<T>()
+    }
+    let p = &m.particles;
+    let mut bytes = cap(&p.pos)
+        + cap(&p.radius)
+        + cap(&p.vel)
+        + cap(&p.mass)
+        + cap(&p.force)
+        + cap(&p.material)
+        + cap(&p.fixed)
+        + cap(&p.origin);
+    if let Some(r) = &p.rotation {
+        bytes += cap(&r.ang_vel) + cap(&r.torque);
+    }
+    let h = &p.heat;
+    bytes += cap(&h.damping) + cap(&h.contact_damping) + cap(&h.friction) + cap(&h.breakage) + cap(&h.wall_work);
+    let c = &m.contacts;
+    bytes += cap(&c.row_start) + cap(&c.other) + cap(&c.state) + cap(&c.built_at);
+    bytes += m.wall_contacts.capacity() * size_of::<PairState>();
+    bytes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_scene_keeps_the_aspect() {
+        let s = LatticeScene::with_particles(20_000);
+        assert_eq!((s.nx, s.ny, s.nz), (20, 20, 50));
+        let s = LatticeScene::with_particles(2000);
+        assert_eq!((s.nx, s.ny, s.nz), (9, 9, 25));
+        assert_eq!(LatticeScene::with_particles(1).particles(), 1);
+    }
+
+    #[test]
+    fn standard_lattice_touches_its_six_neighbours_and_the_walls() {
+        let scene = LatticeScene { nx: 4, ny: 5, nz: 6, ..LatticeScene::default() };
+        let m = scene.build().unwrap();
+        // Pairs along x, y and z of a 4 × 5 × 6 block.
+        assert_eq!(touching_pairs(&m), 3 * 5 * 6 + 4 * 4 * 6 + 4 * 5 * 5);
+        let (report, sim) = run(m, 2, 3).unwrap();
+        assert_eq!(report.particles, 120);
+        // Floor 4·5, x sides 2·5·6, y sides 2·4·6.
+        let walls: u32 = sim.model.walls.iter().map(|w| w.contacts).sum();
+        assert_eq!(walls, 20 + 60 + 48);
+        assert!(report.bytes_per_particle > 0.0 && report.particle_steps_per_s > 0.0);
+    }
+}

@@ -1,0 +1,145 @@
+//! `matdem-rs bench`: times the standard lattice scene ([`matdem_engine::bench`]) and prints
+//! throughput, contacts, memory and the machine, as text or as one JSON object.
+
+use matdem_engine::bench::{run, BenchReport, LatticeScene};
+use std::fmt::Write as _;
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct BenchConfig {
+    /// About this many particles (the standard 20 × 20 × 50 scene when `None`).
+    pub particles: Option<usize>,
+    pub warmup: u64,
+    pub steps: u64,
+    pub json: bool,
+}
+
+/// Builds and times the scene; returns what to print on stdout.
+pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
+    let scene = match cfg.particles {
+        Some(0) => return Err("error: --particles must be at least 1".into()),
+        Some(n) => LatticeScene::with_particles(n),
+        None => LatticeScene::default(),
+    };
+    if cfg.steps == 0 {
+        return Err("error: --steps must be at least 1".into());
+    }
+    let model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
+    let (report, _) = run(model, cfg.warmup, cfg.steps).map_err(|e| format!("error: the bench run failed: {e}"))?;
+    let device = cpu_model();
+    Ok(if cfg.json { json(&scene, &report, &device) } else { text(&scene, &report, &device) })
+}
+
+/// The CPU's model name from /proc/cpuinfo (Linux), else the architecture.
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string())
+}
+
+fn scene_line(s: &LatticeScene) -> String {
+    format!(
+        "lattice {}×{}×{} = {} spheres, d = {} mm at spacing {} mm, ρ = {} kg/m³, Hertz–Mindlin E = {} MPa ν = {}, \
+         μ = {}, e = {}, 5 plane walls, gravity {} m/s², rotation {}, dt = {:e} s",
+        s.nx,
+        s.ny,
+        s.nz,
+        s.particles(),
+        s.diameter * 1e3,
+        s.spacing * 1e3,
+        s.density,
+        s.young / 1e6,
+        s.poisson,
+        s.friction,
+        s.restitution,
+        s.gravity,
+        if s.rotation { "on" } else { "off" },
+        s.dt
+    )
+}
+
+fn text(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "scene: {}", scene_line(s));
+    let _ = writeln!(o, "backend: cpu (f64), {} thread(s) on {device}", r.threads);
+    let _ = writeln!(o, "steps: {} warm-up + {} timed in {:.3} s", r.warmup, r.steps, r.seconds);
+    let _ = writeln!(o, "particle-steps per second: {:.4e}", r.particle_steps_per_s);
+    let _ = writeln!(
+        o,
+        "contacts per particle: {:.3} (particle–particle, each pair at both ends, walls not counted: \
+         as LIGGGHTS' compute contact/atom); wall contacts per particle: {:.3}",
+        r.contacts_per_particle, r.wall_contacts_per_particle
+    );
+    let _ = writeln!(
+        o,
+        "memory per particle: {:.0} bytes (particle lanes, neighbour rows, pair and wall contact state)",
+        r.bytes_per_particle
+    );
+    o
+}
+
+fn json_num(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x}")
+    } else {
+        "null".into()
+    }
+}
+
+fn json_str(s: &str) -> String {
+    let mut o = String::with_capacity(s.len() + 2);
+    o.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => o.push_str("\\\""),
+            '\\' => o.push_str("\\\\"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(o, "\\u{:04x}", c as u32);
+            }
+            c => o.push(c),
+        }
+    }
+    o.push('"');
+    o
+}
+
+fn json(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
+    let fields: Vec<(&str, String)> = vec![
+        ("backend", json_str("cpu")),
+        ("device", json_str(device)),
+        ("threads", r.threads.to_string()),
+        ("scene", json_str("lattice")),
+        ("nx", s.nx.to_string()),
+        ("ny", s.ny.to_string()),
+        ("nz", s.nz.to_string()),
+        ("particles", r.particles.to_string()),
+        ("warmup", r.warmup.to_string()),
+        ("steps", r.steps.to_string()),
+        ("seconds", json_num(r.seconds)),
+        ("particle_steps_per_s", json_num(r.particle_steps_per_s)),
+        ("contacts_per_particle", json_num(r.contacts_per_particle)),
+        ("wall_contacts_per_particle", json_num(r.wall_contacts_per_particle)),
+        ("bytes_per_particle", json_num(r.bytes_per_particle)),
+    ];
+    let body: Vec<String> = fields.iter().map(|(k, v)| format!("{}:{v}", json_str(k))).collect();
+    format!("{{{}}}\n", body.join(","))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_strings_are_escaped() {
+        assert_eq!(json_str("a\"b\\c\n"), r#""a\"b\\c\u000a""#);
+        assert_eq!(json_num(f64::NAN), "null");
+        assert_eq!(json_num(2.5e6), "2500000");
+    }
+}

@@ -1,0 +1,31 @@
+//! `matdem-rs bench` end to end: a small lattice, JSON output, and the GPU refusal.
+
+mod common;
+use common::*;
+
+#[test]
+fn bench_json_reports_positive_figures() {
+    let o = bin().args(["bench", "--particles", "2000", "--steps", "20", "--warmup", "5", "--json"]).output().unwrap();
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+    assert_eq!(v["backend"], "cpu");
+    assert!(v["device"].as_str().is_some_and(|d| !d.is_empty()), "{out}");
+    // 9 × 9 × 25 keeps the 20:20:50 aspect.
+    assert_eq!(v["particles"].as_u64(), Some(2025), "{out}");
+    assert_eq!(v["steps"].as_u64(), Some(20), "{out}");
+    for key in ["particle_steps_per_s", "contacts_per_particle", "bytes_per_particle", "threads"] {
+        let x = v[key].as_f64().unwrap_or_else(|| panic!("{key} missing in {out}"));
+        assert!(x > 0.0 && x.is_finite(), "{key} = {x}");
+    }
+    // Every lattice neighbour touches: at most 6, and most of them inside a 9 × 9 × 25 block.
+    let c = v["contacts_per_particle"].as_f64().unwrap();
+    assert!((4.5..=6.0).contains(&c), "contacts per particle {c}");
+}
+
+#[test]
+fn bench_on_gpu_is_refused_with_exit_code_2() {
+    let o = bin().args(["bench", "--backend", "gpu", "--particles", "100", "--steps", "1"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("GPU backend is not built yet"), "{}", stderr(&o));
+}
