@@ -315,13 +315,7 @@ impl Model {
     /// `tolerance` (m), like MatDEM's `connectGroup`. Returns the number of new bonds.
     pub fn connect(&mut self, ids: Option<&[u32]>, tolerance: f64) -> Result<usize> {
         check_positive("tolerance", tolerance, true)?;
-        let mut member = vec![ids.is_none(); self.len()];
-        if let Some(ids) = ids {
-            self.check_ids(ids)?;
-            for &i in ids {
-                member[i as usize] = true;
-            }
-        }
+        let member = self.membership(ids)?;
         let skin_needed = tolerance;
         if self.contacts.skin < skin_needed || self.contacts.stale {
             self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
@@ -352,13 +346,7 @@ impl Model {
 
     /// Breaks every bond that has at least one end among `ids` (all when `None`).
     pub fn break_bonds(&mut self, ids: Option<&[u32]>) -> Result<usize> {
-        let mut member = vec![ids.is_none(); self.len()];
-        if let Some(ids) = ids {
-            self.check_ids(ids)?;
-            for &i in ids {
-                member[i as usize] = true;
-            }
-        }
+        let member = self.membership(ids)?;
         let c = &mut self.contacts;
         let mut count = 0;
         for i in 0..c.row_start.len().saturating_sub(1) {
@@ -375,6 +363,18 @@ impl Model {
         }
         self.touch();
         Ok(count)
+    }
+
+    /// One flag per particle: in `ids`, or every particle when `None`.
+    fn membership(&self, ids: Option<&[u32]>) -> Result<Vec<bool>> {
+        let mut member = vec![ids.is_none(); self.len()];
+        if let Some(ids) = ids {
+            self.check_ids(ids)?;
+            for &i in ids {
+                member[i as usize] = true;
+            }
+        }
+        Ok(member)
     }
 
     /// Bonded pairs (each once).

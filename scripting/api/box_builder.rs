@@ -3,7 +3,7 @@
 
 use super::field::to_numbers;
 use super::model::ModelHandle;
-use super::{err, raise, Host, RhaiResult};
+use super::{err, raise, RhaiResult};
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
 use matdem_engine::{Material, Model};
 use rhai::{Array, Engine, FLOAT, INT};
@@ -101,7 +101,7 @@ fn build(b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
     Ok(handle)
 }
 
-pub fn register(engine: &mut Engine, _host: Rc<Host>) {
+pub fn register(engine: &mut Engine) {
     engine.register_type_with_name::<BoxBuilder>("Box");
     engine.register_fn("new_box", |name: &str| BoxBuilder::new(name));
     macro_rules! num_prop {

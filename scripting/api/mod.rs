@@ -99,6 +99,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     table::register(engine, host.clone());
     materials::register(engine);
     model::register(engine, host.clone());
-    box_builder::register(engine, host.clone());
+    box_builder::register(engine);
     plot::register(engine, host);
 }
