@@ -79,7 +79,7 @@ fn text(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
     );
     let _ = writeln!(
         o,
-        "memory per particle: {:.0} bytes (particle lanes, neighbour rows, pair and wall contact state)",
+        "memory per particle: {:.0} bytes (particle lanes, neighbour rows, pair and wall contact state, contact scratch)",
         r.bytes_per_particle
     );
     o

@@ -134,7 +134,7 @@ pub struct BenchReport {
     pub contacts_per_particle: f64,
     /// Mean particle–wall contacts per particle at the end (during the last step).
     pub wall_contacts_per_particle: f64,
-    /// Model memory per particle (bytes), from [`model_bytes`].
+    /// Memory per particle (bytes): [`model_bytes`] and the backend's scratch buffers.
     pub bytes_per_particle: f64,
     /// Worker threads of the rayon pool the steps ran on.
     pub threads: usize,
@@ -161,7 +161,7 @@ pub fn run(model: Model, warmup: u64, steps: u64) -> Result<(BenchReport, Simula
         particle_steps_per_s: if seconds > 0.0 { n as f64 * steps as f64 / seconds } else { 0.0 },
         contacts_per_particle: 2.0 * touching_pairs(m) as f64 / nf,
         wall_contacts_per_particle: wall_contacts as f64 / nf,
-        bytes_per_particle: model_bytes(m) as f64 / nf,
+        bytes_per_particle: (model_bytes(m) + sim.backend_bytes()) as f64 / nf,
         threads: rayon::current_num_threads(),
     };
     Ok((report, sim))
@@ -187,8 +187,8 @@ pub fn touching_pairs(m: &Model) -> usize {
 }
 
 /// Heap bytes the model holds for its particles (the capacities of the particle lanes,
-/// the neighbour rows with their pair state and build positions, and the wall contact
-/// states). Materials, walls, groups and the transient buffers of a rebuild are left out.
+/// the neighbour rows with their pair state, pair ids, wall masks and build positions, and
+/// the wall contact states). Materials, walls, groups and the transient buffers of a rebuild are left out.
 pub fn model_bytes(m: &Model) -> usize {
     fn cap<T>(v: &Vec<T>) -> usize {
         v.capacity() * size_of::<T>()
@@ -209,6 +209,7 @@ pub fn model_bytes(m: &Model) -> usize {
     bytes += cap(&h.damping) + cap(&h.contact_damping) + cap(&h.friction) + cap(&h.breakage) + cap(&h.wall_work);
     let c = &m.contacts;
     bytes += cap(&c.row_start) + cap(&c.other) + cap(&c.state) + cap(&c.built_at);
+    bytes += cap(&c.pair) + cap(&c.pair_start) + cap(&c.wall_near);
     bytes += m.wall_contacts.capacity() * size_of::<PairState>();
     bytes
 }

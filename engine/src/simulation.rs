@@ -146,6 +146,11 @@ impl Simulation {
         ((50.0 * (longest / d + 1.0)) as u64).max(500)
     }
 
+    /// Heap bytes of the prepared backend's own buffers (0 before the first run).
+    pub fn backend_bytes(&self) -> usize {
+        self.backend.as_ref().map_or(0, |(_, b)| b.scratch_bytes())
+    }
+
     /// Energies now (kinetic from the stored half-step velocities).
     pub fn energies(&mut self) -> Energies {
         self.refresh_rows();

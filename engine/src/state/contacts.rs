@@ -7,6 +7,7 @@
 
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
+use crate::walls::WallShape;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
@@ -18,6 +19,23 @@ pub struct Contacts {
     pub other: Vec<u32>,
     /// Pair state, aligned with `other`.
     pub state: Vec<PairState>,
+    /// Pair id of each row entry, aligned with `other`: both entries of a pair share it.
+    /// Pairs are numbered by (lower id, higher id), so particle `i` owns the pairs
+    /// `pair_start[i]..pair_start[i + 1]`, those with its higher-id neighbours, which end
+    /// its row. Derived by the rebuild (not saved): a force pass evaluates each pair once.
+    #[serde(skip)]
+    pub pair: Vec<u32>,
+    #[serde(skip)]
+    pub pair_start: Vec<u32>,
+    /// Walls each particle may touch before the next rebuild, as bits (wall `w` is bit `w`):
+    /// those within reach when the mask was built, or whose contact state was still set.
+    /// The wall pass tests only these. Derived, not saved.
+    #[serde(skip)]
+    pub wall_near: Vec<u8>,
+    /// The walls' shapes when `wall_near` was built; a wall that has moved half a skin
+    /// since, or changed shape, makes the mask stale.
+    #[serde(skip)]
+    pub walls_at_build: Vec<WallShape>,
     /// Positions when the rows were built; rows are rebuilt once any drift exceeds skin/2.
     pub built_at: Vec<Vec3>,
     /// Extra search distance beyond touching (m).
@@ -43,6 +61,12 @@ impl Contacts {
     /// Number of pairs (each counted once).
     pub fn pair_count(&self) -> usize {
         self.other.len() / 2
+    }
+
+    /// Whether the pair ids match the rows (false for rows loaded from a file, which the
+    /// next step rebuilds).
+    pub fn has_pair_ids(&self) -> bool {
+        self.pair.len() == self.other.len() && self.pair_start.len() == self.row_start.len()
     }
 
     /// Sets the bond flag of pair (i, j) in both rows; false if the pair is not in the rows.

@@ -1,6 +1,15 @@
-//! Stage 3: contact forces between particles. Each particle walks its own row and sums
-//! the forces on itself, so a pair is evaluated twice (once per row) and no two tasks
-//! write the same memory. The loop is monomorphised for the plan's laws.
+//! Stage 3: contact forces between particles, in two passes over particle blocks, so that
+//! no two tasks write the same memory and sums never depend on the thread count:
+//!
+//! 1. *pairs*: each particle evaluates the pairs it owns (its higher-id neighbours, the
+//!    tail of its row) once, and leaves the force, the new pair state, the normal and the
+//!    heat in a per-pair scratch;
+//! 2. *gather*: each particle walks its whole row in order, summing +F for the pairs it owns
+//!    and −F for the others, and copies (mirrors) the new state into its row.
+//!
+//! The contact law is exactly odd in (n, v_rel, shear), so this gives the numbers that
+//! evaluating every pair from both rows gave, bit for bit (up to the sign of a zero), at half
+//! the cost of the contact law. The loops are monomorphised for the plan's laws.
 
 use super::blocks::{for_blocks, Reduce, Rows};
 use crate::model::{Model, NormalKind, TangentialKind};
@@ -22,15 +31,50 @@ impl Reduce for Breaks {
     }
 }
 
-/// Overwrites `force` (and `torque`) with the contact forces of this step.
-pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan) -> Breaks {
+/// What the pair pass leaves for the gather pass about one pair, as seen from its lower id.
+/// One record per pair, so the gather pass meets each pair in one place.
+#[derive(Clone, Copy, Default)]
+struct PairOut {
+    /// New state.
+    state: PairState,
+    /// Force on the lower id.
+    force: Vec3,
+    /// Unit normal from the lower id towards the higher (zero while apart); rotation only.
+    normal: Vec3,
+    /// Heat of the whole pair this step: (dashpot, friction, breakage).
+    heat: [f64; 3],
+}
+
+/// Per-pair results passed from the pair pass to the gather pass, indexed by pair id
+/// ([`Contacts::pair`](crate::state::contacts::Contacts::pair)). Kept between steps so a
+/// step allocates nothing.
+#[derive(Default)]
+pub struct PairScratch(Vec<PairOut>);
+
+impl PairScratch {
+    fn fit(&mut self, pairs: usize) {
+        // Every entry is overwritten by the pair pass: only the length matters.
+        if self.0.len() != pairs {
+            self.0.resize(pairs, PairOut::default());
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn bytes(&self) -> usize {
+        self.0.capacity() * std::mem::size_of::<PairOut>()
+    }
+}
+
+/// Overwrites `force` (and `torque`) with the contact forces of this step. The rows must
+/// carry pair ids (as [`rebuild`](super::neighbours::rebuild) leaves them).
+pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch) -> Breaks {
     macro_rules! go {
         ($n:ty, $t:ty) => {
             match (plan.dashpot, plan.rotation) {
-                (false, false) => contact_loop::<$n, $t, false, false>(m, plan),
-                (true, false) => contact_loop::<$n, $t, true, false>(m, plan),
-                (false, true) => contact_loop::<$n, $t, false, true>(m, plan),
-                (true, true) => contact_loop::<$n, $t, true, true>(m, plan),
+                (false, false) => contact_loop::<$n, $t, false, false>(m, plan, scratch),
+                (true, false) => contact_loop::<$n, $t, true, false>(m, plan, scratch),
+                (false, true) => contact_loop::<$n, $t, false, true>(m, plan, scratch),
+                (true, true) => contact_loop::<$n, $t, true, true>(m, plan, scratch),
             }
         };
     }
@@ -45,67 +89,67 @@ pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan) -> Breaks {
 fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
     m: &mut Model,
     plan: &StepPlan,
+    scratch: &mut PairScratch,
+) -> Breaks {
+    let rotation = ROT && m.particles.rotation.is_some();
+    debug_assert!(m.contacts.has_pair_ids(), "rows without pair ids: rebuild them first");
+    scratch.fit(m.contacts.pair_count());
+    let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
+    if rotation {
+        gather_pass::<true>(m, scratch);
+    } else {
+        gather_pass::<false>(m, scratch);
+    }
+    breaks
+}
+
+/// Pass 1: every pair once, from its lower id.
+fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+    m: &Model,
+    plan: &StepPlan,
+    scratch: &mut PairScratch,
 ) -> Breaks {
     let dt = m.clock.dt;
-    let Model { particles: p, contacts: c, .. } = m;
-    let n = p.len();
+    let (p, c) = (&m.particles, &m.contacts);
     let (pos, vel, radius, mass, material) = (&p.pos, &p.vel, &p.radius, &p.mass, &p.material);
-    let (ang_vel, torque) = match &mut p.rotation {
-        Some(r) if ROT => (Some(&r.ang_vel[..]), Some(&mut r.torque[..])),
-        _ => (None, None),
-    };
-    let heat = &mut p.heat;
-    let lanes = (
-        &mut p.force[..],
-        torque,
-        &mut heat.contact_damping[..],
-        &mut heat.friction[..],
-        &mut heat.breakage[..],
-    );
-    let (row_start, other) = (&c.row_start[..], &c.other[..]);
-    for_blocks(
-        0..n,
-        Rows::Csr(row_start),
-        lanes,
-        &mut c.state[..],
-        &|range, (force, mut torque, h_damp, h_fric, h_break), state: &mut [PairState]| {
-            let base = row_start[range.start] as usize;
-            let mut breaks = Breaks::default();
-            for i in range.clone() {
-                let li = i - range.start;
-                let (xi, ri, vi, mi, mati) = (pos[i], radius[i], vel[i], mass[i], material[i]);
-                let wi = if ROT { ang_vel.map_or(Vec3::zeros(), |w| w[i]) } else { Vec3::zeros() };
-                let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
-                let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
-                for e in row_start[i] as usize..row_start[i + 1] as usize {
-                    let j = other[e] as usize;
-                    let st = &mut state[e - base];
-                    let d = pos[j] - xi;
-                    let rj = radius[j];
-                    let touch = ri + rj;
-                    let dist2 = d.norm_squared();
-                    if !st.bonded && dist2 >= touch * touch {
-                        if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
-                            // The contact has just opened.
-                            let nrm = d / dist2.sqrt();
-                            let mut v_rel = vi - vel[j];
-                            if ROT {
-                                let wj = ang_vel.map_or(Vec3::zeros(), |w| w[j]);
-                                v_rel += wi.cross(&(nrm * ri)) - wj.cross(&(nrm * -rj));
-                            }
-                            let pp = plan.pair(mati, material[j]);
-                            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, st, &nrm, v_rel, dt);
-                            hf += friction;
-                            hd += damping;
+    let ang_vel = p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]);
+    let (row_start, other, state, pair_start) = (&c.row_start[..], &c.other[..], &c.state[..], &c.pair_start[..]);
+    for_blocks(0..p.len(), Rows::Csr(pair_start), (), &mut scratch.0[..], &|range, (), out: &mut [PairOut]| {
+        let base = pair_start[range.start] as usize;
+        let mut breaks = Breaks::default();
+        for i in range.clone() {
+            let (xi, ri, vi, mi, mati) = (pos[i], radius[i], vel[i], mass[i], material[i]);
+            let wi = ang_vel.map_or(Vec3::zeros(), |w| w[i]);
+            // The pairs this particle owns end its row.
+            let (first_pair, end) = (pair_start[i] as usize, row_start[i + 1] as usize);
+            let first = end - (pair_start[i + 1] as usize - first_pair);
+            for (e, k) in (first..end).zip(first_pair - base..) {
+                let j = other[e] as usize;
+                debug_assert!(j > i && c.pair[e] as usize == k + base);
+                let mut st = state[e];
+                let d = pos[j] - xi;
+                let rj = radius[j];
+                let touch = ri + rj;
+                let dist2 = d.norm_squared();
+                let (mut force, mut nrm, mut heat) = (Vec3::zeros(), Vec3::zeros(), [0.0; 3]);
+                if !st.bonded && dist2 >= touch * touch {
+                    if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
+                        // The contact has just opened.
+                        let nrm = d / dist2.sqrt();
+                        let mut v_rel = vi - vel[j];
+                        if let Some(w) = ang_vel {
+                            v_rel += wi.cross(&(nrm * ri)) - w[j].cross(&(nrm * -rj));
                         }
-                        continue;
+                        let pp = plan.pair(mati, material[j]);
+                        let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, &mut st, &nrm, v_rel, dt);
+                        heat = [damping, friction, 0.0];
                     }
+                } else {
                     let dist = dist2.sqrt();
-                    let nrm = d / dist;
+                    nrm = d / dist;
                     let mut v_rel = vi - vel[j];
-                    if ROT {
-                        let wj = ang_vel.map_or(Vec3::zeros(), |w| w[j]);
-                        v_rel += wi.cross(&(nrm * ri)) - wj.cross(&(nrm * -rj));
+                    if let Some(w) = ang_vel {
+                        v_rel += wi.cross(&(nrm * ri)) - w[j].cross(&(nrm * -rj));
                     }
                     let mj = mass[j];
                     let g = ContactGeometry {
@@ -115,19 +159,68 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
                         r_star: ri * rj / touch,
                         m_star: mi * mj / (mi + mj),
                     };
-                    let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), st, dt);
-                    f += r.force;
-                    if ROT {
-                        t += (nrm * ri).cross(&r.shear);
-                    }
-                    hd += r.heat_damping;
-                    hf += r.heat_friction;
-                    hb += r.heat_breakage;
+                    let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), &mut st, dt);
+                    force = r.force;
+                    heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
                     if let Some(kind) = r.broke {
-                        if i < j {
-                            breaks.0.push((i as u32, j as u32, kind));
-                        }
+                        breaks.0.push((i as u32, j as u32, kind));
                     }
+                }
+                out[k] = PairOut { state: st, force, normal: nrm, heat };
+            }
+        }
+        breaks
+    })
+}
+
+/// Pass 2: each particle sums its row in row order and mirrors the new pair states.
+fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
+    let Model { particles: p, contacts: c, .. } = m;
+    let radius = &p.radius;
+    let torque = match &mut p.rotation {
+        Some(r) if ROT => Some(&mut r.torque[..]),
+        _ => None,
+    };
+    let heat = &mut p.heat;
+    let lanes =
+        (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.breakage[..]);
+    let (row_start, pair_start, pair) = (&c.row_start[..], &c.pair_start[..], &c.pair[..]);
+    let sc = &scratch.0[..];
+    for_blocks(
+        0..radius.len(),
+        Rows::Csr(row_start),
+        lanes,
+        &mut c.state[..],
+        &|range, (force, mut torque, h_damp, h_fric, h_break), state: &mut [PairState]| {
+            let base = row_start[range.start] as usize;
+            for i in range.clone() {
+                let li = i - range.start;
+                let ri = radius[i];
+                let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
+                let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
+                // The row is the pairs of lower-id neighbours, then the particle's own.
+                let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
+                let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
+                for e in start..end {
+                    let k = pair[e] as usize;
+                    let out = &sc[k];
+                    let st = out.state;
+                    if e >= own {
+                        f += out.force;
+                        state[e - base] = st;
+                    } else {
+                        // Seen from the higher id: opposite force and shear (0 − s keeps +0).
+                        f -= out.force;
+                        state[e - base] = PairState { shear: Vec3::zeros() - st.shear, ..st };
+                    }
+                    if ROT {
+                        // (n·r_i) × s is the same product from both ends: n and s both flip.
+                        t += (out.normal * ri).cross(&st.shear);
+                    }
+                    let [d, fr, b] = out.heat;
+                    hd += d;
+                    hf += fr;
+                    hb += b;
                 }
                 force[li] = f;
                 if let Some(tq) = torque.as_deref_mut() {
@@ -138,7 +231,6 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
                 h_fric[li] += 0.5 * hf;
                 h_break[li] += 0.5 * hb;
             }
-            breaks
         },
     )
 }

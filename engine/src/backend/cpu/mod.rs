@@ -10,7 +10,7 @@ pub mod wall_forces;
 use crate::model::{Breakage, Model};
 use crate::plan::StepPlan;
 use crate::status::{potential_energies, Energies};
-use contact_forces::compute_contact_forces;
+use contact_forces::{compute_contact_forces, PairScratch};
 use integrate::integrate;
 use wall_forces::compute_wall_forces;
 
@@ -19,6 +19,8 @@ pub struct CpuBackend {
     pub plan: StepPlan,
     /// c_i = 2·ζ·√(m_i·k_i); empty when viscous damping is off.
     damping_c: Vec<f64>,
+    /// Per-pair results passed between the two contact passes.
+    pairs: PairScratch,
 }
 
 impl CpuBackend {
@@ -31,7 +33,12 @@ impl CpuBackend {
         } else {
             Vec::new()
         };
-        CpuBackend { plan, damping_c }
+        CpuBackend { plan, damping_c, pairs: PairScratch::default() }
+    }
+
+    /// Heap bytes of the backend's own per-particle and per-pair buffers.
+    pub fn scratch_bytes(&self) -> usize {
+        self.damping_c.capacity() * std::mem::size_of::<f64>() + self.pairs.bytes()
     }
 
     /// Advances the model by one step. Returns the energies at the start of the step's
@@ -51,8 +58,10 @@ impl CpuBackend {
         }
         if neighbours::is_stale(&m.contacts, &m.particles.pos) {
             neighbours::rebuild(m);
+        } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
+            neighbours::rebuild_wall_mask(m);
         }
-        let breaks = compute_contact_forces(m, &self.plan);
+        let breaks = compute_contact_forces(m, &self.plan, &mut self.pairs);
         let work_before: f64 = if observe { m.particles.heat.wall_work.iter().sum() } else { 0.0 };
         compute_wall_forces(m, &self.plan);
         for (i, j, kind) in breaks.0 {

@@ -5,11 +5,15 @@
 //! wide gradation costs the small particles no more than a mono-size packing; the pairs
 //! are then mirrored into both rows. Pair state is carried across rebuilds, and bonded
 //! pairs stay in the rows however far apart they drift.
+//!
+//! Walls get the same treatment: each particle carries a mask of the walls it may touch
+//! before the next rebuild, rebuilt alone when only a wall has moved.
 
 use crate::model::Model;
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
+use crate::walls::{Wall, WallShape};
 use rayon::prelude::*;
 
 /// Rebuilds the model's rows for the current positions.
@@ -44,18 +48,28 @@ pub fn rebuild(m: &mut Model) {
     }
     let mut fill = row_start.clone();
     let mut other = vec![0u32; pairs.len() * 2];
-    // Pairs are sorted by (i, j): pushing j into row i and i into row j keeps rows sorted.
-    for &(i, j) in &pairs {
-        other[fill[i as usize] as usize] = j;
-        fill[i as usize] += 1;
-    }
-    for &(i, j) in &pairs {
-        other[fill[j as usize] as usize] = i;
+    let mut pair = vec![0u32; pairs.len() * 2];
+    let mut pair_start = vec![0u32; n + 1];
+    // Pairs are sorted by (i, j). Row j first takes its lower-id neighbours i, in ascending
+    // order, then row i its higher-id ones j, also ascending: every row comes out sorted,
+    // and each particle's own pairs (ids in `pairs` order) end its row.
+    for (p, &(i, j)) in pairs.iter().enumerate() {
+        let e = fill[j as usize] as usize;
+        other[e] = i;
+        pair[e] = p as u32;
         fill[j as usize] += 1;
     }
-    for i in 0..n {
-        other[row_start[i] as usize..row_start[i + 1] as usize].sort_unstable();
+    for (p, &(i, j)) in pairs.iter().enumerate() {
+        let e = fill[i as usize] as usize;
+        other[e] = j;
+        pair[e] = p as u32;
+        fill[i as usize] += 1;
+        pair_start[i as usize + 1] += 1;
     }
+    for i in 0..n {
+        pair_start[i + 1] += pair_start[i];
+    }
+    debug_assert!((0..n).all(|i| other[row_start[i] as usize..row_start[i + 1] as usize].is_sorted()));
     let state: Vec<PairState> = (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
@@ -67,10 +81,71 @@ pub fn rebuild(m: &mut Model) {
         row_start,
         other,
         state,
+        pair,
+        pair_start,
+        wall_near: Vec::new(),
+        walls_at_build: Vec::new(),
         built_at: p.pos.clone(),
         skin,
         stale: false,
     };
+    rebuild_wall_mask(m);
+}
+
+/// Margin of the wall mask beyond touching, in skins. Between two mask builds a particle
+/// moves at most one skin from where the mask saw it (half a skin from the rows' build
+/// positions, which may be half a skin from the mask's) and a wall half a skin: 1.5 would
+/// do; 2 leaves room for round-off.
+const WALL_MARGIN_SKINS: f64 = 2.0;
+
+/// Rebuilds each particle's mask of the walls it may touch, for the current positions.
+pub fn rebuild_wall_mask(m: &mut Model) {
+    let (p, walls, c) = (&m.particles, &m.walls, &mut m.contacts);
+    let nw = walls.len();
+    let reach = WALL_MARGIN_SKINS * c.skin;
+    let states = &m.wall_contacts;
+    let mask_of = |i: usize| -> u8 {
+        let mut bits = 0u8;
+        for (w, wall) in walls.iter().enumerate() {
+            let (_, gap) = wall.normal_and_distance(&p.pos[i]);
+            // Keep a wall whose state is set even when far: the next wall pass must see
+            // the contact open and release it.
+            let set = states.get(i * nw + w).is_some_and(|st| st.shear != Vec3::zeros() || st.dashpot != 0.0);
+            if gap < p.radius[i] + reach || set || !gap.is_finite() {
+                bits |= 1 << w;
+            }
+        }
+        bits
+    };
+    c.wall_near.clear();
+    if nw > 0 {
+        (0..p.len()).into_par_iter().with_min_len(4096).map(mask_of).collect_into_vec(&mut c.wall_near);
+    } else {
+        c.wall_near.resize(p.len(), 0);
+    }
+    c.walls_at_build = walls.iter().map(|w| w.shape.clone()).collect();
+}
+
+/// Whether the wall mask no longer covers the walls: one was added, removed, reshaped, or
+/// has moved more than half the skin since the mask was built.
+pub fn walls_stale(c: &Contacts, walls: &[Wall], particles: usize) -> bool {
+    if c.wall_near.len() != particles || c.walls_at_build.len() != walls.len() {
+        return true;
+    }
+    let limit = 0.5 * c.skin;
+    walls.iter().zip(&c.walls_at_build).any(|(w, old)| {
+        let moved = match (&w.shape, old) {
+            (WallShape::Plane { point, normal }, WallShape::Plane { point: p0, normal: n0 }) if normal == n0 => {
+                (point - p0).norm()
+            }
+            (WallShape::Cylinder { center, radius }, WallShape::Cylinder { center: c0, radius: r0 }) => {
+                (center - c0).xy().norm() + (radius - r0).abs()
+            }
+            _ => f64::INFINITY,
+        };
+        // A NaN move (a wall sent to infinity) counts as stale too.
+        moved.is_nan() || moved > limit
+    })
 }
 
 /// All pairs (i < j) closer than r_i + r_j + skin.
@@ -160,7 +235,7 @@ fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u32)> {
 
 /// Whether some particle moved more than half the skin since the rows were built.
 pub fn is_stale(c: &Contacts, pos: &[Vec3]) -> bool {
-    if c.stale || c.built_at.len() != pos.len() {
+    if c.stale || c.built_at.len() != pos.len() || !c.has_pair_ids() {
         return true;
     }
     let limit = 0.25 * c.skin * c.skin;
