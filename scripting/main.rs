@@ -84,9 +84,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let (cfg, backend) = match cli.command {
         Command::Run { script, out, set, backend } => {
-            let out_dir = out.unwrap_or_else(|| {
-                PathBuf::from("out").join(script.file_stem().unwrap_or_default())
-            });
+            let out_dir = out.unwrap_or_else(|| PathBuf::from("out").join(script.file_stem().unwrap_or_default()));
             let params = match params(&set) {
                 Ok(p) => p,
                 Err(e) => {
@@ -105,7 +103,10 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            (RunConfig { script, out_dir: PathBuf::from("out/plan"), params, progress: false, plan_only: true }, Backend::Cpu)
+            (
+                RunConfig { script, out_dir: PathBuf::from("out/plan"), params, progress: false, plan_only: true },
+                Backend::Cpu,
+            )
         }
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json });
@@ -113,12 +114,12 @@ fn main() -> ExitCode {
     };
     match backend {
         Backend::Gpu => {
-            eprintln!(
-                "error: this build has no GPU backend yet; use --backend cpu (or auto, which uses the CPU)"
-            );
+            eprintln!("error: this build has no GPU backend yet; use --backend cpu (or auto, which uses the CPU)");
             return ExitCode::from(2);
         }
-        Backend::Auto if !cfg.plan_only => eprintln!("backend: cpu (f64, {} threads); this build has no GPU backend", rayon_threads()),
+        Backend::Auto if !cfg.plan_only => {
+            eprintln!("backend: cpu (f64, {} threads); this build has no GPU backend", rayon_threads())
+        }
         _ => {}
     }
     match run_script(&cfg) {

@@ -69,9 +69,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let engine = crate::new_engine(host.clone(), Some(dir));
     let path = cfg.script.display().to_string();
     let sources = Sources { main_path: &path, main_text: &text };
-    let ast = engine
-        .compile(&text)
-        .map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
+    let ast = engine.compile(&text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());
     scope.push_constant("out_dir", host.out_dir.display().to_string());

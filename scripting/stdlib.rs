@@ -18,9 +18,8 @@ pub const SCRIPTS: &[(&str, &str)] = &[
 pub fn install(engine: &mut Engine) -> StaticModuleResolver {
     let mut resolver = StaticModuleResolver::new();
     for (path, source) in SCRIPTS {
-        let mut ast = engine
-            .compile(*source)
-            .unwrap_or_else(|e| panic!("stdlib script {path} does not compile (a bug): {e}"));
+        let mut ast =
+            engine.compile(*source).unwrap_or_else(|e| panic!("stdlib script {path} does not compile (a bug): {e}"));
         ast.set_source(*path);
         let module = Module::eval_ast_as_new(Scope::new(), &ast, engine)
             .unwrap_or_else(|e| panic!("stdlib script {path} failed to load (a bug): {e}"));

@@ -66,7 +66,12 @@ fn plan_prints_what_is_simulated_and_what_is_not() {
 #[test]
 fn set_values_reach_the_script_as_params() {
     let dir = temp_dir("params");
-    let o = run_script(&dir, "s.rhai", "print(`${params.n + 1} ${params.name} ${params.flag}`);", &["--set", "n=41", "--set", "name=oed", "--set", "flag=true"]);
+    let o = run_script(
+        &dir,
+        "s.rhai",
+        "print(`${params.n + 1} ${params.name} ${params.flag}`);",
+        &["--set", "n=41", "--set", "name=oed", "--set", "flag=true"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stdout(&o).trim(), "42 oed true");
 }

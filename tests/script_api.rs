@@ -38,7 +38,8 @@ fn box_builder_fills_container_with_groups_and_walls() {
 
 #[test]
 fn field_arithmetic_masks_and_reductions_run_natively() {
-    let v: f64 = eval("fields", "let a = field([1.0, 2.0, 3.0, 4.0]); let m = a > 2.0; (a * 2.0 + 1.0).select(m).sum()");
+    let v: f64 =
+        eval("fields", "let a = field([1.0, 2.0, 3.0, 4.0]); let m = a > 2.0; (a * 2.0 + 1.0).select(m).sum()");
     assert_eq!(v, 7.0 + 9.0);
     let c: i64 = eval("masks", "let a = field([1.0, 2.0, 3.0, 4.0]); ((a > 1.5) & !(a > 3.5)).count()");
     assert_eq!(c, 2);

@@ -45,7 +45,8 @@ fn bad_parameter_says_what_to_do_instead() {
 
 #[test]
 fn unknown_material_key_suggests_the_right_one() {
-    let (_, err) = report("bad_key", "let m = material(\"rock\", #{ E: 2e10, nuu: 0.1, Cu: 5e7, mu_i: 0.6, d: 1e-3 });\n");
+    let (_, err) =
+        report("bad_key", "let m = material(\"rock\", #{ E: 2e10, nuu: 0.1, Cu: 5e7, mu_i: 0.6, d: 1e-3 });\n");
     assert!(err.contains("unknown material key `nuu` (did you mean `nu`?)"), "{err}");
 }
 

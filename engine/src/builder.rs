@@ -251,9 +251,7 @@ impl BoxSpec {
                     }
                 }
                 let c = Vec3::new(x, y, z);
-                let cell = |v: &Vec3| {
-                    (((v.x - lo.x) / h) as usize, ((v.y - lo.y) / h) as usize, (v.z / h) as usize)
-                };
+                let cell = |v: &Vec3| (((v.x - lo.x) / h) as usize, ((v.y - lo.y) / h) as usize, (v.z / h) as usize);
                 let (cx, cy, cz) = cell(&c);
                 let mut free = true;
                 'search: for iz in cz.saturating_sub(1)..=cz + 1 {

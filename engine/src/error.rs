@@ -6,20 +6,11 @@
 #[non_exhaustive]
 pub enum Error {
     #[error("invalid parameter `{name}` = {value}: {reason}")]
-    InvalidParameter {
-        name: &'static str,
-        value: f64,
-        reason: String,
-    },
+    InvalidParameter { name: &'static str, value: f64, reason: String },
     #[error("material `{material}`: {reason}")]
     InvalidMaterial { material: String, reason: String },
     #[error("unknown {kind} `{name}`{}", hint(.suggestion, .known))]
-    Unknown {
-        kind: &'static str,
-        name: String,
-        suggestion: Option<String>,
-        known: Vec<String>,
-    },
+    Unknown { kind: &'static str, name: String, suggestion: Option<String>, known: Vec<String> },
     #[error("particle id {id} is out of range (the model has {count} particles; ids are 0-based)")]
     BadParticleId { id: usize, count: usize },
     #[error("{0}")]
@@ -64,11 +55,7 @@ impl std::fmt::Display for Instability {
 
 impl Error {
     pub(crate) fn param(name: &'static str, value: f64, reason: impl Into<String>) -> Self {
-        Error::InvalidParameter {
-            name,
-            value,
-            reason: reason.into(),
-        }
+        Error::InvalidParameter { name, value, reason: reason.into() }
     }
 
     /// An `Unknown` error with the closest known name as a suggestion.

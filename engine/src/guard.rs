@@ -14,7 +14,11 @@ pub fn check_time_step(m: &Model) -> Result<()> {
     }
     if let Some((i, crit)) = m.critical_dt() {
         if dt > crit {
-            return Err(unstable(m, i, format!("(the stiffest element) cannot be integrated: dt is {:.1}× its critical step", dt / crit)));
+            return Err(unstable(
+                m,
+                i,
+                format!("(the stiffest element) cannot be integrated: dt is {:.1}× its critical step", dt / crit),
+            ));
         }
     }
     Ok(())
@@ -34,7 +38,11 @@ pub fn check_state(m: &Model) -> Result<()> {
             return Err(unstable(
                 m,
                 i,
-                format!("moves {:.0}% of its radius per step (speed {:.3e} m/s)", 100.0 * travel / p.radius[i], v.norm()),
+                format!(
+                    "moves {:.0}% of its radius per step (speed {:.3e} m/s)",
+                    100.0 * travel / p.radius[i],
+                    v.norm()
+                ),
             ));
         }
     }

@@ -80,10 +80,8 @@ impl Material {
     /// A material from macro properties through the lattice conversion (paper 003, app. A),
     /// for elements of diameter `d`. Hertz constants are the macro E and ν.
     pub fn from_macro(name: &str, density: f64, p: &MacroProperties, d: f64) -> Result<Self> {
-        let micro = macro_to_micro(p, d).map_err(|e| Error::InvalidMaterial {
-            material: name.to_string(),
-            reason: e.to_string(),
-        })?;
+        let micro = macro_to_micro(p, d)
+            .map_err(|e| Error::InvalidMaterial { material: name.to_string(), reason: e.to_string() })?;
         let m = Material {
             name: name.to_string(),
             density,
@@ -102,10 +100,7 @@ impl Material {
 
     /// Refuses non-finite, negative or out-of-range values, naming the field.
     pub fn validate(&self) -> Result<()> {
-        let wrap = |e: Error| Error::InvalidMaterial {
-            material: self.name.clone(),
-            reason: e.to_string(),
-        };
+        let wrap = |e: Error| Error::InvalidMaterial { material: self.name.clone(), reason: e.to_string() };
         check_positive("density", self.density, false).map_err(wrap)?;
         check_positive("kn", self.kn, false).map_err(wrap)?;
         check_positive("ks", self.ks, true).map_err(wrap)?;
@@ -128,16 +123,7 @@ impl Material {
 
     /// The macro properties this material has on an ideal lattice of diameter `d`.
     pub fn lattice_macro(&self, d: f64) -> MacroProperties {
-        micro_to_macro(
-            &MicroParameters {
-                kn: self.kn,
-                ks: self.ks,
-                xb: self.xb,
-                fs0: self.fs0,
-                mu_p: self.mu_p,
-            },
-            d,
-        )
+        micro_to_macro(&MicroParameters { kn: self.kn, ks: self.ks, xb: self.xb, fs0: self.fs0, mu_p: self.mu_p }, d)
     }
 
     /// Rescales to elements of diameter `d_new` from `d_old`, keeping Kn/d, Kn/Ks and the
@@ -211,13 +197,7 @@ pub fn micro_to_macro(m: &MicroParameters, d: f64) -> MacroProperties {
     let compressive = 6.0 * m.fs0 / (d * d * (1.0 - SQRT_2 * m.mu_p));
     let i = (2.0 + SQRT_2 * m.mu_p) / (1.0 - SQRT_2 * m.mu_p);
     let internal_friction = (i - 1.0) / (2.0 * i.sqrt());
-    MacroProperties {
-        young,
-        poisson,
-        tensile,
-        compressive,
-        internal_friction,
-    }
+    MacroProperties { young, poisson, tensile, compressive, internal_friction }
 }
 
 #[cfg(test)]
@@ -278,7 +258,8 @@ mod tests {
 
     #[test]
     fn conversion_refuses_poisson_above_0_2_and_low_friction() {
-        let mut p = MacroProperties { young: 2e10, poisson: 0.25, tensile: 5e6, compressive: 5e7, internal_friction: 0.6 };
+        let mut p =
+            MacroProperties { young: 2e10, poisson: 0.25, tensile: 5e6, compressive: 5e7, internal_friction: 0.6 };
         let e = macro_to_micro(&p, 1e-3).unwrap_err().to_string();
         assert!(e.contains("0.2") && e.contains("negative"), "{e}");
         p.poisson = 0.1;
@@ -294,7 +275,8 @@ mod tests {
 
     #[test]
     fn rescaled_material_keeps_kn_over_d_and_lattice_strength() {
-        let p = MacroProperties { young: 5e10, poisson: 0.15, tensile: 1e7, compressive: 1.5e8, internal_friction: 1.0 };
+        let p =
+            MacroProperties { young: 5e10, poisson: 0.15, tensile: 1e7, compressive: 1.5e8, internal_friction: 1.0 };
         let m = Material::from_macro("granite", 2650.0, &p, 2e-3).unwrap();
         let r = m.rescaled(2e-3, 8e-3).unwrap();
         assert!(rel(r.kn / 8e-3, m.kn / 2e-3) < 1e-12);

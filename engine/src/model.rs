@@ -408,7 +408,9 @@ impl Model {
         (0..self.len())
             .map(|i| element_period(self.particles.mass[i], self.element_stiffness(i)) * STANDARD_FRACTION)
             .min_by(f64::total_cmp)
-            .ok_or_else(|| Error::InvalidScene("the model has no particles: add some before choosing a time step".into()))
+            .ok_or_else(|| {
+                Error::InvalidScene("the model has no particles: add some before choosing a time step".into())
+            })
     }
 
     pub fn set_dt(&mut self, dt: f64) -> Result<()> {

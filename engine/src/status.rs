@@ -151,11 +151,8 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
     s.coordination = 2.0 * s.contacts as f64 / n;
     s.mean_normal_force = if touching > 0 { f_sum / touching as f64 } else { 0.0 };
     let g = m.settings.gravity;
-    let net: f64 = (0..p.len())
-        .filter(|&i| p.fixed[i] == 0)
-        .map(|i| (p.force[i] + g * p.mass[i]).norm())
-        .sum::<f64>()
-        / n;
+    let net: f64 =
+        (0..p.len()).filter(|&i| p.fixed[i] == 0).map(|i| (p.force[i] + g * p.mass[i]).norm()).sum::<f64>() / n;
     // With no contacts anything moving is unbalanced (free fall): report infinity, not 0.
     s.unbalanced_ratio = if s.mean_normal_force > 0.0 {
         net / s.mean_normal_force
@@ -170,9 +167,17 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
 /// A region for porosity and void ratio.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Region {
-    Box { lo: Vec3, hi: Vec3 },
+    Box {
+        lo: Vec3,
+        hi: Vec3,
+    },
     /// Vertical cylinder between `z0` and `z1`.
-    Cylinder { center: Vec3, radius: f64, z0: f64, z1: f64 },
+    Cylinder {
+        center: Vec3,
+        radius: f64,
+        z0: f64,
+        z1: f64,
+    },
 }
 
 impl Region {

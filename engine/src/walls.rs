@@ -23,7 +23,10 @@ pub enum WallMotion {
     /// Constant velocity (m/s). A cylinder's radius grows at the velocity's x component.
     Velocity(Vec3),
     /// Moves along its normal until the stress on it equals `stress` (Pa, compression > 0).
-    Servo { stress: f64, max_speed: f64 },
+    Servo {
+        stress: f64,
+        max_speed: f64,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

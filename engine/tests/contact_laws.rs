@@ -34,31 +34,14 @@ struct Table {
 
 /// The formulas must give the table to its 6 significant digits.
 fn check_formula_against_table(expected: &HertzImpact, table: &Table) {
-    assert!(
-        rel(expected.delta_max, table.delta_max) < 1e-5,
-        "δmax formula {:e}",
-        expected.delta_max
-    );
-    assert!(
-        rel(expected.f_max, table.f_max) < 1e-5,
-        "Fmax formula {:e}",
-        expected.f_max
-    );
-    assert!(
-        rel(expected.t_c, table.t_c) < 1e-5,
-        "t_c formula {:e}",
-        expected.t_c
-    );
+    assert!(rel(expected.delta_max, table.delta_max) < 1e-5, "δmax formula {:e}", expected.delta_max);
+    assert!(rel(expected.f_max, table.f_max) < 1e-5, "Fmax formula {:e}", expected.f_max);
+    assert!(rel(expected.t_c, table.t_c) < 1e-5, "t_c formula {:e}", expected.t_c);
 }
 
 /// Runs a Hertz impact scene and checks δmax, Fmax, t_c within 1% and, the contact being
 /// elastic, a rebound at the approach speed within 1%.
-fn check_hertz_impact(
-    name: &str,
-    mut model: Model,
-    expected: &HertzImpact,
-    probe: fn(&Model) -> Probe,
-) {
+fn check_hertz_impact(name: &str, mut model: Model, expected: &HertzImpact, probe: fn(&Model) -> Probe) {
     let dt = expected.t_c / STEPS_PER_CONTACT;
     model.set_dt(dt).unwrap();
     let mut sim = Simulation::new(model);
@@ -78,16 +61,10 @@ fn check_hertz_impact(
         t_c / expected.t_c - 1.0,
         imp.restitution()
     );
-    assert!(
-        rel(imp.max_overlap, expected.delta_max) < 0.01,
-        "{name}: δmax"
-    );
+    assert!(rel(imp.max_overlap, expected.delta_max) < 0.01, "{name}: δmax");
     assert!(rel(imp.peak_force, expected.f_max) < 0.01, "{name}: Fmax");
     assert!(rel(t_c, expected.t_c) < 0.01, "{name}: contact duration");
-    assert!(
-        rel(imp.restitution(), 1.0) < 0.01,
-        "{name}: elastic rebound"
-    );
+    assert!(rel(imp.restitution(), 1.0) < 0.01, "{name}: elastic rebound");
 }
 
 /// Two equal spheres, each at 10 m/s towards the other (relative speed 20 m/s).
@@ -96,58 +73,30 @@ fn hertz_two_spheres(name: &str, young: f64, poisson: f64, density: f64, table: 
     let expected = HertzImpact::two_spheres(young, poisson, density, r, speed);
     check_formula_against_table(&expected, &table);
     let gap = 2.0 * speed * APPROACH_STEPS * expected.t_c / STEPS_PER_CONTACT;
-    let model = two_spheres(
-        material(name, density, 1e6, young, poisson),
-        r,
-        gap,
-        speed,
-        NormalKind::Hertz,
-    );
+    let model = two_spheres(material(name, density, 1e6, young, poisson), r, gap, speed, NormalKind::Hertz);
     check_hertz_impact(name, model, &expected, probe_pair);
 }
 
 /// A sphere on a rigid plane wall: E* = E/(1 − ν²), R* = R, m* = m.
-fn hertz_sphere_on_wall(
-    name: &str,
-    young: f64,
-    poisson: f64,
-    density: f64,
-    r: f64,
-    speed: f64,
-    table: Table,
-) {
+fn hertz_sphere_on_wall(name: &str, young: f64, poisson: f64, density: f64, r: f64, speed: f64, table: Table) {
     let expected = HertzImpact::sphere_on_wall(young, poisson, density, r, speed);
     check_formula_against_table(&expected, &table);
     let gap = speed * APPROACH_STEPS * expected.t_c / STEPS_PER_CONTACT;
-    let model = sphere_on_plane(
-        material(name, density, 1e6, young, poisson),
-        r,
-        gap,
-        speed,
-        NormalKind::Hertz,
-    );
+    let model = sphere_on_plane(material(name, density, 1e6, young, poisson), r, gap, speed, NormalKind::Hertz);
     check_hertz_impact(name, model, &expected, probe_wall);
 }
 
 // Chung & Ooi test 1, glass (physics.md §1 table). Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_impact_matches_chung_ooi_test1_glass() {
-    let table = Table {
-        delta_max: 2.74113e-4,
-        f_max: 1.06969e4,
-        t_c: 4.03395e-5,
-    };
+    let table = Table { delta_max: 2.74113e-4, f_max: 1.06969e4, t_c: 4.03395e-5 };
     hertz_two_spheres("glass", 4.8e10, 0.20, 2800.0, table);
 }
 
 // Chung & Ooi test 1, limestone (physics.md §1 table). Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_impact_matches_chung_ooi_test1_limestone() {
-    let table = Table {
-        delta_max: 3.68304e-4,
-        f_max: 7.10824e3,
-        t_c: 5.42010e-5,
-    };
+    let table = Table { delta_max: 3.68304e-4, f_max: 7.10824e3, t_c: 5.42010e-5 };
     hertz_two_spheres("limestone", 2.0e10, 0.25, 2500.0, table);
 }
 
@@ -155,11 +104,7 @@ fn hertz_impact_matches_chung_ooi_test1_limestone() {
 // Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_wall_impact_matches_chung_ooi_test2_al_alloy() {
-    let table = Table {
-        delta_max: 4.97172e-5,
-        f_max: 1.13699e4,
-        t_c: 7.31657e-4,
-    };
+    let table = Table { delta_max: 4.97172e-5, f_max: 1.13699e4, t_c: 7.31657e-4 };
     hertz_sphere_on_wall("al_alloy", 7.0e10, 0.30, 2699.0, 0.10, 0.2, table);
 }
 
@@ -167,11 +112,7 @@ fn hertz_wall_impact_matches_chung_ooi_test2_al_alloy() {
 // Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_wall_impact_matches_chung_ooi_test2_mg_alloy() {
-    let table = Table {
-        delta_max: 5.21233e-5,
-        f_max: 7.23268e3,
-        t_c: 7.67066e-4,
-    };
+    let table = Table { delta_max: 5.21233e-5, f_max: 7.23268e3, t_c: 7.67066e-4 };
     hertz_sphere_on_wall("mg_alloy", 4.0e10, 0.35, 1800.0, 0.10, 0.2, table);
 }
 
@@ -179,11 +120,7 @@ fn hertz_wall_impact_matches_chung_ooi_test2_mg_alloy() {
 // Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_wall_impact_matches_chung_ooi_test3_al_oxide() {
-    let table = Table {
-        delta_max: 8.08881e-6,
-        f_max: 615.352,
-        t_c: 6.10451e-6,
-    };
+    let table = Table { delta_max: 8.08881e-6, f_max: 615.352, t_c: 6.10451e-6 };
     hertz_sphere_on_wall("al_oxide", 3.8e11, 0.23, 4000.0, 0.0025, 3.9, table);
 }
 
@@ -191,11 +128,7 @@ fn hertz_wall_impact_matches_chung_ooi_test3_al_oxide() {
 // Tolerance 1% on δmax, Fmax, t_c.
 #[test]
 fn hertz_wall_impact_matches_chung_ooi_test3_cast_iron() {
-    let table = Table {
-        delta_max: 1.71887e-5,
-        f_max: 506.760,
-        t_c: 1.29721e-5,
-    };
+    let table = Table { delta_max: 1.71887e-5, f_max: 506.760, t_c: 1.29721e-5 };
     hertz_sphere_on_wall("cast_iron", 1.0e11, 0.25, 7000.0, 0.0025, 3.9, table);
 }
 
@@ -207,10 +140,7 @@ fn hertz_wall_impact_matches_chung_ooi_test3_cast_iron() {
 #[test]
 fn hertz_restitution_matches_requested_e_chung_ooi_test3() {
     let (r, speed) = (0.0025, 3.9);
-    for (name, young, poisson, density) in [
-        ("al_oxide", 3.8e11, 0.23, 4000.0),
-        ("cast_iron", 1.0e11, 0.25, 7000.0),
-    ] {
+    for (name, young, poisson, density) in [("al_oxide", 3.8e11, 0.23, 4000.0), ("cast_iron", 1.0e11, 0.25, 7000.0)] {
         let elastic = HertzImpact::sphere_on_wall(young, poisson, density, r, speed);
         let dt = elastic.t_c / STEPS_PER_CONTACT;
         let gap = speed * APPROACH_STEPS * dt;
@@ -231,10 +161,7 @@ fn hertz_restitution_matches_requested_e_chung_ooi_test3() {
                 measured / e - 1.0,
                 imp.duration() / elastic.t_c
             );
-            assert!(
-                rel(measured, e) < 0.01,
-                "{name}: e = {e}: measured {measured}"
-            );
+            assert!(rel(measured, e) < 0.01, "{name}: e = {e}: measured {measured}");
         }
         // e = 0: follow the sphere for 5 elastic contact durations after it first touches.
         let mut sim = scene(0.0);
@@ -264,10 +191,7 @@ fn hertz_restitution_matches_requested_e_chung_ooi_test3() {
             -last.approach,
             first.approach
         );
-        assert!(
-            left_with.is_none(),
-            "{name}: e = 0 rebounded at {left_with:?} m/s"
-        );
+        assert!(left_with.is_none(), "{name}: e = 0 rebounded at {left_with:?} m/s");
     }
 }
 
@@ -288,49 +212,22 @@ fn check_linear_impact(e: f64, on_wall: bool) {
         0.7 => (0.112808, 7.134633, 9.998411e-5, 2.67993e-5),
         _ => (0.357857, 22.632872, 1.063915e-4, 1.99284e-5),
     };
-    assert!(
-        (expected.zeta - zeta).abs() < 1e-6
-            && (expected.c - c).abs() < 1e-5
-            && rel(expected.t_c, t_c) < 1e-6
-    );
-    assert!(
-        rel(expected.delta_max, delta_max) < 1e-5
-            && rel(expected.delta_max_undamped, 3.16228e-5) < 1e-5
-    );
+    assert!((expected.zeta - zeta).abs() < 1e-6 && (expected.c - c).abs() < 1e-5 && rel(expected.t_c, t_c) < 1e-6);
+    assert!(rel(expected.delta_max, delta_max) < 1e-5 && rel(expected.delta_max_undamped, 3.16228e-5) < 1e-5);
 
     let dt = expected.t_c / STEPS_PER_CONTACT;
-    let (kn, mass) = if on_wall {
-        (LINEAR_K / 2.0, LINEAR_M_STAR)
-    } else {
-        (LINEAR_K, 2.0 * LINEAR_M_STAR)
-    };
+    let (kn, mass) = if on_wall { (LINEAR_K / 2.0, LINEAR_M_STAR) } else { (LINEAR_K, 2.0 * LINEAR_M_STAR) };
     let mut mat = material("linear", density_for_mass(mass, r), kn, 1e9, 0.0);
     mat.restitution = e;
     let mut model = if on_wall {
-        sphere_on_plane(
-            mat,
-            r,
-            APPROACH_STEPS * LINEAR_V * dt,
-            LINEAR_V,
-            NormalKind::Linear,
-        )
+        sphere_on_plane(mat, r, APPROACH_STEPS * LINEAR_V * dt, LINEAR_V, NormalKind::Linear)
     } else {
-        two_spheres(
-            mat,
-            r,
-            APPROACH_STEPS * LINEAR_V * dt,
-            LINEAR_V / 2.0,
-            NormalKind::Linear,
-        )
+        two_spheres(mat, r, APPROACH_STEPS * LINEAR_V * dt, LINEAR_V / 2.0, NormalKind::Linear)
     };
     assert!(rel(model.particles.mass[0], mass) < 1e-12);
     model.set_dt(dt).unwrap();
     let mut sim = Simulation::new(model);
-    let imp = run_impact(
-        &mut sim,
-        3 * STEPS_PER_CONTACT as u64,
-        if on_wall { probe_wall } else { probe_pair },
-    );
+    let imp = run_impact(&mut sim, 3 * STEPS_PER_CONTACT as u64, if on_wall { probe_wall } else { probe_pair });
     let where_ = if on_wall { "wall" } else { "pair" };
     eprintln!(
         "linear {where_} e {e}: t_c {:.6e} (expected {:.6e}, {:+.2e}), e {:.6} ({:+.2e}), \
@@ -345,26 +242,13 @@ fn check_linear_impact(e: f64, on_wall: bool) {
         imp.max_overlap / expected.delta_max - 1.0,
         imp.peak_force
     );
-    assert!(
-        rel(imp.duration(), expected.t_c) < 0.01,
-        "{where_} e = {e}: contact duration"
-    );
-    assert!(
-        rel(imp.restitution(), e) < 0.01,
-        "{where_} e = {e}: restitution"
-    );
-    assert!(
-        rel(imp.max_overlap, expected.delta_max) < 0.01,
-        "{where_} e = {e}: δmax"
-    );
+    assert!(rel(imp.duration(), expected.t_c) < 0.01, "{where_} e = {e}: contact duration");
+    assert!(rel(imp.restitution(), e) < 0.01, "{where_} e = {e}: restitution");
+    assert!(rel(imp.max_overlap, expected.delta_max) < 0.01, "{where_} e = {e}: δmax");
     if e == 1.0 {
         assert_eq!(expected.delta_max, expected.delta_max_undamped);
         let f_max = LINEAR_V * (LINEAR_K * LINEAR_M_STAR).sqrt();
-        assert!(
-            rel(imp.peak_force, f_max) < 0.01,
-            "{where_}: Fmax {} vs {f_max}",
-            imp.peak_force
-        );
+        assert!(rel(imp.peak_force, f_max) < 0.01, "{where_}: Fmax {} vs {f_max}", imp.peak_force);
     }
 }
 
@@ -401,16 +285,10 @@ fn column_of_ten_spheres_carries_i_m_g() {
     // Heavy damping: half of each element's critical damping (the column's slow modes are
     // then over-damped, and the residual error falls ~5× per 1000 steps).
     model.settings.damping = 0.5;
-    let k = model
-        .add_material(material("column", density, kn, 1e9, 0.0))
-        .unwrap();
-    model
-        .add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap())
-        .unwrap();
+    let k = model.add_material(material("column", density, kn, 1e9, 0.0)).unwrap();
+    model.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap()).unwrap();
     for i in 0..n {
-        model
-            .add_particle(Vec3::new(0.0, 0.0, r + 2.0 * r * i as f64), r, k)
-            .unwrap();
+        model.add_particle(Vec3::new(0.0, 0.0, r + 2.0 * r * i as f64), r, k).unwrap();
     }
     model.set_standard_dt().unwrap();
     let m = sphere_mass(density, r);
@@ -418,26 +296,14 @@ fn column_of_ten_spheres_carries_i_m_g() {
     // Force carried by each contact, counted from the top (index 0 = contact 1).
     let contact_forces = |model: &Model| -> Vec<f64> {
         let z = |i: usize| model.particles.pos[i].z;
-        let mut f: Vec<f64> = (1..n)
-            .rev()
-            .map(|i| kn * (2.0 * r - (z(i) - z(i - 1))))
-            .collect();
+        let mut f: Vec<f64> = (1..n).rev().map(|i| kn * (2.0 * r - (z(i) - z(i - 1)))).collect();
         f.push(2.0 * kn * (r - z(0)));
         f
     };
     run(&mut sim, 30_000).unwrap();
-    let max_speed = sim
-        .model
-        .particles
-        .vel
-        .iter()
-        .map(|v| v.norm())
-        .fold(0.0, f64::max);
+    let max_speed = sim.model.particles.vel.iter().map(|v| v.norm()).fold(0.0, f64::max);
     eprintln!("column: max speed after 30000 steps {max_speed:.2e} m/s");
-    assert!(
-        max_speed < 1e-12,
-        "the column is not at rest: {max_speed} m/s"
-    );
+    assert!(max_speed < 1e-12, "the column is not at rest: {max_speed} m/s");
     let forces = contact_forces(&sim.model);
     for (i, f) in forces.iter().enumerate() {
         let expected = (i + 1) as f64 * m * g;
@@ -446,11 +312,7 @@ fn column_of_ten_spheres_carries_i_m_g() {
             i + 1,
             f / expected - 1.0
         );
-        assert!(
-            rel(*f, expected) < 1e-6,
-            "contact {}: {f} vs {expected}",
-            i + 1
-        );
+        assert!(rel(*f, expected) < 1e-6, "contact {}: {f} vs {expected}", i + 1);
     }
     // The engine's own account of the load on the floor agrees.
     let floor = sim.model.walls[0].normal_force;
@@ -482,11 +344,7 @@ fn bonded_pair(overlap: f64, v0: Vec3, v1: Vec3) -> Simulation {
 fn prescribed_pair(mat: Material, bonded: bool, overlap: f64, v0: Vec3, v1: Vec3) -> Simulation {
     let mut model = two_spheres(mat, BOND_R, -overlap, 0.0, NormalKind::Linear);
     if bonded {
-        assert_eq!(
-            model.connect(None, 1e-9).unwrap(),
-            1,
-            "one bond between the touching pair"
-        );
+        assert_eq!(model.connect(None, 1e-9).unwrap(), 1, "one bond between the touching pair");
     }
     model.fix(&[0, 1], dof::ALL, true).unwrap();
     model.particles.vel[0] = v0;
@@ -522,24 +380,13 @@ fn bonded_pair_pulled_apart_breaks_at_kn_xb() {
         b.time,
         b.step
     );
-    assert!(
-        rel(max_tension, expected) < 0.01,
-        "peak tension {max_tension}"
-    );
+    assert!(rel(max_tension, expected) < 0.01, "peak tension {max_tension}");
     assert_eq!(sim.model.breakages.len(), 1);
     assert_eq!((b.i, b.j, b.kind), (0, 1, BreakKind::Tension));
-    assert!(
-        (b.time - t_expected).abs() <= 2.0 * BOND_DT,
-        "break time {}",
-        b.time
-    );
+    assert!((b.time - t_expected).abs() <= 2.0 * BOND_DT, "break time {}", b.time);
     assert!((b.time - b.step as f64 * BOND_DT).abs() < 1e-12);
     assert_eq!(sim.model.bond_count(), 0);
-    assert_eq!(
-        sim.model.particles.force[0],
-        Vec3::zeros(),
-        "a broken bond carries no tension"
-    );
+    assert_eq!(sim.model.particles.force[0], Vec3::zeros(), "a broken bond carries no tension");
 }
 
 /// One step of the shear test: tangential and normal force on particle 1, and the normal
@@ -569,13 +416,7 @@ fn shear_bonded_pair(steps: usize) -> (Simulation, Vec<ShearSample>) {
 
 fn shear_pair(mat: Material, bonded: bool, steps: usize) -> (Simulation, Vec<ShearSample>) {
     let kn = mat.kn;
-    let mut sim = prescribed_pair(
-        mat,
-        bonded,
-        1e-5,
-        Vec3::zeros(),
-        Vec3::new(0.0, SHEAR_SPEED, 0.0),
-    );
+    let mut sim = prescribed_pair(mat, bonded, 1e-5, Vec3::zeros(), Vec3::new(0.0, SHEAR_SPEED, 0.0));
     let mut samples = Vec::with_capacity(steps);
     for _ in 0..steps {
         let (a, b) = (sim.model.particles.pos[0], sim.model.particles.pos[1]);
@@ -588,13 +429,7 @@ fn shear_pair(mat: Material, bonded: bool, steps: usize) -> (Simulation, Vec<She
         let tangential = (f - n * f.dot(&n)).norm();
         let kn_delta = kn * (2.0 * BOND_R - (a - b).norm());
         let heat = friction_heat(&sim.model) - heat_before;
-        samples.push(ShearSample {
-            time,
-            tangential,
-            normal,
-            kn_delta,
-            heat,
-        });
+        samples.push(ShearSample { time, tangential, normal, kn_delta, heat });
     }
     (sim, samples)
 }
@@ -606,16 +441,9 @@ fn shear_pair(mat: Material, bonded: bool, steps: usize) -> (Simulation, Vec<She
 fn bonded_pair_sheared_slips_at_fs0_plus_mu_fn() {
     let mat = bond_material();
     let (sim, samples) = shear_bonded_pair(1500);
-    let peak = samples
-        .iter()
-        .max_by(|a, b| a.tangential.total_cmp(&b.tangential))
-        .unwrap();
+    let peak = samples.iter().max_by(|a, b| a.tangential.total_cmp(&b.tangential)).unwrap();
     let expected = mat.fs0 + mat.mu_p * peak.kn_delta;
-    let b = *sim
-        .model
-        .breakages
-        .first()
-        .expect("the bond must fail in shear");
+    let b = *sim.model.breakages.first().expect("the bond must fail in shear");
     let t_expected = expected / (mat.ks * 0.01);
     eprintln!(
         "shear: peak {:.6} N at Fn = {:.6} N (expected Fs0 + μp·Fn = {expected:.6} N, {:+.2e}); broke at \
@@ -625,15 +453,8 @@ fn bonded_pair_sheared_slips_at_fs0_plus_mu_fn() {
         peak.tangential / expected - 1.0,
         b.time
     );
-    assert!(
-        rel(peak.normal, peak.kn_delta) < 1e-9,
-        "the pair is pressed with Kn·δ"
-    );
-    assert!(
-        rel(peak.tangential, expected) < 0.01,
-        "peak shear {}",
-        peak.tangential
-    );
+    assert!(rel(peak.normal, peak.kn_delta) < 1e-9, "the pair is pressed with Kn·δ");
+    assert!(rel(peak.tangential, expected) < 0.01, "peak shear {}", peak.tangential);
     assert_eq!(sim.model.breakages.len(), 1);
     assert_eq!((b.i, b.j, b.kind), (0, 1, BreakKind::Shear));
     assert!(rel(b.time, t_expected) < 0.01, "break time {}", b.time);
@@ -650,14 +471,8 @@ fn broken_pair_slides_at_mu_fn() {
     let (sim, samples) = shear_bonded_pair(1500);
     let b = sim.model.breakages[0];
     let sliding: Vec<&ShearSample> = samples.iter().filter(|s| s.time > b.time).collect();
-    assert!(
-        sliding.len() >= 400,
-        "the pair must slide for a while after the break"
-    );
-    let worst = sliding
-        .iter()
-        .map(|s| rel(s.tangential, mu * s.kn_delta))
-        .fold(0.0, f64::max);
+    assert!(sliding.len() >= 400, "the pair must slide for a while after the break");
+    let worst = sliding.iter().map(|s| rel(s.tangential, mu * s.kn_delta)).fold(0.0, f64::max);
     let last = sliding.last().unwrap();
     eprintln!(
         "sliding: {} steps after the break, last Ft = {:.6} N vs μp·Fn = {:.6} N; worst deviation {worst:.2e}",
@@ -665,24 +480,12 @@ fn broken_pair_slides_at_mu_fn() {
         last.tangential,
         mu * last.kn_delta
     );
-    assert!(
-        worst < 0.01,
-        "sliding resistance deviates from μp·Fn by {worst}"
-    );
+    assert!(worst < 0.01, "sliding resistance deviates from μp·Fn by {worst}");
     // The heat booked is the work of that resistance over the slip, μp·Fn·v·dt per step.
     let heat: f64 = sliding.iter().map(|s| s.heat).sum();
-    let work: f64 = sliding
-        .iter()
-        .map(|s| mu * s.kn_delta * SHEAR_SPEED * BOND_DT)
-        .sum();
-    eprintln!(
-        "sliding: friction heat {heat:.6e} J vs μp·Fn·slip {work:.6e} J ({:+.2e})",
-        heat / work - 1.0
-    );
-    assert!(
-        rel(heat, work) < 0.01,
-        "friction heat {heat} vs work {work}"
-    );
+    let work: f64 = sliding.iter().map(|s| mu * s.kn_delta * SHEAR_SPEED * BOND_DT).sum();
+    eprintln!("sliding: friction heat {heat:.6e} J vs μp·Fn·slip {work:.6e} J ({:+.2e})", heat / work - 1.0);
+    assert!(rel(heat, work) < 0.01, "friction heat {heat} vs work {work}");
 }
 
 // Coulomb friction with μp = 0 (paper 003 §2): an unbonded pair pressed with Kn·δ = 10 N and
@@ -697,14 +500,8 @@ fn frictionless_sliding_carries_no_shear_and_books_no_heat() {
     let max_shear = samples.iter().map(|s| s.tangential).fold(0.0, f64::max);
     let heat = friction_heat(&sim.model);
     eprintln!("frictionless: max shear force {max_shear:e} N, friction heat {heat:e} J");
-    assert!(
-        samples.iter().all(|s| rel(s.normal, s.kn_delta) < 1e-9),
-        "the pair stays pressed"
-    );
-    assert!(
-        max_shear < 1e-12 * 10.0,
-        "shear force {max_shear} (round-off of the 10 N normal force only)"
-    );
+    assert!(samples.iter().all(|s| rel(s.normal, s.kn_delta) < 1e-9), "the pair stays pressed");
+    assert!(max_shear < 1e-12 * 10.0, "shear force {max_shear} (round-off of the 10 N normal force only)");
     assert_eq!(heat, 0.0);
 }
 
@@ -728,11 +525,7 @@ fn shaken_box(nx: usize, ny: usize, nz: usize, seed: u64) -> Model {
         for iy in 0..ny {
             for ix in 0..nx {
                 let r = r0 * (0.9 + 0.2 * rng.uniform());
-                let pos = Vec3::new(
-                    (ix as f64 + 0.5) * s,
-                    (iy as f64 + 0.5) * s,
-                    (iz as f64 + 0.5) * s,
-                );
+                let pos = Vec3::new((ix as f64 + 0.5) * s, (iy as f64 + 0.5) * s, (iz as f64 + 0.5) * s);
                 let id = model.add_particle(pos, r, k).unwrap();
                 let mut u = || rng.uniform() - 0.5;
                 model.particles.vel[id] = Vec3::new(u(), u(), u());
@@ -747,9 +540,7 @@ fn shaken_box(nx: usize, ny: usize, nz: usize, seed: u64) -> Model {
         ("back", Vec3::new(0.0, l, 0.0), -Vec3::y()),
     ];
     for (name, point, normal) in walls {
-        model
-            .add_wall(Wall::plane(name, point, normal, 1.0).unwrap())
-            .unwrap();
+        model.add_wall(Wall::plane(name, point, normal, 1.0).unwrap()).unwrap();
     }
     model.set_standard_dt().unwrap();
     model
@@ -757,9 +548,7 @@ fn shaken_box(nx: usize, ny: usize, nz: usize, seed: u64) -> Model {
 
 /// Bit patterns of a lane, so that −0.0 ≠ 0.0 and NaN = NaN.
 fn bits(v: &[Vec3]) -> Vec<[u64; 3]> {
-    v.iter()
-        .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
-        .collect()
+    v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect()
 }
 
 // Determinism (engine design, backend/cpu/blocks.rs: fixed block tree, no atomics): 672
@@ -769,10 +558,7 @@ fn bits(v: &[Vec3]) -> Vec<[u64; 3]> {
 #[test]
 fn run_is_deterministic_across_thread_counts() {
     let run_on = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
             let mut sim = Simulation::new(shaken_box(12, 8, 7, 42));
             assert!(sim.model.len() > 2 * 256);
@@ -780,19 +566,8 @@ fn run_is_deterministic_across_thread_counts() {
             run(&mut sim, 300).unwrap();
             let energies = sim.energies();
             let p = &sim.model.particles;
-            let ang_vel = p
-                .rotation
-                .as_ref()
-                .map(|r| r.ang_vel.clone())
-                .unwrap_or_default();
-            (
-                bits(&p.pos),
-                bits(&p.vel),
-                bits(&ang_vel),
-                contacts_before,
-                ang_vel,
-                energies,
-            )
+            let ang_vel = p.rotation.as_ref().map(|r| r.ang_vel.clone()).unwrap_or_default();
+            (bits(&p.pos), bits(&p.vel), bits(&ang_vel), contacts_before, ang_vel, energies)
         })
     };
     let one = run_on(1);
@@ -806,20 +581,11 @@ fn run_is_deterministic_across_thread_counts() {
     );
     // The scene exercises what it claims to.
     assert!(one.3 > 400, "the scene must start with many contacts");
-    assert!(
-        spin > 0.0,
-        "rotation must be simulated (settings.rotation = true)"
-    );
-    assert!(
-        e.heat_friction > 0.0 && e.heat_contact_damping > 0.0,
-        "friction and dashpot must act"
-    );
+    assert!(spin > 0.0, "rotation must be simulated (settings.rotation = true)");
+    assert!(e.heat_friction > 0.0 && e.heat_contact_damping > 0.0, "friction and dashpot must act");
     assert!(one.0 == two.0, "positions differ between 1 and 2 threads");
     assert!(one.1 == two.1, "velocities differ between 1 and 2 threads");
-    assert!(
-        one.2 == two.2,
-        "angular velocities differ between 1 and 2 threads"
-    );
+    assert!(one.2 == two.2, "angular velocities differ between 1 and 2 threads");
 }
 
 // The stability guard (guard.rs; timestep.rs: the explicit step is stable up to
@@ -832,30 +598,19 @@ fn unstable_time_step_stops_with_guard_message() {
     let (density, kn) = (2650.0, 1e6);
     let radii = [0.01, 0.012, 0.005];
     let mut model = Model::new();
-    let k = model
-        .add_material(material("rock", density, kn, 1e9, 0.0))
-        .unwrap();
+    let k = model.add_material(material("rock", density, kn, 1e9, 0.0)).unwrap();
     for (i, r) in radii.iter().enumerate() {
-        model
-            .add_particle(Vec3::new(0.03 * i as f64, 0.0, 0.0), *r, k)
-            .unwrap();
+        model.add_particle(Vec3::new(0.03 * i as f64, 0.0, 0.0), *r, k).unwrap();
     }
     model.particles.vel[0] = Vec3::new(1.0, 0.0, 0.0);
     // Expected: the element with the shortest √2·√(m/(2·kn)).
     let crit = |r: f64| std::f64::consts::SQRT_2 * (sphere_mass(density, r) / (2.0 * kn)).sqrt();
-    let (worst, expected) = radii
-        .iter()
-        .enumerate()
-        .map(|(i, r)| (i, crit(*r)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap();
+    let (worst, expected) =
+        radii.iter().enumerate().map(|(i, r)| (i, crit(*r))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
     assert_eq!(worst, 2);
     let (i, critical) = model.critical_dt().unwrap();
     assert_eq!(i, worst);
-    assert!(
-        rel(critical, expected) < 1e-12,
-        "critical step {critical} vs {expected}"
-    );
+    assert!(rel(critical, expected) < 1e-12, "critical step {critical} vs {expected}");
 
     model.set_dt(10.0 * critical).unwrap();
     let mut sim = Simulation::new(model);
@@ -869,24 +624,12 @@ fn unstable_time_step_stops_with_guard_message() {
         }
         other => panic!("expected Error::Unstable, got {other:?}"),
     }
-    assert!(
-        msg.contains(&format!("particle {worst}")),
-        "names the particle: {msg}"
-    );
-    assert!(
-        msg.contains("critical time step") && msg.contains(&format!("{expected:.3e}")),
-        "{msg}"
-    );
-    assert!(
-        msg.contains("Fix:") && msg.contains("set_standard_dt"),
-        "names the fix: {msg}"
-    );
+    assert!(msg.contains(&format!("particle {worst}")), "names the particle: {msg}");
+    assert!(msg.contains("critical time step") && msg.contains(&format!("{expected:.3e}")), "{msg}");
+    assert!(msg.contains("Fix:") && msg.contains("set_standard_dt"), "names the fix: {msg}");
     let p = &sim.model.particles;
     let finite = |v: &[Vec3]| v.iter().all(|x| x.iter().all(|c| c.is_finite()));
-    assert!(
-        finite(&p.pos) && finite(&p.vel) && finite(&p.force),
-        "no NaN after the guard stopped the run"
-    );
+    assert!(finite(&p.pos) && finite(&p.vel) && finite(&p.force), "no NaN after the guard stopped the run");
 }
 
 // Energy of a contact (physics.md §2: elastic energy ½·k·δ² of the linear spring) is
@@ -895,19 +638,10 @@ fn unstable_time_step_stops_with_guard_message() {
 #[test]
 fn energies_before_the_first_step_include_initial_overlaps() {
     let (kn, overlap) = (1e6, 1e-5);
-    let model = two_spheres(
-        material("rock", 2650.0, kn, 1e9, 0.0),
-        0.01,
-        -overlap,
-        0.0,
-        NormalKind::Linear,
-    );
+    let model = two_spheres(material("rock", 2650.0, kn, 1e9, 0.0), 0.01, -overlap, 0.0, NormalKind::Linear);
     let mut sim = Simulation::new(model);
     let e = sim.energies();
-    assert!(
-        rel(e.normal_elastic, 0.5 * kn * overlap * overlap) < 1e-9,
-        "{e:?}"
-    );
+    assert!(rel(e.normal_elastic, 0.5 * kn * overlap * overlap) < 1e-9, "{e:?}");
     assert_eq!(e.kinetic, 0.0);
 }
 
@@ -929,24 +663,11 @@ fn switching_rotation_off_freezes_spin() {
     model.set_standard_dt().unwrap();
     let mut sim = Simulation::new(model);
     run(&mut sim, 50).unwrap();
-    let spin = |sim: &Simulation| {
-        sim.model
-            .particles
-            .rotation
-            .as_ref()
-            .expect("rotation lanes")
-            .ang_vel[0]
-    };
+    let spin = |sim: &Simulation| sim.model.particles.rotation.as_ref().expect("rotation lanes").ang_vel[0];
     let before = spin(&sim);
     let torque = sim.model.particles.rotation.as_ref().unwrap().torque[0];
-    assert!(
-        torque.norm() > 0.0 && sim.model.walls[0].contacts == 1,
-        "still sliding on the floor"
-    );
-    assert!(
-        before.y > 0.0,
-        "sliding along +x on a floor below spins the sphere about +y: {before:?}"
-    );
+    assert!(torque.norm() > 0.0 && sim.model.walls[0].contacts == 1, "still sliding on the floor");
+    assert!(before.y > 0.0, "sliding along +x on a floor below spins the sphere about +y: {before:?}");
     sim.model.settings.rotation = false;
     run(&mut sim, 50).unwrap();
     assert_eq!(spin(&sim), before);

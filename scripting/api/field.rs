@@ -52,11 +52,7 @@ impl Field {
     /// Elements where `mask` is true.
     pub fn select(&self, mask: &Mask) -> RhaiResult<Field> {
         if self.0.len() != mask.0.len() {
-            return Err(err(format!(
-                "mask length {} does not match array length {}",
-                mask.0.len(),
-                self.0.len()
-            )));
+            return Err(err(format!("mask length {} does not match array length {}", mask.0.len(), self.0.len())));
         }
         Ok(Field::new(self.0.iter().zip(mask.0.iter()).filter(|(_, m)| **m).map(|(v, _)| *v).collect()))
     }
@@ -162,8 +158,12 @@ pub fn register(engine: &mut Engine) {
         .register_fn("ids", |m: &mut Mask| {
             m.0.iter().enumerate().filter(|(_, x)| **x).map(|(i, _)| Dynamic::from_int(i as INT)).collect::<Array>()
         })
-        .register_fn("to_string", |m: &mut Mask| format!("Mask({} of {} true)", m.0.iter().filter(|x| **x).count(), m.0.len()))
-        .register_fn("to_debug", |m: &mut Mask| format!("Mask({} of {} true)", m.0.iter().filter(|x| **x).count(), m.0.len()));
+        .register_fn("to_string", |m: &mut Mask| {
+            format!("Mask({} of {} true)", m.0.iter().filter(|x| **x).count(), m.0.len())
+        })
+        .register_fn("to_debug", |m: &mut Mask| {
+            format!("Mask({} of {} true)", m.0.iter().filter(|x| **x).count(), m.0.len())
+        });
 }
 
 fn mask_zip(a: &Mask, b: &Mask, f: impl Fn(bool, bool) -> bool) -> RhaiResult<Mask> {

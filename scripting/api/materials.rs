@@ -25,10 +25,7 @@ fn read(map: &Map, known: &[&str], what: &str) -> RhaiResult<Vec<(String, f64)>>
 }
 
 fn get(vals: &[(String, f64)], key: &str, what: &str) -> RhaiResult<f64> {
-    vals.iter()
-        .find(|(k, _)| k == key)
-        .map(|(_, v)| *v)
-        .ok_or_else(|| err(format!("{what}: missing `{key}`")))
+    vals.iter().find(|(k, _)| k == key).map(|(_, v)| *v).ok_or_else(|| err(format!("{what}: missing `{key}`")))
 }
 
 fn opt(vals: &[(String, f64)], key: &str) -> Option<f64> {
@@ -46,8 +43,8 @@ fn material_macro(name: &str, map: Map) -> RhaiResult<Material> {
         compressive: get(&v, "Cu", &what)?,
         internal_friction: get(&v, "mu_i", &what)?,
     };
-    let mut m = Material::from_macro(name, opt(&v, "density").unwrap_or(2650.0), &p, get(&v, "d", &what)?)
-        .map_err(raise)?;
+    let mut m =
+        Material::from_macro(name, opt(&v, "density").unwrap_or(2650.0), &p, get(&v, "d", &what)?).map_err(raise)?;
     if let Some(e) = opt(&v, "restitution") {
         m.restitution = e;
     }

@@ -67,10 +67,7 @@ pub fn resolve_ids(m: &Model, sel: &Dynamic) -> RhaiResult<Vec<u32>> {
         m.check_ids(&ids).map_err(raise)?;
         return Ok(ids);
     }
-    Err(err(format!(
-        "expected a group name, \"all\", an array of ids or a mask, got {}",
-        sel.type_name()
-    )))
+    Err(err(format!("expected a group name, \"all\", an array of ids or a mask, got {}", sel.type_name())))
 }
 
 fn vec3(v: &Dynamic, what: &str) -> RhaiResult<Vec3> {

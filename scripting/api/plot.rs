@@ -15,7 +15,11 @@ use std::rc::Rc;
 #[derive(Clone)]
 pub struct Chart(pub Rc<RefCell<LineChart>>);
 
-fn save_figure(host: &Host, name: &str, save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>) -> RhaiResult<rhai::Array> {
+fn save_figure(
+    host: &Host,
+    name: &str,
+    save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>,
+) -> RhaiResult<rhai::Array> {
     let path = host.out_path(name)?;
     let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
     host.note_written(written.iter().cloned());
@@ -143,11 +147,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     let h = host;
     engine.register_fn("show", move |d: &mut ModelHandle, values: Field, label: &str, name: &str| {
         if values.0.len() != d.data().sim.model.len() {
-            return Err(err(format!(
-                "show: {} values for {} particles",
-                values.0.len(),
-                d.data().sim.model.len()
-            )));
+            return Err(err(format!("show: {} values for {} particles", values.0.len(), d.data().sim.model.len())));
         }
         let pic = picture(d, values.0.to_vec(), label.to_string(), None);
         save_figure(&h, name, |p| pic.save(p))

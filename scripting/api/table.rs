@@ -89,7 +89,11 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         })
         .register_fn("to_string", |t: &mut Table| {
             let d = t.0.borrow();
-            format!("Table({} rows; {})", d.rows, d.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(", "))
+            format!(
+                "Table({} rows; {})",
+                d.rows,
+                d.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(", ")
+            )
         });
     engine.register_fn("save", move |t: &mut Table, name: &str| -> RhaiResult<String> {
         let path = host.out_path(name)?;

@@ -40,31 +40,13 @@ struct Prepared<'a> {
 }
 
 impl LineChart {
-    pub fn new(
-        title: impl Into<String>,
-        x_label: impl Into<String>,
-        y_label: impl Into<String>,
-    ) -> Self {
-        LineChart {
-            title: title.into(),
-            x_label: x_label.into(),
-            y_label: y_label.into(),
-            series: Vec::new(),
-        }
+    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+        LineChart { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), series: Vec::new() }
     }
 
     /// Appends a series. Lengths are checked when the chart is rendered.
-    pub fn add_series(
-        &mut self,
-        name: impl Into<String>,
-        x: impl Into<Vec<f64>>,
-        y: impl Into<Vec<f64>>,
-    ) -> &mut Self {
-        self.series.push(Series {
-            name: name.into(),
-            x: x.into(),
-            y: y.into(),
-        });
+    pub fn add_series(&mut self, name: impl Into<String>, x: impl Into<Vec<f64>>, y: impl Into<Vec<f64>>) -> &mut Self {
+        self.series.push(Series { name: name.into(), x: x.into(), y: y.into() });
         self
     }
 
@@ -103,10 +85,7 @@ impl LineChart {
     /// Checks the data and splits each series into runs of finite points.
     fn prepare(&self) -> Result<Vec<Prepared<'_>>, PlotError> {
         if self.series.is_empty() {
-            return Err(PlotError::Empty {
-                figure: self.title.clone(),
-                reason: "the chart has no series".into(),
-            });
+            return Err(PlotError::Empty { figure: self.title.clone(), reason: "the chart has no series".into() });
         }
         self.series
             .iter()
@@ -130,24 +109,15 @@ impl LineChart {
                     runs.push(current);
                 }
                 if runs.is_empty() {
-                    return Err(PlotError::EmptySeries {
-                        series: s.name.clone(),
-                    });
+                    return Err(PlotError::EmptySeries { series: s.name.clone() });
                 }
-                Ok(Prepared {
-                    name: &s.name,
-                    runs,
-                })
+                Ok(Prepared { name: &s.name, runs })
             })
             .collect()
     }
 
     /// Draws the chart; `vector` selects markers suited to SVG over raster output.
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        vector: bool,
-    ) -> Result<(), PlotError> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, vector: bool) -> Result<(), PlotError> {
         let prepared = self.prepare()?;
 
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -189,11 +159,7 @@ impl LineChart {
             .map_err(draw_err)?;
 
         // Markers shrink as series get dense, where they would merge into a band.
-        let most_points = prepared
-            .iter()
-            .map(|p| p.runs.iter().map(Vec::len).sum::<usize>())
-            .max()
-            .unwrap_or(0);
+        let most_points = prepared.iter().map(|p| p.runs.iter().map(Vec::len).sum::<usize>()).max().unwrap_or(0);
         let marker: u32 = match most_points {
             0..=200 => 3,
             201..=1000 => 2,
@@ -217,10 +183,7 @@ impl LineChart {
                 }
                 if vector {
                     chart
-                        .draw_series(
-                            run.iter()
-                                .map(|&pt| Circle::new(pt, marker, colour.filled())),
-                        )
+                        .draw_series(run.iter().map(|&pt| Circle::new(pt, marker, colour.filled())))
                         .map_err(draw_err)?;
                 } else {
                     let area = chart.plotting_area().strip_coord_spec();
@@ -235,16 +198,10 @@ impl LineChart {
 
         if labelled > 0 {
             let (pw, ph) = chart.plotting_area().dim_in_pixel();
-            let longest = prepared
-                .iter()
-                .map(|p| p.name.chars().count())
-                .max()
-                .unwrap_or(0);
+            let longest = prepared.iter().map(|p| p.name.chars().count()).max().unwrap_or(0);
             // Legend box as a fraction of the plotting area.
-            let box_w =
-                (longest as f64 * f64::from(style::LEGEND_SIZE) * 0.6 + 50.0) / f64::from(pw);
-            let box_h =
-                (labelled as f64 * (f64::from(style::LEGEND_SIZE) + 8.0) + 16.0) / f64::from(ph);
+            let box_w = (longest as f64 * f64::from(style::LEGEND_SIZE) * 0.6 + 50.0) / f64::from(pw);
+            let box_h = (labelled as f64 * (f64::from(style::LEGEND_SIZE) + 8.0) + 16.0) / f64::from(ph);
             let position = quietest_corner(&prepared, (x0, x1), (y0, y1), (box_w, box_h));
             chart
                 .configure_series_labels()
@@ -310,22 +267,10 @@ mod tests {
 
     fn stress_strain() -> LineChart {
         let strain: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.0005).collect();
-        let dense: Vec<f64> = strain
-            .iter()
-            .map(|e| 50e3 * e * (-e / 0.012).exp())
-            .collect();
-        let loose: Vec<f64> = strain
-            .iter()
-            .map(|e| 30e3 * e * (-e / 0.016).exp())
-            .collect();
-        let mut chart = LineChart::new(
-            "Triaxial test",
-            "axial strain εzz [-]",
-            "axial stress σzz [MPa]",
-        );
-        chart
-            .add_series("dense sample", strain.clone(), dense)
-            .add_series("loose sample", strain, loose);
+        let dense: Vec<f64> = strain.iter().map(|e| 50e3 * e * (-e / 0.012).exp()).collect();
+        let loose: Vec<f64> = strain.iter().map(|e| 30e3 * e * (-e / 0.016).exp()).collect();
+        let mut chart = LineChart::new("Triaxial test", "axial strain εzz [-]", "axial stress σzz [MPa]");
+        chart.add_series("dense sample", strain.clone(), dense).add_series("loose sample", strain, loose);
         chart
     }
 
@@ -333,13 +278,8 @@ mod tests {
     fn svg_contains_title_legend_names_and_axis_labels() {
         let svg = stress_strain().render_svg().unwrap();
         assert!(svg.starts_with("<svg"), "not an SVG document");
-        for text in [
-            "Triaxial test",
-            "dense sample",
-            "loose sample",
-            "axial strain εzz [-]",
-            "axial stress σzz [MPa]",
-        ] {
+        for text in ["Triaxial test", "dense sample", "loose sample", "axial strain εzz [-]", "axial stress σzz [MPa]"]
+        {
             assert!(svg.contains(text), "SVG lacks {text:?}");
         }
     }
@@ -354,10 +294,7 @@ mod tests {
     fn save_without_extension_writes_svg_and_png_and_no_temp_files() {
         let tmp = TempDir::new("chart-save");
         let written = stress_strain().save(&tmp.0.join("curve")).unwrap();
-        assert_eq!(
-            written,
-            vec![tmp.0.join("curve.svg"), tmp.0.join("curve.png")]
-        );
+        assert_eq!(written, vec![tmp.0.join("curve.svg"), tmp.0.join("curve.png")]);
         assert_eq!(tmp.listing(), vec!["curve.png", "curve.svg"]);
         let png = std::fs::read(tmp.0.join("curve.png")).unwrap();
         assert_eq!(png_size(&png), CHART_SIZE);
@@ -371,9 +308,7 @@ mod tests {
         let chart = stress_strain();
         let svg_path = tmp.0.join("sub/c.svg");
         assert_eq!(chart.save(&svg_path).unwrap(), vec![svg_path.clone()]);
-        assert!(std::fs::read_to_string(&svg_path)
-            .unwrap()
-            .starts_with("<svg"));
+        assert!(std::fs::read_to_string(&svg_path).unwrap().starts_with("<svg"));
         let png_path = tmp.0.join("c.PNG");
         chart.save(&png_path).unwrap();
         assert_eq!(png_size(&std::fs::read(&png_path).unwrap()), CHART_SIZE);
@@ -393,10 +328,7 @@ mod tests {
         let mut chart = LineChart::new("t", "x", "y");
         chart.add_series("ok", vec![1.0, 2.0], vec![1.0, 2.0]);
         chart.add_series("broken", vec![1.0, 2.0, 3.0], vec![1.0, 2.0]);
-        for result in [
-            chart.render_svg().map(|_| ()),
-            chart.render_png().map(|_| ()),
-        ] {
+        for result in [chart.render_svg().map(|_| ()), chart.render_png().map(|_| ())] {
             let err = result.unwrap_err();
             assert!(matches!(err, PlotError::LengthMismatch { .. }));
             assert!(err.to_string().contains("broken"), "{err}");
@@ -414,10 +346,7 @@ mod tests {
         assert!(err.to_string().contains("all nan"), "{err}");
         let mut chart = LineChart::new("none", "x", "y");
         chart.add_series("no points", Vec::new(), Vec::new());
-        assert!(matches!(
-            chart.render_svg(),
-            Err(PlotError::EmptySeries { .. })
-        ));
+        assert!(matches!(chart.render_svg(), Err(PlotError::EmptySeries { .. })));
     }
 
     #[test]

@@ -72,15 +72,9 @@ pub(crate) fn draw_err(e: impl std::fmt::Display) -> PlotError {
 /// the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let io_err = |source| PlotError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io_err = |source| PlotError::Io { path: path.to_path_buf(), source };
     let name = path.file_name().ok_or_else(|| {
-        io_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "the path does not name a file",
-        ))
+        io_err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"))
     })?;
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -90,11 +84,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
 
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(name);
-    tmp_name.push(format!(
-        ".{}-{}.tmp",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
+    tmp_name.push(format!(".{}-{}.tmp", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
     let tmp = dir.join(tmp_name);
 
     let result = (|| {
@@ -119,9 +109,7 @@ pub(crate) fn save_figure(
     svg: impl FnOnce() -> Result<String, PlotError>,
     png: impl FnOnce() -> Result<Vec<u8>, PlotError>,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("svg") => {
             write_atomic(path, svg()?.as_bytes())?;
@@ -144,10 +132,7 @@ pub(crate) fn save_figure(
             write_atomic(&png_path, &png)?;
             Ok(vec![svg_path, png_path])
         }
-        Some(other) => Err(PlotError::UnsupportedExtension {
-            path: path.to_path_buf(),
-            ext: other.to_string(),
-        }),
+        Some(other) => Err(PlotError::UnsupportedExtension { path: path.to_path_buf(), ext: other.to_string() }),
     }
 }
 
@@ -201,12 +186,8 @@ pub(crate) mod test_util {
 
     /// Width and height of a PNG, decoded for real.
     pub(crate) fn png_size(bytes: &[u8]) -> (u32, u32) {
-        assert!(
-            bytes.starts_with(b"\x89PNG\r\n\x1a\n"),
-            "missing PNG signature"
-        );
-        let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
-            .expect("PNG decodes");
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "missing PNG signature");
+        let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).expect("PNG decodes");
         (img.width(), img.height())
     }
 }
@@ -223,10 +204,7 @@ mod tests {
         write_atomic(&path, b"first").unwrap();
         write_atomic(&path, b"second").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"second");
-        let names: Vec<_> = fs::read_dir(tmp.0.join("a/b"))
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
+        let names: Vec<_> = fs::read_dir(tmp.0.join("a/b")).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names, vec![std::ffi::OsString::from("out.txt")]);
     }
 
@@ -243,16 +221,8 @@ mod tests {
 
     #[test]
     fn save_rejects_unknown_extensions_naming_the_supported_ones() {
-        let err = save_figure(
-            Path::new("figure.jpg"),
-            || Ok(String::new()),
-            || Ok(Vec::new()),
-        )
-        .unwrap_err();
+        let err = save_figure(Path::new("figure.jpg"), || Ok(String::new()), || Ok(Vec::new())).unwrap_err();
         let msg = err.to_string();
-        assert!(
-            msg.contains(".jpg") && msg.contains(".svg") && msg.contains(".png"),
-            "{msg}"
-        );
+        assert!(msg.contains(".jpg") && msg.contains(".svg") && msg.contains(".png"), "{msg}");
     }
 }

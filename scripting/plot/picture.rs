@@ -132,9 +132,7 @@ impl Disc {
         let r = self.r.max(MIN_RADIUS_PX);
         let height = (rgb.len() / 3 / width.max(1)) as i32;
         let x0 = ((self.cx - r - 1.0).floor() as i32).max(clip.0).max(0);
-        let x1 = ((self.cx + r + 1.0).ceil() as i32)
-            .min(clip.2)
-            .min(width as i32);
+        let x1 = ((self.cx + r + 1.0).ceil() as i32).min(clip.2).min(width as i32);
         let y0 = ((self.cy - r - 1.0).floor() as i32).max(clip.1).max(0);
         let y1 = ((self.cy + r + 1.0).ceil() as i32).min(clip.3).min(height);
         for j in y0..y1 {
@@ -276,16 +274,9 @@ impl ParticlePicture {
     /// Indices of the particles that can be drawn, after checking the data.
     fn drawable(&self) -> Result<Vec<usize>, PlotError> {
         let n = self.x.len();
-        if [self.y.len(), self.r.len(), self.value.len()]
-            .iter()
-            .any(|&len| len != n)
-        {
+        if [self.y.len(), self.r.len(), self.value.len()].iter().any(|&len| len != n) {
             return Err(PlotError::LengthMismatch {
-                series: if self.field.is_empty() {
-                    "particles".to_string()
-                } else {
-                    self.field.clone()
-                },
+                series: if self.field.is_empty() { "particles".to_string() } else { self.field.clone() },
                 detail: format!(
                     "x has {} values, y has {}, r has {}, value has {}",
                     n,
@@ -296,10 +287,7 @@ impl ParticlePicture {
             });
         }
         if n == 0 {
-            return Err(PlotError::Empty {
-                figure: self.title.clone(),
-                reason: "the picture has no particles".into(),
-            });
+            return Err(PlotError::Empty { figure: self.title.clone(), reason: "the picture has no particles".into() });
         }
         let ok: Vec<usize> = (0..n)
             .filter(|&i| {
@@ -336,17 +324,11 @@ impl ParticlePicture {
         let ((x0, x1), (y0, y1)) = if pad > 0.0 {
             ((x0 - pad, x1 + pad), (y0 - pad, y1 + pad))
         } else {
-            (
-                style::padded_range(x0, x1, 0.0),
-                style::padded_range(y0, y1, 0.0),
-            )
+            (style::padded_range(x0, x1, 0.0), style::padded_range(y0, y1, 0.0))
         };
 
         root.fill(&WHITE).map_err(draw_err)?;
-        let area = root
-            .margin(6, 0, 0, 0)
-            .titled(&self.title, (FONT, style::TITLE_SIZE))
-            .map_err(draw_err)?;
+        let area = root.margin(6, 0, 0, 0).titled(&self.title, (FONT, style::TITLE_SIZE)).map_err(draw_err)?;
 
         // The colour bar or legend column, sized to its labels.
         let bar_labels = match &colouring {
@@ -366,11 +348,7 @@ impl ParticlePicture {
         let (main, side) = area.split_horizontally(area_w.saturating_sub(side_width));
 
         // Equal scale: widen whichever range has room to spare.
-        let mut y_area = style::y_label_area_width(&style::sample_labels(
-            &style::tick_formatter(y0, y1),
-            y0,
-            y1,
-        ));
+        let mut y_area = style::y_label_area_width(&style::sample_labels(&style::tick_formatter(y0, y1), y0, y1));
         let mut ranges = equal_scale(&main, y_area, (x0, x1), (y0, y1))?;
         let wider = style::y_label_area_width(&style::sample_labels(
             &style::tick_formatter(ranges.1 .0, ranges.1 .1),
@@ -383,9 +361,7 @@ impl ParticlePicture {
         }
         let ((x0, x1), (y0, y1)) = ranges;
 
-        let mut chart = plot_builder(&main, y_area)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(draw_err)?;
+        let mut chart = plot_builder(&main, y_area).build_cartesian_2d(x0..x1, y0..y1).map_err(draw_err)?;
         let fmt_x = style::tick_formatter(x0, x1);
         let fmt_y = style::tick_formatter(y0, y1);
         chart
@@ -407,45 +383,29 @@ impl ParticlePicture {
         let (pw, ph) = (f64::from(xs.end - xs.start), f64::from(ys.end - ys.start));
         let scale = pw / (x1 - x0);
         let to_px = |x: f64, y: f64| {
-            (
-                f64::from(xs.start) + pw * (x - x0) / (x1 - x0),
-                f64::from(ys.end) - ph * (y - y0) / (y1 - y0),
-            )
+            (f64::from(xs.start) + pw * (x - x0) / (x1 - x0), f64::from(ys.end) - ph * (y - y0) / (y1 - y0))
         };
-        let mean_radius =
-            drawable.iter().map(|&i| self.r[i]).sum::<f64>() * scale / drawable.len() as f64;
+        let mean_radius = drawable.iter().map(|&i| self.r[i]).sum::<f64>() * scale / drawable.len() as f64;
         let outlined = mean_radius >= 4.0;
         let discs = drawable
             .iter()
             .map(|&i| {
                 let (cx, cy) = to_px(self.x[i], self.y[i]);
                 let fill = colouring.colour(self.value[i]);
-                Disc {
-                    cx,
-                    cy,
-                    r: self.r[i] * scale,
-                    fill,
-                    outline: outlined.then(|| style::darker(fill)),
-                }
+                Disc { cx, cy, r: self.r[i] * scale, fill, outline: outlined.then(|| style::darker(fill)) }
             })
             .collect();
         let clip = (xs.start, ys.start, xs.end, ys.end);
         // Full frame; the discs never reach it thanks to the padding.
-        chart
-            .plotting_area()
-            .draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))
-            .map_err(draw_err)?;
+        chart.plotting_area().draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1))).map_err(draw_err)?;
 
         match (&colouring, bar_labels) {
             (Colouring::Ramp { lo, hi }, Some((blo, bhi, label_w))) => {
                 self.draw_colour_bar(&side, (*lo, *hi), (blo, bhi), label_w)?
             }
             (Colouring::Classes(classes), _) => {
-                let mut entries: Vec<(String, RGBColor)> = classes
-                    .iter()
-                    .enumerate()
-                    .map(|(k, v)| (v.to_string(), style::categorical(k)))
-                    .collect();
+                let mut entries: Vec<(String, RGBColor)> =
+                    classes.iter().enumerate().map(|(k, v)| (v.to_string(), style::categorical(k))).collect();
                 if drawable.iter().any(|&i| !style::plottable(self.value[i])) {
                     entries.push(("no value".into(), style::NO_DATA));
                 }
@@ -492,12 +452,7 @@ impl ParticlePicture {
             .axis_desc_style((FONT, style::LABEL_SIZE))
             .draw()
             .map_err(draw_err)?;
-        bar.plotting_area()
-            .draw(&Rectangle::new(
-                [(0.0, blo), (1.0, bhi)],
-                BLACK.stroke_width(1),
-            ))
-            .map_err(draw_err)?;
+        bar.plotting_area().draw(&Rectangle::new([(0.0, blo), (1.0, bhi)], BLACK.stroke_width(1))).map_err(draw_err)?;
         Ok(())
     }
 
@@ -510,34 +465,20 @@ impl ParticlePicture {
         let (w, _) = side.dim_in_pixel();
         let left = 10;
         let heading: TextStyle = (FONT, style::LABEL_SIZE).into();
-        let text =
-            TextStyle::from((FONT, style::LEGEND_SIZE)).pos(Pos::new(HPos::Left, VPos::Center));
+        let text = TextStyle::from((FONT, style::LEGEND_SIZE)).pos(Pos::new(HPos::Left, VPos::Center));
         let mut y = style::MARGIN as i32;
-        for line in wrap(
-            side,
-            &self.field,
-            &heading,
-            w.saturating_sub(2 * left as u32),
-        )? {
-            side.draw_text(&line, &heading, (left, y))
-                .map_err(draw_err)?;
+        for line in wrap(side, &self.field, &heading, w.saturating_sub(2 * left as u32))? {
+            side.draw_text(&line, &heading, (left, y)).map_err(draw_err)?;
             y += style::LABEL_SIZE as i32 + 5;
         }
         y += 8;
         let row = style::LEGEND_SIZE as i32 + 11;
         for (label, colour) in entries {
             let centre = (left + 8, y + row / 2 - 2);
-            side.draw(&Circle::new(centre, 8, colour.filled()))
-                .map_err(draw_err)?;
-            side.draw(&Circle::new(
-                centre,
-                8,
-                style::darker(*colour).stroke_width(1),
-            ))
-            .map_err(draw_err)?;
+            side.draw(&Circle::new(centre, 8, colour.filled())).map_err(draw_err)?;
+            side.draw(&Circle::new(centre, 8, style::darker(*colour).stroke_width(1))).map_err(draw_err)?;
             // Digits have no descender: nudge down to look centred.
-            side.draw_text(label, &text, (left + 24, centre.1 + 2))
-                .map_err(draw_err)?;
+            side.draw_text(label, &text, (left + 24, centre.1 + 2)).map_err(draw_err)?;
             y += row;
         }
         Ok(())
@@ -548,15 +489,9 @@ impl ParticlePicture {
 type Span = (f64, f64);
 
 /// Builder for the particle axes, identical for the probe and the real chart.
-fn plot_builder<'a, 'b, DB: DrawingBackend>(
-    area: &'a DrawingArea<DB, Shift>,
-    y_area: u32,
-) -> ChartBuilder<'a, 'b, DB> {
+fn plot_builder<'a, 'b, DB: DrawingBackend>(area: &'a DrawingArea<DB, Shift>, y_area: u32) -> ChartBuilder<'a, 'b, DB> {
     let mut builder = ChartBuilder::on(area);
-    builder
-        .margin(style::MARGIN)
-        .x_label_area_size(style::X_LABEL_AREA)
-        .y_label_area_size(y_area);
+    builder.margin(style::MARGIN).x_label_area_size(style::X_LABEL_AREA).y_label_area_size(y_area);
     builder
 }
 
@@ -568,18 +503,13 @@ fn equal_scale<DB: DrawingBackend>(
     (x0, x1): (f64, f64),
     (y0, y1): (f64, f64),
 ) -> Result<(Span, Span), PlotError> {
-    let probe = plot_builder(area, y_area)
-        .build_cartesian_2d(0.0..1.0, 0.0..1.0)
-        .map_err(draw_err)?;
+    let probe = plot_builder(area, y_area).build_cartesian_2d(0.0..1.0, 0.0..1.0).map_err(draw_err)?;
     let (pw, ph) = probe.plotting_area().dim_in_pixel();
     let (pw, ph) = (f64::from(pw.max(1)), f64::from(ph.max(1)));
     let scale = (pw / (x1 - x0)).min(ph / (y1 - y0));
     let (wx, wy) = (pw / scale, ph / scale);
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    Ok((
-        (cx - 0.5 * wx, cx + 0.5 * wx),
-        (cy - 0.5 * wy, cy + 0.5 * wy),
-    ))
+    Ok(((cx - 0.5 * wx, cx + 0.5 * wx), (cy - 0.5 * wy, cy + 0.5 * wy)))
 }
 
 /// Greedy word wrap of `text` to lines at most `width` pixels wide (a single
@@ -593,14 +523,8 @@ fn wrap<DB: DrawingBackend>(
     let mut lines: Vec<String> = Vec::new();
     let mut current = String::new();
     for word in text.split_whitespace() {
-        let candidate = if current.is_empty() {
-            word.to_string()
-        } else {
-            format!("{current} {word}")
-        };
-        let (w, _) = area
-            .estimate_text_size(&candidate, style)
-            .map_err(draw_err)?;
+        let candidate = if current.is_empty() { word.to_string() } else { format!("{current} {word}") };
+        let (w, _) = area.estimate_text_size(&candidate, style).map_err(draw_err)?;
         if w > width && !current.is_empty() {
             lines.push(std::mem::replace(&mut current, word.to_string()));
         } else {
@@ -638,9 +562,7 @@ mod tests {
 
     #[test]
     fn svg_contains_title_and_field_label() {
-        let svg = cloud(200, "speed [m/s]", |_, y| y * 3.0)
-            .render_svg()
-            .unwrap();
+        let svg = cloud(200, "speed [m/s]", |_, y| y * 3.0).render_svg().unwrap();
         assert!(svg.starts_with("<svg"));
         assert!(svg.contains("Sample after compaction"));
         assert!(svg.contains("speed [m/s]"));
@@ -669,10 +591,7 @@ mod tests {
         }
         // Eleven distinct integers are too many classes: back to the bar.
         let many = cloud(300, "id", |i, _| (i % 11) as f64);
-        assert!(matches!(
-            Colouring::of(many.value.iter().copied()),
-            Colouring::Ramp { .. }
-        ));
+        assert!(matches!(Colouring::of(many.value.iter().copied()), Colouring::Ramp { .. }));
     }
 
     #[test]
@@ -686,22 +605,14 @@ mod tests {
         let area = root.titled("flat", (FONT, style::TITLE_SIZE)).unwrap();
         let y_area = 60;
         let ((x0, x1), (y0, y1)) = equal_scale(&area, y_area, (-0.2, 10.2), (-0.2, 0.7)).unwrap();
-        let chart = plot_builder(&area, y_area)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .unwrap();
+        let chart = plot_builder(&area, y_area).build_cartesian_2d(x0..x1, y0..y1).unwrap();
         let (pw, ph) = chart.plotting_area().dim_in_pixel();
         let sx = f64::from(pw) / (x1 - x0);
         let sy = f64::from(ph) / (y1 - y0);
         assert!((sx - sy).abs() / sx < 1e-9, "x scale {sx} != y scale {sy}");
         let eps = 1e-9;
-        assert!(
-            x0 <= -0.2 + eps && x1 >= 10.2 - eps,
-            "x range {x0}..{x1} cuts the data"
-        );
-        assert!(
-            y0 <= -0.2 + eps && y1 >= 0.7 - eps,
-            "y range {y0}..{y1} cuts the data"
-        );
+        assert!(x0 <= -0.2 + eps && x1 >= 10.2 - eps, "x range {x0}..{x1} cuts the data");
+        assert!(y0 <= -0.2 + eps && y1 >= 0.7 - eps, "y range {y0}..{y1} cuts the data");
         drop(chart);
         drop(area);
         drop(root);
@@ -712,13 +623,7 @@ mod tests {
     fn painted_discs_are_round_and_cover_their_area() {
         let (w, h) = (40usize, 40usize);
         let mut rgb = vec![255u8; w * h * 3];
-        let disc = Disc {
-            cx: 20.3,
-            cy: 19.6,
-            r: 8.0,
-            fill: RGBColor(0, 0, 0),
-            outline: None,
-        };
+        let disc = Disc { cx: 20.3, cy: 19.6, r: 8.0, fill: RGBColor(0, 0, 0), outline: None };
         disc.paint(&mut rgb, w, (0, 0, w as i32, h as i32));
         // Darkness summed over pixels approximates the disc's area.
         let ink: f64 = rgb.chunks(3).map(|p| 1.0 - f64::from(p[0]) / 255.0).sum();
@@ -738,13 +643,8 @@ mod tests {
     #[test]
     fn save_without_extension_writes_svg_and_png_and_no_temp_files() {
         let tmp = TempDir::new("picture-save");
-        let written = cloud(100, "group", |i, _| (i % 2) as f64)
-            .save(&tmp.0.join("snap"))
-            .unwrap();
-        assert_eq!(
-            written,
-            vec![tmp.0.join("snap.svg"), tmp.0.join("snap.png")]
-        );
+        let written = cloud(100, "group", |i, _| (i % 2) as f64).save(&tmp.0.join("snap")).unwrap();
+        assert_eq!(written, vec![tmp.0.join("snap.svg"), tmp.0.join("snap.png")]);
         assert_eq!(tmp.listing(), vec!["snap.png", "snap.svg"]);
         let png = std::fs::read(tmp.0.join("snap.png")).unwrap();
         assert_eq!(png_size(&png), PICTURE_SIZE);
@@ -753,9 +653,7 @@ mod tests {
     #[test]
     fn save_with_bad_extension_is_an_error() {
         let tmp = TempDir::new("picture-bad-ext");
-        let err = cloud(10, "v", |_, y| y)
-            .save(&tmp.0.join("snap.gif"))
-            .unwrap_err();
+        let err = cloud(10, "v", |_, y| y).save(&tmp.0.join("snap.gif")).unwrap_err();
         assert!(matches!(err, PlotError::UnsupportedExtension { .. }));
         assert!(tmp.listing().is_empty());
     }
@@ -768,10 +666,7 @@ mod tests {
             let err = result.unwrap_err();
             assert!(matches!(err, PlotError::LengthMismatch { .. }));
             let msg = err.to_string();
-            assert!(
-                msg.contains("speed") && msg.contains("value has 9"),
-                "{msg}"
-            );
+            assert!(msg.contains("speed") && msg.contains("value has 9"), "{msg}");
         }
     }
 

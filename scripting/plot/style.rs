@@ -104,11 +104,7 @@ pub(crate) fn padded_range(lo: f64, hi: f64, frac: f64) -> (f64, f64) {
     if span > 0.0 {
         let pad = span * frac;
         let (a, b) = (lo - pad, hi + pad);
-        return if a.is_finite() && b.is_finite() {
-            (a, b)
-        } else {
-            (lo, hi)
-        };
+        return if a.is_finite() && b.is_finite() { (a, b) } else { (lo, hi) };
     }
     let half = if lo == 0.0 { 1.0 } else { lo.abs() * 0.1 };
     (lo - half, lo + half)
@@ -154,9 +150,7 @@ fn trim_zeros(s: &str) -> &str {
 
 /// Tick labels an axis over `[lo, hi]` might show, to size its label area.
 pub(crate) fn sample_labels(fmt: &impl Fn(&f64) -> String, lo: f64, hi: f64) -> Vec<String> {
-    (0..=8)
-        .map(|k| fmt(&(lo + (hi - lo) * f64::from(k) / 8.0)))
-        .collect()
+    (0..=8).map(|k| fmt(&(lo + (hi - lo) * f64::from(k) / 8.0))).collect()
 }
 
 /// Width in pixels for a y label area holding `labels` and a rotated axis description.
@@ -182,8 +176,7 @@ pub(crate) fn draw_dot<DB: DrawingBackend>(
             let dist = f64::from(dx * dx + dy * dy).sqrt();
             let coverage = (radius + 0.5 - dist).clamp(0.0, 1.0);
             if coverage > 0.0 {
-                area.draw_pixel((at.0 + dx, at.1 + dy), &colour.mix(coverage))
-                    .map_err(super::draw_err)?;
+                area.draw_pixel((at.0 + dx, at.1 + dy), &colour.mix(coverage)).map_err(super::draw_err)?;
             }
         }
     }
@@ -199,8 +192,7 @@ mod tests {
         assert_eq!(colormap(0.0), RGBColor(68, 1, 84));
         assert_eq!(colormap(1.0), RGBColor(253, 231, 37));
         assert_eq!(colormap(-3.0), colormap(0.0));
-        let lum =
-            |c: RGBColor| 0.3 * f64::from(c.0) + 0.59 * f64::from(c.1) + 0.11 * f64::from(c.2);
+        let lum = |c: RGBColor| 0.3 * f64::from(c.0) + 0.59 * f64::from(c.1) + 0.11 * f64::from(c.2);
         let mut last = -1.0;
         for k in 0..=50 {
             let l = lum(colormap(k as f64 / 50.0));

@@ -231,11 +231,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         out.heat_damping = dashpot_release(state, vn, dt);
     }
 
-    let mut limit = if state.bonded {
-        (p.fs0 + p.mu * fn_el).max(0.0)
-    } else {
-        p.mu * fn_el.max(0.0)
-    };
+    let mut limit = if state.bonded { (p.fs0 + p.mu * fn_el).max(0.0) } else { p.mu * fn_el.max(0.0) };
     let s2 = s.norm_squared();
     if s2 > limit * limit {
         if state.bonded {

@@ -118,10 +118,8 @@ impl Particles {
     /// Allocates the angular lanes (rotation switched on).
     pub fn enable_rotation(&mut self) {
         if self.rotation.is_none() {
-            self.rotation = Some(Rotation {
-                ang_vel: vec![Vec3::zeros(); self.len()],
-                torque: vec![Vec3::zeros(); self.len()],
-            });
+            self.rotation =
+                Some(Rotation { ang_vel: vec![Vec3::zeros(); self.len()], torque: vec![Vec3::zeros(); self.len()] });
         }
     }
 
@@ -133,12 +131,6 @@ impl Particles {
 
 impl HeatLedger {
     pub fn lanes_mut(&mut self) -> [&mut Vec<f64>; 5] {
-        [
-            &mut self.damping,
-            &mut self.contact_damping,
-            &mut self.friction,
-            &mut self.breakage,
-            &mut self.wall_work,
-        ]
+        [&mut self.damping, &mut self.contact_damping, &mut self.friction, &mut self.breakage, &mut self.wall_work]
     }
 }

@@ -47,9 +47,7 @@ pub fn two_spheres(mat: Material, r: f64, gap: f64, speed: f64, normal: NormalKi
     m.settings.normal = normal;
     let k = m.add_material(mat).unwrap();
     let a = m.add_particle(Vec3::zeros(), r, k).unwrap();
-    let b = m
-        .add_particle(Vec3::new(2.0 * r + gap, 0.0, 0.0), r, k)
-        .unwrap();
+    let b = m.add_particle(Vec3::new(2.0 * r + gap, 0.0, 0.0), r, k).unwrap();
     m.particles.vel[a] = Vec3::new(speed, 0.0, 0.0);
     m.particles.vel[b] = Vec3::new(-speed, 0.0, 0.0);
     m
@@ -60,8 +58,7 @@ pub fn sphere_on_plane(mat: Material, r: f64, gap: f64, speed: f64, normal: Norm
     let mut m = Model::new();
     m.settings.normal = normal;
     let k = m.add_material(mat).unwrap();
-    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap())
-        .unwrap();
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap()).unwrap();
     let a = m.add_particle(Vec3::new(0.0, 0.0, r + gap), r, k).unwrap();
     m.particles.vel[a] = Vec3::new(0.0, 0.0, -speed);
     m
@@ -87,21 +84,13 @@ pub struct Probe {
 pub fn probe_pair(m: &Model) -> Probe {
     let p = &m.particles;
     let d = (p.pos[1] - p.pos[0]).norm();
-    Probe {
-        overlap: p.radius[0] + p.radius[1] - d,
-        force: p.force[0].norm(),
-        approach: p.vel[0].x - p.vel[1].x,
-    }
+    Probe { overlap: p.radius[0] + p.radius[1] - d, force: p.force[0].norm(), approach: p.vel[0].x - p.vel[1].x }
 }
 
 /// Overlap, force and approach speed of the scene of [`sphere_on_plane`].
 pub fn probe_wall(m: &Model) -> Probe {
     let p = &m.particles;
-    Probe {
-        overlap: p.radius[0] - p.pos[0].z,
-        force: p.force[0].norm(),
-        approach: -p.vel[0].z,
-    }
+    Probe { overlap: p.radius[0] - p.pos[0].z, force: p.force[0].norm(), approach: -p.vel[0].z }
 }
 
 /// A measured impact.
@@ -193,11 +182,7 @@ impl HertzImpact {
         let delta_max = (15.0 * m_star * v * v / (16.0 * e_star * r_star.sqrt())).powf(0.4);
         let f_max = 4.0 / 3.0 * e_star * r_star.sqrt() * delta_max.powf(1.5);
         let t_c = 2.868266 * (m_star * m_star / (r_star * e_star * e_star * v)).powf(0.2);
-        HertzImpact {
-            delta_max,
-            f_max,
-            t_c,
-        }
+        HertzImpact { delta_max, f_max, t_c }
     }
 
     /// Two identical spheres of this material, radius `r`, each at `speed` towards the other.
@@ -209,12 +194,7 @@ impl HertzImpact {
 
     /// A sphere on a rigid wall (R, m, E → ∞ on the wall's side): E* = E/(1 − ν²).
     pub fn sphere_on_wall(young: f64, poisson: f64, density: f64, r: f64, speed: f64) -> Self {
-        Self::new(
-            young / (1.0 - poisson * poisson),
-            r,
-            sphere_mass(density, r),
-            speed,
-        )
+        Self::new(young / (1.0 - poisson * poisson), r, sphere_mass(density, r), speed)
     }
 }
 
@@ -241,12 +221,6 @@ impl LinearImpact {
         let omega_d = omega_0 * (1.0 - zeta * zeta).sqrt();
         let t_peak = (1.0 - zeta * zeta).sqrt().atan2(zeta) / omega_d;
         let delta_max = v / omega_d * (-zeta * omega_0 * t_peak).exp() * (omega_d * t_peak).sin();
-        LinearImpact {
-            zeta,
-            c,
-            t_c: PI / omega_d,
-            delta_max_undamped: v * (m_star / k).sqrt(),
-            delta_max,
-        }
+        LinearImpact { zeta, c, t_c: PI / omega_d, delta_max_undamped: v * (m_star / k).sqrt(), delta_max }
     }
 }

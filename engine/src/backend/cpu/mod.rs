@@ -27,9 +27,7 @@ impl CpuBackend {
     pub fn prepare(m: &Model) -> Self {
         let plan = StepPlan::build(m);
         let damping_c = if plan.damping > 0.0 {
-            (0..m.len())
-                .map(|i| 2.0 * plan.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt())
-                .collect()
+            (0..m.len()).map(|i| 2.0 * plan.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt()).collect()
         } else {
             Vec::new()
         };

@@ -161,11 +161,7 @@ fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u32)> {
     let mut h = 2.0 * r_mean + skin;
     let ext = hi - lo;
     let dims = loop {
-        let d = [
-            (ext.x / h) as usize + 1,
-            (ext.y / h) as usize + 1,
-            (ext.z / h) as usize + 1,
-        ];
+        let d = [(ext.x / h) as usize + 1, (ext.y / h) as usize + 1, (ext.z / h) as usize + 1];
         if d[0] * d[1] * d[2] <= 4 * n + 64 {
             break d;
         }
@@ -173,11 +169,7 @@ fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u32)> {
     };
     let cell_of = |x: &Vec3| -> [usize; 3] {
         let c = (x - lo) / h;
-        [
-            (c.x as usize).min(dims[0] - 1),
-            (c.y as usize).min(dims[1] - 1),
-            (c.z as usize).min(dims[2] - 1),
-        ]
+        [(c.x as usize).min(dims[0] - 1), (c.y as usize).min(dims[1] - 1), (c.z as usize).min(dims[2] - 1)]
     };
     let flat = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
     let ncell = dims[0] * dims[1] * dims[2];

@@ -79,13 +79,8 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
     let k = Kinematics { vel: &p.vel, mass: &p.mass, ang_vel, dt: clock.dt };
     let (pos, radius, material, walls) = (&p.pos, &p.radius, &p.material, &walls[..]);
     let heat = &mut p.heat;
-    let lanes = (
-        &mut p.force[..],
-        torque,
-        &mut heat.contact_damping[..],
-        &mut heat.friction[..],
-        &mut heat.wall_work[..],
-    );
+    let lanes =
+        (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.wall_work[..]);
     for_blocks(
         0..pos.len(),
         Rows::Stride(nw),
