@@ -10,6 +10,7 @@ pub mod plot;
 pub mod report;
 pub mod run;
 pub mod stdlib;
+pub mod study;
 
 use api::Host;
 use rhai::module_resolvers::{FileModuleResolver, ModuleResolversCollection};

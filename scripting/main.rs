@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use matdem_rs::bench::{run_bench, BenchConfig};
 use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
+use matdem_rs::study::{run_study, summary, write_outputs, StudyConfig, Vary};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -69,6 +70,33 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a script at every combination of parameter values and chart the metric it reports
+    /// against wall time: what accuracy costs.
+    #[command(after_help = "The script reports its metric with `report(\"NAME\", value)`. Each setting runs in\n\
+        OUT/runNN/; OUT/study.csv and OUT/study.svg/png compare them with the reference\n\
+        (by default the slowest run that finished). `--vary backend=cpu,gpu` switches backends.\n\n\
+        Example:\n  matdem-rs study examples/compress.rhai --vary dt_rate=0.25,0.5,1 --vary ring_mm=2.5,3.5 \\\n    \
+        --set samples=1 --metric strain_no1 --out out/study")]
+    Study {
+        script: PathBuf,
+        /// A parameter and the values to try, NAME=v1,v2,...; repeatable (every combination runs).
+        #[arg(long, value_name = "NAME=V1,V2,...", required = true)]
+        vary: Vec<matdem_rs::study::Vary>,
+        /// The name the script reports with `report(NAME, value)`.
+        #[arg(long)]
+        metric: String,
+        /// A parameter given to every run; repeatable.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        /// The setting errors are measured against, as NAME=VALUE,... (default: the slowest run).
+        #[arg(long, value_name = "NAME=VALUE,...")]
+        reference: Option<String>,
+        /// Output folder (default: out/study).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+    },
 }
 
 fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
@@ -110,6 +138,9 @@ fn main() -> ExitCode {
         }
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json });
+        }
+        Command::Study { script, vary, metric, set, reference, out, backend } => {
+            return study(script, vary, metric, set, reference, out, backend);
         }
     };
     match backend {
@@ -155,6 +186,63 @@ fn bench(backend: Backend, cfg: BenchConfig) -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+fn study(
+    script: PathBuf,
+    vary: Vec<Vary>,
+    metric: String,
+    fixed: Vec<String>,
+    reference: Option<String>,
+    out: Option<PathBuf>,
+    backend: Backend,
+) -> ExitCode {
+    let reference = match reference.map(|r| parse_reference(&r)).transpose() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let exe = match std::env::current_exe() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: cannot find the matdem-rs binary to run each setting: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let backend = backend.to_possible_value().map_or("auto".to_string(), |v| v.get_name().to_string());
+    let cfg = StudyConfig {
+        exe,
+        script,
+        out_dir: out.unwrap_or_else(|| PathBuf::from("out/study")),
+        vary,
+        fixed,
+        metric,
+        reference,
+        backend,
+    };
+    let result = run_study(&cfg, |line| eprintln!("{line}")).and_then(|s| Ok((write_outputs(&s, &cfg)?, s)));
+    match result {
+        Ok((written, s)) => {
+            print!("{}", summary(&s, &cfg));
+            eprintln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn parse_reference(s: &str) -> Result<Vec<(String, String)>, String> {
+    s.split(',')
+        .map(|kv| match kv.split_once('=') {
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+            _ => Err(format!("--reference expects NAME=VALUE,..., got `{s}`")),
+        })
+        .collect()
 }
 
 fn rayon_threads() -> usize {

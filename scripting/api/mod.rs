@@ -6,6 +6,7 @@
 pub mod box_builder;
 pub mod field;
 pub mod materials;
+pub mod metrics;
 pub mod model;
 pub mod plot;
 pub mod table;
@@ -95,6 +96,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     field::register(engine);
     table::register(engine, host.clone());
     materials::register(engine);
+    metrics::register(engine, host.clone());
     model::register(engine, host.clone());
     box_builder::register(engine);
     plot::register(engine, host);

@@ -1,0 +1,96 @@
+//! `report(name, value)`: the scalar results a script stands by, written to `metrics.csv`
+//! in the run's output folder. `matdem-rs study` reads them back to compare settings.
+
+use super::{err, write_atomic, Host, RhaiResult};
+use rhai::{Engine, FLOAT, INT};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// The file a run's metrics go to, one `name,value` row each, in the order first reported.
+pub const METRICS_FILE: &str = "metrics.csv";
+
+pub fn register(engine: &mut Engine, host: Rc<Host>) {
+    let metrics: Rc<RefCell<Vec<(String, f64)>>> = Rc::default();
+    let report = move |name: &str, value: f64| -> RhaiResult<()> {
+        check_name(name)?;
+        {
+            let mut m = metrics.borrow_mut();
+            match m.iter_mut().find(|(n, _)| n == name) {
+                Some(slot) => slot.1 = value,
+                None => m.push((name.to_string(), value)),
+            }
+        }
+        // Rewritten whole at each report, so an interrupted run keeps what it reported.
+        let path = host.out_path(METRICS_FILE)?;
+        let text = to_csv(&metrics.borrow());
+        write_atomic(&path, text.as_bytes()).map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+        if !host.written.borrow().contains(&path) {
+            host.note_written([path]);
+        }
+        Ok(())
+    };
+    let report_int = report.clone();
+    engine
+        .register_fn("report", move |name: &str, value: FLOAT| report(name, value))
+        .register_fn("report", move |name: &str, value: INT| report_int(name, value as f64));
+}
+
+/// Names become CSV cells and `--metric` arguments: keep them to one plain word.
+fn check_name(name: &str) -> RhaiResult<()> {
+    let ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.');
+    if ok {
+        Ok(())
+    } else {
+        Err(err(format!(
+            "report: metric name `{name}` must be letters, digits, `_` or `.` (e.g. \"strain_no1\")"
+        )))
+    }
+}
+
+fn to_csv(metrics: &[(String, f64)]) -> String {
+    let mut s = String::from("name,value\n");
+    for (n, v) in metrics {
+        // `{:?}` prints the shortest string that reads back to the same f64.
+        s.push_str(&format!("{n},{v:?}\n"));
+    }
+    s
+}
+
+/// Reads a `metrics.csv` written by [`register`]'s `report`.
+pub fn parse_metrics(text: &str) -> Result<Vec<(String, f64)>, String> {
+    let mut lines = text.lines();
+    if lines.next() != Some("name,value") {
+        return Err("not a metrics file: the first line is not `name,value`".into());
+    }
+    lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let (n, v) = l.split_once(',').ok_or_else(|| format!("bad metrics line `{l}`"))?;
+            let v: f64 = v.parse().map_err(|_| format!("bad metric value in `{l}`"))?;
+            Ok((n.to_string(), v))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics_round_trip_bitwise_through_csv() {
+        let m = vec![("a".to_string(), 0.1 + 0.2), ("b_2".to_string(), -1.5e-300), ("c".to_string(), f64::NAN)];
+        let back = parse_metrics(&to_csv(&m)).unwrap();
+        assert_eq!(back.len(), 3);
+        assert_eq!(back[0], m[0]);
+        assert_eq!(back[1].1.to_bits(), m[1].1.to_bits());
+        assert!(back[2].1.is_nan());
+    }
+
+    #[test]
+    fn metric_names_with_commas_or_spaces_are_refused() {
+        assert!(check_name("strain_no1").is_ok());
+        for bad in ["", "a,b", "a b", "x\n"] {
+            assert!(check_name(bad).is_err(), "{bad:?}");
+        }
+    }
+}

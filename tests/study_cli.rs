@@ -1,0 +1,62 @@
+//! `matdem-rs study` end to end: every combination runs, a failing setting is recorded and
+//! the others go on, errors are relative to the reference, and the table and chart are written.
+
+mod common;
+use common::*;
+
+/// Reports 1/x, and refuses x = 0 the way an unstable setting would stop.
+const SCRIPT: &str = r#"
+if params.x == 0 { throw "x must not be 0"; }
+report("inverse", 1.0 / params.x + params.offset);
+"#;
+
+#[test]
+fn study_runs_every_setting_and_measures_error_against_the_reference() {
+    let dir = temp_dir("study_cli");
+    let script = dir.join("inverse.rhai");
+    std::fs::write(&script, SCRIPT).unwrap();
+    let out = dir.join("out");
+    let o = bin()
+        .args(["study"])
+        .arg(&script)
+        .args(["--vary", "x=0,1,2,4", "--vary", "offset=0.0,1.0", "--metric", "inverse", "--reference", "x=4,offset=0.0"])
+        .args(["--backend", "cpu", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(csv.lines().next(), Some("run,x,offset,wall_s,inverse,rel_error,reference,note"));
+    assert_eq!(rows.len(), 8, "{csv}");
+    // x = 0 failed with the script's own message, and the study went on.
+    assert_eq!(rows[0][4], "", "{csv}");
+    assert!(rows[0][7].contains("x must not be 0"), "{csv}");
+    // x = 2, offset 0: 0.5 against the reference 0.25 is an error of 100 %.
+    let row = rows.iter().find(|r| r[1] == "2" && r[2] == "0.0").unwrap();
+    assert_eq!(row[4].parse::<f64>().unwrap(), 0.5);
+    assert!((row[5].parse::<f64>().unwrap() - 1.0).abs() < 1e-12, "{csv}");
+    let reference = rows.iter().find(|r| r[6] == "true").unwrap();
+    assert_eq!((reference[1], reference[2], reference[5]), ("4", "0.0", "0.0"));
+    for f in ["study.svg", "study.png", "run01/log.txt", "run08/metrics.csv"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+}
+
+#[test]
+fn study_of_a_metric_the_script_never_reports_says_which_it_did() {
+    let dir = temp_dir("study_cli_missing");
+    let script = dir.join("inverse.rhai");
+    std::fs::write(&script, SCRIPT).unwrap();
+    let o = bin()
+        .args(["study"])
+        .arg(&script)
+        .args(["--vary", "x=1,2", "--set", "offset=0.0", "--metric", "strain", "--backend", "cpu", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("did not report `strain`; it reported: inverse"), "{err}");
+    assert!(err.contains("no run gave a result"), "{err}");
+}
