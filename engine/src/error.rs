@@ -46,10 +46,26 @@ impl std::fmt::Display for Instability {
         write!(
             f,
             "unstable at step {}: particle {} {}; time step dt = {:.3e} s, critical time step {:.3e} s \
-             (standard {:.3e} s). Fix: use the standard time step (set_standard_dt) or a dt below \
-             {:.3e} s, or soften the stiffest material",
-            self.step, self.particle, self.what, self.dt, self.critical_dt, self.standard_dt, self.critical_dt
-        )
+             (standard {:.3e} s). ",
+            self.step, self.particle, self.what, self.dt, self.critical_dt, self.standard_dt
+        )?;
+        if self.dt > self.critical_dt || !self.critical_dt.is_finite() {
+            write!(
+                f,
+                "Fix: use the standard time step (set_standard_dt) or a dt below {:.3e} s, or soften the stiffest \
+                 material",
+                self.critical_dt
+            )
+        } else {
+            // The critical step comes from each element's own stiffness; loaded Hertz contacts
+            // and many contacts at once are stiffer, so a dt under it can still be too large.
+            write!(
+                f,
+                "Fix: dt is under the single-element estimate, but loaded contacts are stiffer: use the standard \
+                 time step (set_standard_dt) or halve dt (to {:.3e} s), or soften the stiffest material",
+                self.dt / 2.0
+            )
+        }
     }
 }
 
@@ -103,3 +119,25 @@ pub fn edit_distance(a: &str, b: &str) -> usize {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn instability(dt: f64) -> Instability {
+        Instability { step: 7, particle: 3, what: "overlaps".into(), dt, critical_dt: 1e-6, standard_dt: 1e-7 }
+    }
+
+    #[test]
+    fn instability_above_the_critical_step_asks_for_a_dt_below_it() {
+        let s = instability(2e-6).to_string();
+        assert!(s.contains("Fix: use the standard time step (set_standard_dt) or a dt below 1.000e-6 s"), "{s}");
+    }
+
+    #[test]
+    fn instability_under_the_critical_step_asks_to_halve_dt() {
+        let s = instability(4e-7).to_string();
+        assert!(s.contains("loaded contacts are stiffer"), "{s}");
+        assert!(s.contains("halve dt (to 2.000e-7 s)"), "{s}");
+    }
+}
