@@ -167,9 +167,8 @@ fn run_one(cfg: &StudyConfig, setting: Vec<(String, String)>, dir: &Path) -> Res
 
 fn read_metric(dir: &Path, metric: &str) -> Result<f64, String> {
     let path = dir.join(METRICS_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|_| {
-        format!("the script reported no metrics; add `report(\"{metric}\", value);` to it")
-    })?;
+    let text = std::fs::read_to_string(&path)
+        .map_err(|_| format!("the script reported no metrics; add `report(\"{metric}\", value);` to it"))?;
     let metrics = parse_metrics(&text)?;
     let names = || metrics.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
     metrics

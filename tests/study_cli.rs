@@ -19,7 +19,16 @@ fn study_runs_every_setting_and_measures_error_against_the_reference() {
     let o = bin()
         .args(["study"])
         .arg(&script)
-        .args(["--vary", "x=0,1,2,4", "--vary", "offset=0.0,1.0", "--metric", "inverse", "--reference", "x=4,offset=0.0"])
+        .args([
+            "--vary",
+            "x=0,1,2,4",
+            "--vary",
+            "offset=0.0,1.0",
+            "--metric",
+            "inverse",
+            "--reference",
+            "x=4,offset=0.0",
+        ])
         .args(["--backend", "cpu", "--out"])
         .arg(&out)
         .output()

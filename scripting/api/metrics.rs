@@ -41,9 +41,7 @@ fn check_name(name: &str) -> RhaiResult<()> {
     if ok {
         Ok(())
     } else {
-        Err(err(format!(
-            "report: metric name `{name}` must be letters, digits, `_` or `.` (e.g. \"strain_no1\")"
-        )))
+        Err(err(format!("report: metric name `{name}` must be letters, digits, `_` or `.` (e.g. \"strain_no1\")")))
     }
 }
 
