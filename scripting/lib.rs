@@ -5,10 +5,13 @@
 //! [`report`] renders errors with file, line, column and a caret.
 
 pub mod api;
+pub mod atomic;
 pub mod bench;
 pub mod plot;
 pub mod report;
+pub mod resume;
 pub mod run;
+pub mod run_record;
 pub mod stdlib;
 pub mod study;
 
@@ -32,7 +35,13 @@ fn set_limits(engine: &mut Engine) {
 pub fn new_engine(host: Rc<Host>, script_dir: Option<&Path>) -> Engine {
     let mut engine = Engine::new();
     set_limits(&mut engine);
-    api::register(&mut engine, host);
+    api::register(&mut engine, host.clone());
+    // A resumed run replays the script's start silently: it printed that the first time.
+    engine.on_print(move |text| {
+        if !host.replaying() {
+            println!("{text}");
+        }
+    });
     let mut resolvers = ModuleResolversCollection::new();
     resolvers.push(stdlib::install(&mut engine));
     if let Some(dir) = script_dir {

@@ -1,8 +1,9 @@
 //! The `matdem-rs` command: parses arguments and hands off to the library.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use matdem_engine::backend::RunControl;
 use matdem_rs::bench::{run_bench, BenchConfig};
-use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
+use matdem_rs::run::{run_script, RunConfig, RunError};
 use matdem_rs::study::{run_study, summary, write_outputs, StudyConfig, Vary};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -33,12 +34,18 @@ enum Backend {
 #[derive(Subcommand)]
 enum Command {
     /// Run a script; everything it writes goes into one output folder.
-    #[command(after_help = "Example:\n  matdem-rs run examples/compress.rhai --out out/compress --set quick=true")]
+    #[command(after_help = "Ctrl-C or SIGTERM finishes the current chunk of steps, saves what a resume needs in \
+        OUT/resume/ and exits with 130;\n--resume continues from there (a second Ctrl-C stops at once, without saving).\n\n\
+        Examples:\n  matdem-rs run examples/compress.rhai --out out/compress --set quick=true\n  \
+        matdem-rs run examples/compress.rhai --resume out/compress")]
     Run {
         script: PathBuf,
-        /// Output folder (default: out/<script name>).
+        /// Output folder (default: out/<script name>; with --resume, the interrupted run's).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Continue the interrupted run whose output folder (or its resume/ folder) is DIR.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
         /// A parameter the script reads as `params.NAME`; repeatable.
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
@@ -99,10 +106,10 @@ enum Command {
     },
 }
 
-fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
+fn params(set: &[String]) -> Result<Vec<(String, String)>, String> {
     set.iter()
         .map(|s| match s.split_once('=') {
-            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), parse_value(v.trim()))),
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
             _ => Err(format!("error: --set expects NAME=VALUE, got `{s}`")),
         })
         .collect()
@@ -111,8 +118,18 @@ fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let (cfg, backend) = match cli.command {
-        Command::Run { script, out, set, backend } => {
-            let out_dir = out.unwrap_or_else(|| PathBuf::from("out").join(script.file_stem().unwrap_or_default()));
+        Command::Run { script, out, resume, set, backend } => {
+            if resume.is_some() && !set.is_empty() {
+                eprintln!(
+                    "error: a resumed run keeps the parameters of the interrupted one (see its run.ron); drop --set"
+                );
+                return ExitCode::from(2);
+            }
+            let out_dir = match (&out, &resume) {
+                (Some(o), _) => o.clone(),
+                (None, Some(dir)) => matdem_rs::resume::run_folder(dir),
+                (None, None) => PathBuf::from("out").join(script.file_stem().unwrap_or_default()),
+            };
             let params = match params(&set) {
                 Ok(p) => p,
                 Err(e) => {
@@ -121,7 +138,21 @@ fn main() -> ExitCode {
                 }
             };
             let progress = std::io::stderr().is_terminal();
-            (RunConfig { script, out_dir, params, progress, plan_only: false }, backend)
+            let control = RunControl::default();
+            if let Err(e) = stop_on_signals(&control) {
+                eprintln!("warning: Ctrl-C and SIGTERM will stop the run without saving a resume point ({e})");
+            }
+            let cfg = RunConfig {
+                script,
+                out_dir,
+                params,
+                progress,
+                plan_only: false,
+                backend: backend_name(backend),
+                control,
+                resume,
+            };
+            (cfg, backend)
         }
         Command::Plan { script, set } => {
             let params = match params(&set) {
@@ -131,10 +162,17 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            (
-                RunConfig { script, out_dir: PathBuf::from("out/plan"), params, progress: false, plan_only: true },
-                Backend::Cpu,
-            )
+            let cfg = RunConfig {
+                script,
+                out_dir: PathBuf::from("out/plan"),
+                params,
+                progress: false,
+                plan_only: true,
+                backend: backend_name(Backend::Cpu),
+                control: RunControl::default(),
+                resume: None,
+            };
+            (cfg, Backend::Cpu)
         }
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json });
@@ -160,15 +198,36 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(RunError::Setup(msg)) => {
-            eprintln!("{msg}");
-            ExitCode::from(2)
+        Err(e @ RunError::Setup(_)) => {
+            eprintln!("{e}");
+            ExitCode::from(e.exit_code())
         }
-        Err(RunError::Script(msg)) => {
-            eprint!("{msg}");
-            ExitCode::from(1)
+        Err(e) => {
+            eprint!("{e}");
+            ExitCode::from(e.exit_code())
         }
     }
+}
+
+/// Ctrl-C and SIGTERM set the run's cancel flag: the engine finishes its chunk of steps and
+/// the host saves a resume point. A second signal, with the flag already set, exits at once.
+fn stop_on_signals(control: &RunControl) -> std::io::Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    use signal_hook::flag;
+    for sig in [SIGINT, SIGTERM] {
+        // Registered first, so it sees the flag as it was before this signal set it.
+        flag::register_conditional_shutdown(sig, 130, control.cancel.clone())?;
+        flag::register(sig, control.cancel.clone())?;
+    }
+    Ok(())
+}
+
+fn backend_name(b: Backend) -> String {
+    b.to_possible_value().map_or_else(|| "auto".to_string(), |v| v.get_name().to_string())
+        + match b {
+            Backend::Gpu => "",
+            _ => " (cpu, f64)",
+        }
 }
 
 fn bench(backend: Backend, cfg: BenchConfig) -> ExitCode {

@@ -1,9 +1,14 @@
 //! Running a script file: reads it, prepares the output folder and the engine, evaluates,
-//! and turns every failure into a rendered report.
+//! and turns every failure into a rendered report; writes the run record; resumes an
+//! interrupted run (see [`crate::resume`]).
 
 use crate::api::{Host, PLAN_DONE};
 use crate::report::{render, Sources};
+use crate::resume::{self, Pending, Session, INTERRUPTED};
+use crate::run_record::{now_utc, sha256_hex, RunRecord};
+use matdem_engine::backend::RunControl;
 use rhai::{Dynamic, EvalAltResult, Scope};
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -11,10 +16,16 @@ use std::rc::Rc;
 pub struct RunConfig {
     pub script: PathBuf,
     pub out_dir: PathBuf,
-    /// `--set name=value`, already typed.
-    pub params: Vec<(String, Dynamic)>,
+    /// `--set name=value`, as given.
+    pub params: Vec<(String, String)>,
     pub progress: bool,
     pub plan_only: bool,
+    /// The backend, as the run record names it.
+    pub backend: String,
+    /// Set by Ctrl-C or SIGTERM; the engine checks it between chunks of steps.
+    pub control: RunControl,
+    /// `--resume DIR`: continue the interrupted run whose output folder (or resume folder) is DIR.
+    pub resume: Option<PathBuf>,
 }
 
 /// Why a run failed, already worded for a person.
@@ -24,12 +35,24 @@ pub enum RunError {
     Setup(String),
     /// The script failed (parse error, runtime error, engine error): exit 1.
     Script(String),
+    /// Ctrl-C or SIGTERM: the resume folder is written; exit 130.
+    Interrupted(String),
+}
+
+impl RunError {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RunError::Setup(_) => 2,
+            RunError::Script(_) => 1,
+            RunError::Interrupted(_) => 130,
+        }
+    }
 }
 
 impl std::fmt::Display for RunError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RunError::Setup(s) | RunError::Script(s) => f.write_str(s),
+            RunError::Setup(s) | RunError::Script(s) | RunError::Interrupted(s) => f.write_str(s),
         }
     }
 }
@@ -49,34 +72,116 @@ pub fn parse_value(s: &str) -> Dynamic {
     }
 }
 
-/// Runs the script; returns the files it wrote.
+/// Runs the script; returns the files it wrote. Every run folder gets a run record
+/// (`run.ron`), written when the run starts and again when it ends.
 pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let text = std::fs::read_to_string(&cfg.script)
         .map_err(|e| RunError::Setup(format!("error: cannot read script {}: {e}", cfg.script.display())))?;
+    let sha = sha256_hex(text.as_bytes());
+    let mut session = Session { script_sha256: sha.clone(), params: cfg.params.clone(), ..Session::default() };
+    if let Some(dir) = &cfg.resume {
+        let (journal, models) = resume::load(dir).map_err(RunError::Setup)?;
+        if journal.script_sha256 != sha {
+            return Err(RunError::Setup(format!(
+                "error: {} has changed since the run was interrupted (its SHA-256 differs): resume with the script \
+                 as it was, or start a fresh run",
+                cfg.script.display()
+            )));
+        }
+        session.params = journal.params;
+        session.entries = journal.entries;
+        session.pending = Some(Pending { interrupted: journal.interrupted, models });
+    }
     if !cfg.plan_only {
         std::fs::create_dir_all(&cfg.out_dir).map_err(|e| {
             RunError::Setup(format!("error: cannot create output folder {}: {e}", cfg.out_dir.display()))
         })?;
     }
+    let mut record = RunRecord {
+        script: cfg.script.display().to_string(),
+        script_sha256: sha,
+        parameters: session.params.clone(),
+        backend: cfg.backend.clone(),
+        matdem_rs_version: env!("CARGO_PKG_VERSION").to_string(),
+        started: now_utc(),
+        finished: None,
+        status: "running".into(),
+        exit_code: None,
+        resumed_from: cfg.resume.as_ref().map(|d| d.display().to_string()),
+    };
+    if !cfg.plan_only {
+        record.write(&cfg.out_dir).map_err(|e| {
+            RunError::Setup(format!("error: cannot write the run record in {}: {e}", cfg.out_dir.display()))
+        })?;
+    }
+    let result = evaluate(cfg, &text, session);
+    if !cfg.plan_only {
+        let (status, code) = match &result {
+            Ok(_) => ("ok", 0),
+            Err(RunError::Interrupted(_)) => ("interrupted", 130),
+            Err(RunError::Script(_)) => ("failed", 1),
+            Err(RunError::Setup(_)) => ("could not start", 2),
+        };
+        record.finished = Some(now_utc());
+        record.status = status.into();
+        record.exit_code = Some(code);
+        // The outputs are what matter; a record that cannot be rewritten is only reported.
+        if let Err(e) = record.write(&cfg.out_dir) {
+            eprintln!("warning: cannot update the run record in {}: {e}", cfg.out_dir.display());
+        }
+        if result.is_ok() {
+            // A finished run leaves nothing to resume.
+            let _ = std::fs::remove_dir_all(resume::resume_dir(&cfg.out_dir));
+        }
+    }
+    result
+}
+
+/// Prepares the host and the engine and evaluates the script.
+fn evaluate(cfg: &RunConfig, text: &str, session: Session) -> Result<Vec<PathBuf>, RunError> {
+    let params = session.params.clone();
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
-    for (k, v) in &cfg.params {
-        host.params.insert(k.as_str().into(), v.clone());
+    host.control = cfg.control.clone();
+    for (k, v) in &params {
+        host.params.insert(k.as_str().into(), parse_value(v));
     }
-    let host = Rc::new(host);
     let dir = cfg.script.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    host.script_dir = dir.to_path_buf();
+    host.session = RefCell::new(session);
+    let host = Rc::new(host);
     let engine = crate::new_engine(host.clone(), Some(dir));
     let path = cfg.script.display().to_string();
-    let sources = Sources { main_path: &path, main_text: &text };
-    let ast = engine.compile(&text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
+    let sources = Sources { main_path: &path, main_text: text };
+    let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());
     scope.push_constant("out_dir", host.out_dir.display().to_string());
     match engine.run_ast_with_scope(&mut scope, &ast) {
+        Ok(()) if host.replaying() => Err(RunError::Script(
+            "error: cannot resume: the script ended before it reached the call that was interrupted; resume only \
+             with the script and parameters that were interrupted, or start a fresh run\n"
+                .into(),
+        )),
         Ok(()) => Ok(host.written.borrow().clone()),
         Err(e) if cfg.plan_only && is_plan_done(&e) => Ok(Vec::new()),
+        Err(e) if is_interrupted(&e) => Err(RunError::Interrupted(format!(
+            "interrupted: the outputs written so far are kept; continue with\n  matdem-rs run {} --resume {}\n",
+            cfg.script.display(),
+            cfg.out_dir.display()
+        ))),
         Err(e) => Err(RunError::Script(render(&e, &sources))),
+    }
+}
+
+fn is_interrupted(e: &EvalAltResult) -> bool {
+    match e {
+        EvalAltResult::ErrorTerminated(v, _) => v.to_string() == INTERRUPTED,
+        EvalAltResult::ErrorInFunctionCall(_, _, inner, _) | EvalAltResult::ErrorInModule(_, inner, _) => {
+            is_interrupted(inner)
+        }
+        _ => false,
     }
 }
 

@@ -14,6 +14,8 @@
 //! - [`backend::cpu::CpuBackend`] runs one step as named stages; [`simulation::Simulation`]
 //!   runs many, with MatDEM's `balance` and the stability [`guard`].
 //! - [`status`] measures energies, heat, coordination number and porosity.
+//! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
+//!   later run continues it bit for bit.
 //! - [`bench`] builds the standard throughput scene and times it.
 //!
 //! Units are SI; particle ids are 0-based.
@@ -21,6 +23,7 @@
 pub mod backend;
 pub mod bench;
 pub mod builder;
+pub mod checkpoint;
 pub mod error;
 pub mod guard;
 pub mod materials;

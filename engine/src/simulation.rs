@@ -36,6 +36,9 @@ pub struct Simulation {
     backend: Option<(PlanKey, CpuBackend)>,
 }
 
+/// Steps between the unbalanced-force checks of a tolerance balance.
+const TOLERANCE_CHUNK: u64 = 100;
+
 /// What a prepared plan depends on.
 type PlanKey = (u64, crate::model::Settings);
 
@@ -107,27 +110,56 @@ impl Simulation {
 
     /// MatDEM's `balance`: lets the model settle under the current loads.
     pub fn balance(&mut self, how: Balance, ctl: &RunControl, progress: &mut dyn FnMut(u64)) -> Result<RunReport> {
-        let steps = match how {
-            Balance::Steps(n) => n,
-            Balance::Standard { rounds } => (self.standard_balance_steps() as f64 * rounds).ceil() as u64,
+        self.balance_from(how, 0, ctl, progress)
+    }
+
+    /// Continues a balance that had run `done` steps when it was cancelled, so that the
+    /// steps and checks that follow are those the uncancelled balance would have made. A
+    /// cancellation reports the steps done in the whole balance, earlier ones included.
+    pub fn balance_from(
+        &mut self,
+        how: Balance,
+        done: u64,
+        ctl: &RunControl,
+        progress: &mut dyn FnMut(u64),
+    ) -> Result<RunReport> {
+        let shift = |e: Error, base: u64| match e {
+            Error::Cancelled { completed_steps } => Error::Cancelled { completed_steps: base + completed_steps },
+            other => other,
+        };
+        match how {
+            Balance::Steps(n) => {
+                let rest = n.saturating_sub(done);
+                self.run(rest, ctl, &mut |k| progress(done + k)).map_err(|e| shift(e, done))?;
+                Ok(RunReport { steps: n, unbalanced_ratio: Some(self.contact_stats().unbalanced_ratio) })
+            }
+            Balance::Standard { rounds } => {
+                let steps = (self.standard_balance_steps() as f64 * rounds).ceil() as u64;
+                self.balance_from(Balance::Steps(steps), done, ctl, progress)
+            }
             Balance::Tolerance { ratio, max_steps } => {
-                let mut done = 0;
+                let mut done = done;
+                // Cancelled exactly at the end of a chunk, its check is still due.
+                let check_due = done > 0 && (done % TOLERANCE_CHUNK == 0 || done == max_steps);
+                if check_due {
+                    let r = self.contact_stats().unbalanced_ratio;
+                    if r < ratio || done >= max_steps {
+                        return Ok(RunReport { steps: done, unbalanced_ratio: Some(r) });
+                    }
+                }
                 while done < max_steps {
-                    let chunk = 100.min(max_steps - done);
+                    let chunk = (TOLERANCE_CHUNK - done % TOLERANCE_CHUNK).min(max_steps - done);
                     let offset = done;
-                    self.run(chunk, ctl, &mut |k| progress(offset + k))?;
+                    self.run(chunk, ctl, &mut |k| progress(offset + k)).map_err(|e| shift(e, offset))?;
                     done += chunk;
                     let r = self.contact_stats().unbalanced_ratio;
                     if r < ratio {
                         return Ok(RunReport { steps: done, unbalanced_ratio: Some(r) });
                     }
                 }
-                return Ok(RunReport { steps: done, unbalanced_ratio: Some(self.contact_stats().unbalanced_ratio) });
+                Ok(RunReport { steps: done, unbalanced_ratio: Some(self.contact_stats().unbalanced_ratio) })
             }
-        };
-        let mut rep = self.run(steps, ctl, progress)?;
-        rep.unbalanced_ratio = Some(self.contact_stats().unbalanced_ratio);
-        Ok(rep)
+        }
     }
 
     /// Steps of one standard balance: 50 per element along the longest side (at least 500).

@@ -20,6 +20,10 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 None => m.push((name.to_string(), value)),
             }
         }
+        // A resumed run's replay keeps the values but leaves the file as it was written.
+        if host.replaying() {
+            return Ok(());
+        }
         // Rewritten whole at each report, so an interrupted run keeps what it reported.
         let path = host.out_path(METRICS_FILE)?;
         let text = to_csv(&metrics.borrow());

@@ -4,6 +4,7 @@
 //! the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
 pub mod box_builder;
+pub mod checkpoint;
 pub mod field;
 pub mod materials;
 pub mod metrics;
@@ -11,10 +12,12 @@ pub mod model;
 pub mod plot;
 pub mod table;
 
-use rhai::{Engine, EvalAltResult};
+use crate::resume::{Entry, Session, Value};
+use model::{ModelData, ModelHandle};
+use rhai::{Dynamic, Engine, EvalAltResult};
 use std::cell::RefCell;
 use std::path::{Component, Path, PathBuf};
-use std::rc::Rc;
+use std::rc::{Rc, Weak};
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
 
@@ -42,6 +45,12 @@ pub struct Host {
     pub control: matdem_engine::backend::RunControl,
     /// Files written so far, for the summary.
     pub written: RefCell<Vec<PathBuf>>,
+    /// The script's own folder: `load_model` and other reads look here after the output folder.
+    pub script_dir: PathBuf,
+    /// Every model the script created, by creation number (a resume restores them by it).
+    pub models: RefCell<Vec<Weak<RefCell<ModelData>>>>,
+    /// The journal of what the script saw, and the replay state of a resumed run.
+    pub session: RefCell<Session>,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -56,24 +65,84 @@ impl Host {
             plan_only: false,
             control: Default::default(),
             written: RefCell::new(Vec::new()),
+            script_dir: PathBuf::from("."),
+            models: RefCell::new(Vec::new()),
+            session: RefCell::new(Session::default()),
         }
     }
 
-    /// Resolves a relative output name inside the output folder; refuses anything that
-    /// could land outside it.
-    pub fn out_path(&self, name: &str) -> RhaiResult<PathBuf> {
+    /// Refuses names that could reach outside a folder: absolute, empty, or with `..`.
+    fn contained<'a>(name: &'a str, what: &str, allowed: &str) -> RhaiResult<&'a Path> {
         let p = Path::new(name);
         let outside = p.is_absolute()
             || name.is_empty()
             || p.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
         if outside {
             return Err(err(format!(
-                "output path `{name}` is outside the allowed folders: give a relative name without `..`; \
-                 it is written under the run's output folder {}",
-                self.out_dir.display()
+                "{what} path `{name}` is outside the allowed folders: give a relative name without `..`; {allowed}"
             )));
         }
-        Ok(self.out_dir.join(p))
+        Ok(p)
+    }
+
+    /// Resolves a file a script reads (a checkpoint for `load_model`): the run's output
+    /// folder first, then the script's own folder. The only place reads are resolved.
+    pub fn in_path(&self, name: &str) -> RhaiResult<PathBuf> {
+        let allowed = format!(
+            "it is read from the run's output folder {} or the script's folder {}",
+            self.out_dir.display(),
+            self.script_dir.display()
+        );
+        let p = Self::contained(name, "input", &allowed)?;
+        let candidates = [self.out_dir.join(p), self.script_dir.join(p)];
+        candidates.iter().find(|c| c.is_file()).cloned().ok_or_else(|| {
+            err(format!(
+                "no file `{name}`: looked for {} and {}; save it first (d.save) or put it beside the script",
+                candidates[0].display(),
+                candidates[1].display()
+            ))
+        })
+    }
+
+    /// Gives a new model to the script under the next creation number.
+    pub fn adopt(&self, name: &str, model: matdem_engine::Model) -> ModelHandle {
+        let mut models = self.models.borrow_mut();
+        let handle = ModelHandle::new(name, model, models.len());
+        models.push(Rc::downgrade(&handle.0));
+        handle
+    }
+
+    /// Whether a resumed run is still replaying the part that ran before the interruption.
+    pub fn replaying(&self) -> bool {
+        self.session.borrow().replaying()
+    }
+
+    /// Runs `f`, a call that lets the script see the simulation or writes a file, and
+    /// journals what it gave; while replaying, gives back the journaled value instead and
+    /// runs nothing (see [`crate::resume`]).
+    pub fn observe(&self, call: &str, f: impl FnOnce() -> RhaiResult<Dynamic>) -> RhaiResult<Dynamic> {
+        if self.replaying() {
+            return self.session.borrow_mut().next(call)?.to_dynamic();
+        }
+        let result = f();
+        let value = match &result {
+            Ok(v) => Value::from_dynamic(v).ok_or_else(|| {
+                err(format!(
+                    "internal error: `{call}` returned a {} that the resume journal cannot hold; please report this bug",
+                    v.type_name()
+                ))
+            })?,
+            Err(e) => Value::Error(error_message(e)),
+        };
+        self.session.borrow_mut().entries.push(Entry { call: call.to_string(), value });
+        result
+    }
+
+    /// Resolves a relative output name inside the output folder; refuses anything that
+    /// could land outside it. The only place writes are resolved.
+    pub fn out_path(&self, name: &str) -> RhaiResult<PathBuf> {
+        let allowed = format!("it is written under the run's output folder {}", self.out_dir.display());
+        Ok(self.out_dir.join(Self::contained(name, "output", &allowed)?))
     }
 
     pub fn note_written(&self, paths: impl IntoIterator<Item = PathBuf>) {
@@ -81,14 +150,18 @@ impl Host {
     }
 }
 
-/// Writes bytes atomically: a temporary file beside the target, then a rename.
+/// Writes an output file atomically (see [`crate::atomic`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
+    crate::atomic::write(path, bytes)
+}
+
+/// The message of a script error without Rhai's position (Rhai adds the position again
+/// where the journaled error is given back).
+fn error_message(e: &EvalAltResult) -> String {
+    match e {
+        EvalAltResult::ErrorRuntime(v, _) => v.to_string(),
+        other => other.to_string(),
     }
-    let tmp = path.with_extension(format!("{}.tmp", path.extension().and_then(|e| e.to_str()).unwrap_or("")));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
 }
 
 /// Registers the whole script API.
@@ -98,6 +171,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     materials::register(engine);
     metrics::register(engine, host.clone());
     model::register(engine, host.clone());
-    box_builder::register(engine);
+    checkpoint::register(engine, host.clone());
+    box_builder::register(engine, host.clone());
     plot::register(engine, host);
 }

@@ -4,11 +4,12 @@
 use super::field::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table};
 use super::{err, raise, Host, RhaiResult, PLAN_DONE};
+use crate::resume::{self, SavedBalance, INTERRUPTED};
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;
 use matdem_engine::status::{contact_loads, porosity, Region};
 use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
-use rhai::{Array, Dynamic, Engine, Map, FLOAT, INT};
+use rhai::{Array, Dynamic, Engine, EvalAltResult, Map, FLOAT, INT};
 use std::cell::{RefCell, RefMut};
 use std::rc::Rc;
 
@@ -16,6 +17,8 @@ pub struct ModelData {
     pub name: String,
     pub sim: Simulation,
     pub status: Table,
+    /// Creation number within the run (see [`Host::adopt`]).
+    pub number: usize,
     plan_printed: bool,
 }
 
@@ -24,11 +27,13 @@ pub struct ModelData {
 pub struct ModelHandle(pub Rc<RefCell<ModelData>>);
 
 impl ModelHandle {
-    pub fn new(name: &str, model: Model) -> Self {
+    /// A handle for model number `number`; scripts get theirs through [`Host::adopt`].
+    pub fn new(name: &str, model: Model, number: usize) -> Self {
         ModelHandle(Rc::new(RefCell::new(ModelData {
             name: name.to_string(),
             sim: Simulation::new(model),
             status: Table::default(),
+            number,
             plan_printed: false,
         })))
     }
@@ -100,10 +105,14 @@ fn positive(name: &str, v: f64) -> RhaiResult<f64> {
     }
 }
 
-/// Runs `steps` steps with progress and cancellation; in plan mode prints the plan instead.
-fn run_steps(host: &Host, d: &ModelHandle, how: Balance) -> RhaiResult<Map> {
-    let mut data = d.data();
+/// Runs or balances the model (`call` names the script function), with progress and
+/// cancellation; in plan mode prints the plan instead. Journaled like every observation: a
+/// resumed run gives back what the call returned, and at the interrupted call restores the
+/// models and runs the rest of its steps. Cancelled, it writes the resume folder and ends
+/// the script.
+fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResult<Dynamic> {
     if host.plan_only {
+        let mut data = d.data();
         if !data.plan_printed {
             let plan = data.sim.plan().to_string();
             println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
@@ -111,45 +120,108 @@ fn run_steps(host: &Host, d: &ModelHandle, how: Balance) -> RhaiResult<Map> {
         }
         return Err(err(PLAN_DONE));
     }
-    let total = match how {
-        Balance::Steps(n) => n,
-        Balance::Standard { rounds } => (data.sim.standard_balance_steps() as f64 * rounds).ceil() as u64,
-        Balance::Tolerance { max_steps, .. } => max_steps,
-    };
-    let bar = (host.progress && total >= 2000).then(|| {
-        let b = indicatif::ProgressBar::new(total);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {eta} left")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        );
-        b.set_message(format!("{}: balance", data.name));
-        b
-    });
-    let mut progress = |k: u64| {
-        if let Some(b) = &bar {
-            b.set_position(k);
+    let (how, done) = {
+        let s = host.session.borrow();
+        match &s.pending {
+            Some(p) if s.cursor == p.interrupted.index => {
+                drop(s);
+                resume::restore(host, call)?
+            }
+            _ if s.replaying() => {
+                drop(s);
+                return host.observe(call, || unreachable_in_replay(call));
+            }
+            _ => {
+                drop(s);
+                // A standard balance becomes its step count now, so a resume runs the same count.
+                let how = match how {
+                    Balance::Standard { rounds } => {
+                        Balance::Steps((d.data().sim.standard_balance_steps() as f64 * rounds).ceil() as u64)
+                    }
+                    other => other,
+                };
+                (how, 0)
+            }
         }
     };
-    let rep = data.sim.balance(how, &host.control, &mut progress).map_err(raise);
-    if let Some(b) = bar {
-        b.finish_and_clear();
+    let mut cancelled = None;
+    let result = host.observe(call, || {
+        let mut data = d.data();
+        let total = match how {
+            Balance::Steps(n) => n,
+            Balance::Standard { rounds } => (data.sim.standard_balance_steps() as f64 * rounds).ceil() as u64,
+            Balance::Tolerance { max_steps, .. } => max_steps,
+        };
+        let bar = (host.progress && total >= 2000).then(|| {
+            let b = indicatif::ProgressBar::new(total);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {eta} left")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            b.set_message(format!("{}: balance", data.name));
+            b.set_position(done);
+            b
+        });
+        let mut progress = |k: u64| {
+            if let Some(b) = &bar {
+                b.set_position(k);
+            }
+        };
+        let rep = data.sim.balance_from(how, done, &host.control, &mut progress);
+        if let Some(b) = bar {
+            b.finish_and_clear();
+        }
+        let rep = match rep {
+            Err(matdem_engine::Error::Cancelled { completed_steps }) => {
+                cancelled = Some(completed_steps);
+                return Err(err(INTERRUPTED));
+            }
+            other => other.map_err(raise)?,
+        };
+        let mut map = Map::new();
+        map.insert("steps".into(), (rep.steps as INT).into());
+        if let Some(r) = rep.unbalanced_ratio {
+            map.insert("unbalanced_ratio".into(), r.into());
+        }
+        Ok(Dynamic::from_map(map))
+    });
+    if let Some(completed) = cancelled {
+        // The journal must end before this call: take back the entry `observe` made for it.
+        host.session.borrow_mut().entries.pop();
+        let saved = SavedBalance::from_balance(how).expect("standard balances were turned into steps above");
+        let dir = resume::write_resume(host, call, saved, completed).map_err(err)?;
+        let name = d.data().name.clone();
+        eprintln!(
+            "interrupted: `{name}` stopped after {completed} step(s) of its {call}; resume data in {}",
+            dir.display()
+        );
+        return Err(Box::new(EvalAltResult::ErrorTerminated(INTERRUPTED.into(), rhai::Position::NONE)));
     }
-    let rep = rep?;
-    let mut map = Map::new();
-    map.insert("steps".into(), (rep.steps as INT).into());
-    if let Some(r) = rep.unbalanced_ratio {
-        map.insert("unbalanced_ratio".into(), r.into());
-    }
-    Ok(map)
+    result
+}
+
+/// A replayed run call never runs: `observe` answers it from the journal.
+fn unreachable_in_replay(call: &str) -> RhaiResult<Dynamic> {
+    Err(err(format!("internal error: `{call}` ran while replaying; please report this bug")))
 }
 
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<ModelHandle>("Model");
+    // A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
+    // replays the script with these answers. `$body` may use `?`.
+    macro_rules! observed {
+        ($call:literal, |$d:ident $(, $a:ident : $t:ty)*| $body:expr) => {{
+            let h = host.clone();
+            move |$d: &mut ModelHandle $(, $a: $t)*| -> RhaiResult<Dynamic> {
+                h.observe($call, || Ok(Dynamic::from($body)))
+            }
+        }};
+    }
     // Whole-array lanes (a sync point on the GPU later).
     macro_rules! lane_get {
         ($name:literal, $f:expr) => {
-            engine.register_get($name, |d: &mut ModelHandle| lane(d, $f));
+            engine.register_get($name, observed!($name, |d| lane(d, $f)));
         };
     }
     lane_get!("x", |m, i| m.particles.pos[i].x);
@@ -169,15 +241,18 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     lane_get!("mass", |m, i| m.particles.mass[i]);
     lane_get!("material", |m, i| m.particles.material[i] as f64);
     engine
-        .register_get("contact_load", |d: &mut ModelHandle| {
-            let mut data = d.data();
-            let plan = data.sim.plan().clone();
-            Field::new(contact_loads(&data.sim.model, &plan))
-        })
+        .register_get(
+            "contact_load",
+            observed!("contact_load", |d| {
+                let mut data = d.data();
+                let plan = data.sim.plan().clone();
+                Field::new(contact_loads(&data.sim.model, &plan))
+            }),
+        )
         .register_get("n", |d: &mut ModelHandle| d.model().len() as INT)
         .register_get("name", |d: &mut ModelHandle| d.data().name.clone())
-        .register_get("time", |d: &mut ModelHandle| d.model().clock.time)
-        .register_get("step", |d: &mut ModelHandle| d.model().clock.step as INT)
+        .register_get("time", observed!("time", |d| d.model().clock.time))
+        .register_get("step", observed!("step", |d| d.model().clock.step as INT))
         .register_get("dt", |d: &mut ModelHandle| d.model().clock.dt)
         .register_set("dt", |d: &mut ModelHandle, dt: FLOAT| d.model().set_dt(dt).map_err(raise))
         .register_fn("set_standard_dt", |d: &mut ModelHandle| d.model().set_standard_dt().map_err(raise))
@@ -290,18 +365,24 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             m.remove_particles(&ids).map_err(raise)?;
             Ok(ids.len() as INT)
         })
-        .register_fn("connect", |d: &mut ModelHandle, sel: Dynamic, tol: FLOAT| -> RhaiResult<INT> {
-            let mut m = d.model();
-            let ids = resolve_ids(&m, &sel)?;
-            m.connect(Some(&ids), tol).map(|n| n as INT).map_err(raise)
-        })
-        .register_fn("break_bonds", |d: &mut ModelHandle, sel: Dynamic| -> RhaiResult<INT> {
-            let mut m = d.model();
-            let ids = resolve_ids(&m, &sel)?;
-            m.break_bonds(Some(&ids)).map(|n| n as INT).map_err(raise)
-        })
-        .register_get("bonds", |d: &mut ModelHandle| d.model().bond_count() as INT)
-        .register_get("broken_bonds", |d: &mut ModelHandle| d.model().breakages.len() as INT);
+        .register_fn(
+            "connect",
+            observed!("connect", |d, sel: Dynamic, tol: FLOAT| {
+                let mut m = d.model();
+                let ids = resolve_ids(&m, &sel)?;
+                m.connect(Some(&ids), tol).map_err(raise)? as INT
+            }),
+        )
+        .register_fn(
+            "break_bonds",
+            observed!("break_bonds", |d, sel: Dynamic| {
+                let mut m = d.model();
+                let ids = resolve_ids(&m, &sel)?;
+                m.break_bonds(Some(&ids)).map_err(raise)? as INT
+            }),
+        )
+        .register_get("bonds", observed!("bonds", |d| d.model().bond_count() as INT))
+        .register_get("broken_bonds", observed!("broken_bonds", |d| d.model().breakages.len() as INT));
 
     // Boundaries.
     engine
@@ -339,22 +420,25 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_fn("set_platen_stress", |d: &mut ModelHandle, name: &str, stress: FLOAT, max_speed: FLOAT| {
             set_servo(d, name, stress, Some(max_speed))
         })
-        .register_fn("boundary", |d: &mut ModelHandle, name: &str| -> RhaiResult<Map> {
-            let m = d.model();
-            let w = &m.walls[m.wall_index(name).map_err(raise)?];
-            let mut map = Map::new();
-            let v3 = |v: Vec3| vec![Dynamic::from_float(v.x), Dynamic::from_float(v.y), Dynamic::from_float(v.z)];
-            map.insert("stress".into(), w.stress().into());
-            map.insert("force".into(), v3(w.force).into());
-            map.insert("displacement".into(), v3(w.displacement).into());
-            map.insert("contacts".into(), (w.contacts as INT).into());
-            let pos = match &w.shape {
-                matdem_engine::WallShape::Plane { point, .. } => v3(*point),
-                matdem_engine::WallShape::Cylinder { radius, .. } => vec![Dynamic::from_float(*radius)],
-            };
-            map.insert("position".into(), pos.into());
-            Ok(map)
-        })
+        .register_fn(
+            "boundary",
+            observed!("boundary", |d, name: &str| {
+                let m = d.model();
+                let w = &m.walls[m.wall_index(name).map_err(raise)?];
+                let mut map = Map::new();
+                let v3 = |v: Vec3| vec![Dynamic::from_float(v.x), Dynamic::from_float(v.y), Dynamic::from_float(v.z)];
+                map.insert("stress".into(), w.stress().into());
+                map.insert("force".into(), v3(w.force).into());
+                map.insert("displacement".into(), v3(w.displacement).into());
+                map.insert("contacts".into(), (w.contacts as INT).into());
+                let pos = match &w.shape {
+                    matdem_engine::WallShape::Plane { point, .. } => v3(*point),
+                    matdem_engine::WallShape::Cylinder { radius, .. } => vec![Dynamic::from_float(*radius)],
+                };
+                map.insert("position".into(), pos.into());
+                map
+            }),
+        )
         .register_get("boundaries", |d: &mut ModelHandle| {
             d.model().walls.iter().map(|w| Dynamic::from(w.name.clone())).collect::<Array>()
         });
@@ -365,20 +449,22 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         if steps < 0 {
             return Err(err(format!("steps must be ≥ 0, got {steps}")));
         }
-        run_steps(&h, d, Balance::Steps(steps as u64))
+        run_steps(&h, d, "run", Balance::Steps(steps as u64))
     });
     let h = host.clone();
-    engine.register_fn("balance", move |d: &mut ModelHandle| run_steps(&h, d, Balance::Standard { rounds: 1.0 }));
+    engine.register_fn("balance", move |d: &mut ModelHandle| {
+        run_steps(&h, d, "balance", Balance::Standard { rounds: 1.0 })
+    });
     let h = host.clone();
     engine.register_fn("balance", move |d: &mut ModelHandle, how: Dynamic| {
         let mode = balance_mode(&how, 1.0)?;
-        run_steps(&h, d, mode)
+        run_steps(&h, d, "balance", mode)
     });
     let h = host.clone();
     engine.register_fn("balance", move |d: &mut ModelHandle, how: &str, rounds: Dynamic| {
         let rounds = number(&rounds).ok_or_else(|| err("balance: rounds must be a number"))?;
         let mode = balance_mode(&Dynamic::from(how.to_string()), rounds)?;
-        run_steps(&h, d, mode)
+        run_steps(&h, d, "balance", mode)
     });
     let h = host.clone();
     engine.register_fn("balance_until", move |d: &mut ModelHandle, ratio: FLOAT, max_steps: INT| {
@@ -386,57 +472,87 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         if max_steps <= 0 {
             return Err(err("balance_until: max_steps must be > 0"));
         }
-        run_steps(&h, d, Balance::Tolerance { ratio, max_steps: max_steps as u64 })
+        run_steps(&h, d, "balance_until", Balance::Tolerance { ratio, max_steps: max_steps as u64 })
     });
 
     // Observation.
     engine
-        .register_fn("record", |d: &mut ModelHandle| record(d, &Map::new()))
-        .register_fn("record", |d: &mut ModelHandle, extra: Map| record(d, &extra))
-        .register_get("status", |d: &mut ModelHandle| d.data().status.clone())
-        .register_fn("energies", |d: &mut ModelHandle| {
-            let e = d.data().sim.energies();
-            let mut map = Map::new();
-            for (k, v) in [
-                ("kinetic", e.kinetic),
-                ("normal_elastic", e.normal_elastic),
-                ("shear_elastic", e.shear_elastic),
-                ("gravity", e.gravity),
-                ("heat_damping", e.heat_damping),
-                ("heat_contact_damping", e.heat_contact_damping),
-                ("heat_friction", e.heat_friction),
-                ("heat_breakage", e.heat_breakage),
-                ("wall_work", e.wall_work),
-                ("total", e.total()),
-            ] {
-                map.insert(k.into(), v.into());
+        .register_fn("record", {
+            let h = host.clone();
+            move |d: &mut ModelHandle| {
+                push_recorded(d, h.observe("record", || record(d, &Map::new()).map(Dynamic::from))?)
             }
-            map
         })
-        .register_fn("coordination_number", |d: &mut ModelHandle| d.data().sim.contact_stats().coordination)
-        .register_fn("mean_contact_force", |d: &mut ModelHandle| d.data().sim.contact_stats().mean_normal_force)
-        .register_fn("unbalanced_ratio", |d: &mut ModelHandle| d.data().sim.contact_stats().unbalanced_ratio)
-        .register_fn("porosity_cylinder", |d: &mut ModelHandle, radius: FLOAT, z0: FLOAT, z1: FLOAT| {
-            let m = d.model();
-            porosity(&m, &Region::Cylinder { center: Vec3::zeros(), radius, z0, z1 })
+        .register_fn("record", {
+            let h = host.clone();
+            move |d: &mut ModelHandle, extra: Map| {
+                push_recorded(d, h.observe("record", || record(d, &extra).map(Dynamic::from))?)
+            }
         })
-        .register_fn("porosity_box", |d: &mut ModelHandle, lo: Array, hi: Array| -> RhaiResult<f64> {
-            let (lo, hi) = (vec3(&Dynamic::from_array(lo), "lo")?, vec3(&Dynamic::from_array(hi), "hi")?);
-            Ok(porosity(&d.model(), &Region::Box { lo, hi }))
-        })
-        .register_fn("to_string", |d: &mut ModelHandle| {
-            let data = d.data();
-            let m = &data.sim.model;
-            format!(
-                "Model `{}`: {} particles, {} walls, step {}, t = {:.4e} s, dt = {:.3e} s",
-                data.name,
-                m.len(),
-                m.walls.len(),
-                m.clock.step,
-                m.clock.time,
-                m.clock.dt
-            )
-        });
+        .register_get("status", |d: &mut ModelHandle| d.data().status.clone())
+        .register_fn(
+            "energies",
+            observed!("energies", |d| {
+                let e = d.data().sim.energies();
+                let mut map = Map::new();
+                for (k, v) in [
+                    ("kinetic", e.kinetic),
+                    ("normal_elastic", e.normal_elastic),
+                    ("shear_elastic", e.shear_elastic),
+                    ("gravity", e.gravity),
+                    ("heat_damping", e.heat_damping),
+                    ("heat_contact_damping", e.heat_contact_damping),
+                    ("heat_friction", e.heat_friction),
+                    ("heat_breakage", e.heat_breakage),
+                    ("wall_work", e.wall_work),
+                    ("total", e.total()),
+                ] {
+                    map.insert(k.into(), v.into());
+                }
+                map
+            }),
+        )
+        .register_fn(
+            "coordination_number",
+            observed!("coordination_number", |d| d.data().sim.contact_stats().coordination),
+        )
+        .register_fn(
+            "mean_contact_force",
+            observed!("mean_contact_force", |d| d.data().sim.contact_stats().mean_normal_force),
+        )
+        .register_fn(
+            "unbalanced_ratio",
+            observed!("unbalanced_ratio", |d| d.data().sim.contact_stats().unbalanced_ratio),
+        )
+        .register_fn(
+            "porosity_cylinder",
+            observed!("porosity_cylinder", |d, radius: FLOAT, z0: FLOAT, z1: FLOAT| {
+                porosity(&d.model(), &Region::Cylinder { center: Vec3::zeros(), radius, z0, z1 })
+            }),
+        )
+        .register_fn(
+            "porosity_box",
+            observed!("porosity_box", |d, lo: Array, hi: Array| {
+                let (lo, hi) = (vec3(&Dynamic::from_array(lo), "lo")?, vec3(&Dynamic::from_array(hi), "hi")?);
+                porosity(&d.model(), &Region::Box { lo, hi })
+            }),
+        )
+        .register_fn(
+            "to_string",
+            observed!("to_string", |d| {
+                let data = d.data();
+                let m = &data.sim.model;
+                format!(
+                    "Model `{}`: {} particles, {} walls, step {}, t = {:.4e} s, dt = {:.3e} s",
+                    data.name,
+                    m.len(),
+                    m.walls.len(),
+                    m.clock.step,
+                    m.clock.time,
+                    m.clock.dt
+                )
+            }),
+        );
 }
 
 fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -> RhaiResult<()> {
@@ -474,8 +590,10 @@ fn balance_mode(how: &Dynamic, rounds: f64) -> RhaiResult<Balance> {
     }
 }
 
-/// Appends a row to `d.status`: the standard quantities plus the script's own.
-fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<()> {
+/// Appends a row to `d.status`: the standard quantities plus the script's own. Returns the
+/// row as `[name, value]` pairs (in column order) for the journal; a replay appends the
+/// journaled row instead (see [`push_recorded`]).
+fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
     let extra = row_from_map(extra)?;
     let mut data = d.data();
     let stats = data.sim.contact_stats();
@@ -497,6 +615,22 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<()> {
         row.push((format!("{}_stress", w.name), w.stress()));
     }
     row.extend(extra);
-    data.status.0.borrow_mut().push(&row);
+    Ok(row.into_iter().map(|(k, v)| Dynamic::from_array(vec![k.into(), v.into()])).collect())
+}
+
+/// Appends a row given as `[name, value]` pairs to `d.status`.
+fn push_recorded(d: &ModelHandle, row: Dynamic) -> RhaiResult<()> {
+    let pairs = row.try_cast::<Array>().ok_or_else(|| err("internal error: a record row is not an array"))?;
+    let row = pairs
+        .into_iter()
+        .map(|p| {
+            let p = p.try_cast::<Array>().unwrap_or_default();
+            match (p.first().and_then(|k| k.clone().into_string().ok()), p.get(1).and_then(|v| v.as_float().ok())) {
+                (Some(k), Some(v)) => Ok((k, v)),
+                _ => Err(err("internal error: a record row entry is not [name, value]")),
+            }
+        })
+        .collect::<RhaiResult<Vec<_>>>()?;
+    d.data().status.0.borrow_mut().push(&row);
     Ok(())
 }

@@ -15,15 +15,19 @@ use std::rc::Rc;
 #[derive(Clone)]
 pub struct Chart(pub Rc<RefCell<LineChart>>);
 
+/// Renders and writes a figure; journaled, so a resumed run neither redraws nor rewrites
+/// the figures finished before its interruption.
 fn save_figure(
     host: &Host,
     name: &str,
     save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>,
-) -> RhaiResult<rhai::Array> {
-    let path = host.out_path(name)?;
-    let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
-    host.note_written(written.iter().cloned());
-    Ok(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect())
+) -> RhaiResult<Dynamic> {
+    host.observe("save_figure", || {
+        let path = host.out_path(name)?;
+        let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
+        host.note_written(written.iter().cloned());
+        Ok(Dynamic::from_array(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect()))
+    })
 }
 
 /// The values of a named per-particle field for pictures.

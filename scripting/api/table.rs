@@ -95,11 +95,14 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 d.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(", ")
             )
         });
-    engine.register_fn("save", move |t: &mut Table, name: &str| -> RhaiResult<String> {
-        let path = host.out_path(name)?;
-        write_atomic(&path, t.0.borrow().to_csv().as_bytes())
-            .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
-        host.note_written([path.clone()]);
-        Ok(path.display().to_string())
+    // Journaled: a resumed run does not rewrite the tables finished before its interruption.
+    engine.register_fn("save", move |t: &mut Table, name: &str| -> RhaiResult<Dynamic> {
+        host.observe("save_table", || {
+            let path = host.out_path(name)?;
+            write_atomic(&path, t.0.borrow().to_csv().as_bytes())
+                .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+            host.note_written([path.clone()]);
+            Ok(Dynamic::from(path.display().to_string()))
+        })
     });
 }

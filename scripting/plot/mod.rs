@@ -16,10 +16,7 @@ pub mod chart;
 pub mod picture;
 mod style;
 
-use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use chart::{LineChart, Series};
 pub use picture::ParticlePicture;
@@ -66,39 +63,10 @@ pub(crate) fn draw_err(e: impl std::fmt::Display) -> PlotError {
     PlotError::Draw(e.to_string())
 }
 
-/// Writes `bytes` to `path` so that readers never see a partial file: the
-/// data goes to a temporary file in the same folder, is flushed to disk, and
-/// is then renamed over `path`. Missing parent folders are created. On error
-/// the temporary file is removed.
+/// Writes a figure through [`crate::atomic::write`] (temporary file, then rename), naming
+/// the path when it fails.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let io_err = |source| PlotError::Io { path: path.to_path_buf(), source };
-    let name = path.file_name().ok_or_else(|| {
-        io_err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"))
-    })?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    fs::create_dir_all(&dir).map_err(io_err)?;
-
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".{}-{}.tmp", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
-    let tmp = dir.join(tmp_name);
-
-    let result = (|| {
-        let mut file = fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        drop(file);
-        fs::rename(&tmp, path)
-    })();
-    if let Err(source) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(io_err(source));
-    }
-    Ok(())
+    crate::atomic::write(path, bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
 }
 
 /// Shared body of every figure's `save`: `.svg` writes SVG, `.png` writes PNG,
@@ -196,17 +164,7 @@ pub(crate) mod test_util {
 mod tests {
     use super::test_util::TempDir;
     use super::*;
-
-    #[test]
-    fn write_atomic_creates_parent_folders_and_leaves_no_temp_file() {
-        let tmp = TempDir::new("atomic");
-        let path = tmp.0.join("a/b/out.txt");
-        write_atomic(&path, b"first").unwrap();
-        write_atomic(&path, b"second").unwrap();
-        assert_eq!(fs::read(&path).unwrap(), b"second");
-        let names: Vec<_> = fs::read_dir(tmp.0.join("a/b")).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert_eq!(names, vec![std::ffi::OsString::from("out.txt")]);
-    }
+    use std::fs;
 
     #[test]
     fn write_atomic_reports_the_path_when_it_cannot_write() {

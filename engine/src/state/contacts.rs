@@ -22,19 +22,16 @@ pub struct Contacts {
     /// Pair id of each row entry, aligned with `other`: both entries of a pair share it.
     /// Pairs are numbered by (lower id, higher id), so particle `i` owns the pairs
     /// `pair_start[i]..pair_start[i + 1]`, those with its higher-id neighbours, which end
-    /// its row. Derived by the rebuild (not saved): a force pass evaluates each pair once.
-    #[serde(skip)]
+    /// its row. Derived by the rebuild; saved with checkpoints all the same, so a loaded model
+    /// keeps the rows it had and continues bit for bit instead of rebuilding early.
     pub pair: Vec<u32>,
-    #[serde(skip)]
     pub pair_start: Vec<u32>,
     /// Walls each particle may touch before the next rebuild, as bits (wall `w` is bit `w`):
     /// those within reach when the mask was built, or whose contact state was still set.
-    /// The wall pass tests only these. Derived, not saved.
-    #[serde(skip)]
+    /// The wall pass tests only these. Derived, and saved for the same reason as `pair`.
     pub wall_near: Vec<u8>,
     /// The walls' shapes when `wall_near` was built; a wall that has moved half a skin
     /// since, or changed shape, makes the mask stale.
-    #[serde(skip)]
     pub walls_at_build: Vec<WallShape>,
     /// Positions when the rows were built; rows are rebuilt once any drift exceeds skin/2.
     pub built_at: Vec<Vec3>,
@@ -63,8 +60,7 @@ impl Contacts {
         self.other.len() / 2
     }
 
-    /// Whether the pair ids match the rows (false for rows loaded from a file, which the
-    /// next step rebuilds).
+    /// Whether the pair ids match the rows (false until the first rebuild).
     pub fn has_pair_ids(&self) -> bool {
         self.pair.len() == self.other.len() && self.pair_start.len() == self.row_start.len()
     }

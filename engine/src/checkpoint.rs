@@ -1,0 +1,189 @@
+//! Checkpoints: a model saved to bytes and read back, so a later run continues it bit for bit
+//! (MatDEM's build → cut/assign → test workflow across scripts, and `--resume`).
+//!
+//! Layout, all integers little-endian:
+//!
+//! | bytes | what |
+//! |---|---|
+//! | 8 | magic `MDEMCKPT` |
+//! | 4 | format version ([`FORMAT_VERSION`]) |
+//! | 8 | payload length n |
+//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex) |
+//! | 4 | CRC-32 (IEEE) of everything before it |
+//!
+//! The model is saved whole, derived rows included: positions, half-step velocities, forces,
+//! per-pair shear and bond state, wall contact states, walls with their servo state, groups,
+//! materials, settings, clock (time, step, dt), breakages and the heat ledger. The engine
+//! keeps no other state between steps and draws no random numbers while stepping (the box
+//! builder's generator is spent once the box is built), so a loaded model steps exactly as
+//! the saved one would have. The annex is the host's own data (its record tables), opaque here.
+//!
+//! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
+
+use crate::model::Model;
+use serde::{Deserialize, Serialize};
+
+/// The first bytes of every checkpoint.
+pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
+/// Bumped whenever the payload's layout changes; older files are refused, not misread.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER: usize = 8 + 4 + 8;
+const TRAILER: usize = 4;
+
+/// Why bytes are not a checkpoint this build can load. Messages say what is wrong and what to
+/// do; the host adds the file name.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CheckpointError {
+    #[error(
+        "not a matdem-rs checkpoint (it does not begin with the `MDEMCKPT` marker): give a file written by \
+         `d.save` (name.mdem)"
+    )]
+    NotACheckpoint,
+    #[error(
+        "checkpoint format version {found} is not supported (this build reads version {supported}): load it with \
+         the matdem-rs that wrote it, or re-create it with this one"
+    )]
+    UnsupportedVersion { found: u32, supported: u32 },
+    #[error(
+        "the checkpoint is truncated ({found} of {expected} bytes): the write was cut short or the copy is \
+         incomplete; use an intact copy or save the model again"
+    )]
+    Truncated { expected: u64, found: u64 },
+    #[error(
+        "the checkpoint is corrupt ({reason}): the file was changed or damaged after it was written; use an intact \
+         copy or save the model again"
+    )]
+    Corrupt { reason: String },
+    #[error(
+        "the checkpoint was written by matdem-engine {writer} and its model does not fit this build ({reason}): \
+         load it with that version, or re-create it with this one"
+    )]
+    Incompatible { writer: String, reason: String },
+}
+
+/// A loaded checkpoint: the model and the host's annex.
+#[derive(Debug, Clone)]
+pub struct Checkpoint {
+    pub model: Model,
+    pub annex: Vec<u8>,
+}
+
+#[derive(Serialize)]
+struct PayloadOut<'a> {
+    writer: &'a str,
+    model: &'a Model,
+    annex: &'a [u8],
+}
+
+#[derive(Deserialize)]
+struct PayloadIn {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+}
+
+/// The engine version stamped into checkpoints.
+pub const WRITER: &str = env!("CARGO_PKG_VERSION");
+
+/// Encodes `model` and the host's `annex` as checkpoint bytes.
+pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
+    let payload = postcard::to_stdvec(&PayloadOut { writer: WRITER, model, annex })
+        // NOTE: every type in the model serialises (no maps with non-string keys, no
+        // unsupported serde features), so a failure here is an engine bug, not a user error.
+        .expect("the model always serialises");
+    let mut out = Vec::with_capacity(HEADER + payload.len() + TRAILER);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&payload);
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// Decodes checkpoint bytes, refusing anything that is not an intact checkpoint of this
+/// format version.
+pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
+    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        return Err(CheckpointError::NotACheckpoint);
+    }
+    if bytes.len() < HEADER {
+        return Err(CheckpointError::Truncated { expected: (HEADER + TRAILER) as u64, found: bytes.len() as u64 });
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != FORMAT_VERSION {
+        return Err(CheckpointError::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
+    }
+    let len = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+    let expected = (HEADER as u64).saturating_add(len).saturating_add(TRAILER as u64);
+    let found = bytes.len() as u64;
+    if found < expected {
+        return Err(CheckpointError::Truncated { expected, found });
+    }
+    if found > expected {
+        return Err(CheckpointError::Corrupt {
+            reason: format!("{} unexpected byte(s) after its end", found - expected),
+        });
+    }
+    let body = HEADER + len as usize;
+    let stored = u32::from_le_bytes(bytes[body..].try_into().expect("4 bytes"));
+    let computed = crc32fast::hash(&bytes[..body]);
+    if stored != computed {
+        return Err(CheckpointError::Corrupt {
+            reason: format!("checksum {computed:08x} does not match the stored {stored:08x}"),
+        });
+    }
+    let payload = &bytes[HEADER..body];
+    let p: PayloadIn = postcard::from_bytes(payload).map_err(|e| {
+        // The writer's version leads the payload, so it can usually be read even when the
+        // model that follows cannot.
+        let writer = postcard::take_from_bytes::<String>(payload).map(|(w, _)| w).unwrap_or_else(|_| "?".into());
+        CheckpointError::Incompatible { writer, reason: e.to_string() }
+    })?;
+    check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
+    Ok(Checkpoint { model: p.model, annex: p.annex })
+}
+
+/// Lane lengths that must agree before the model is stepped (a well-formed but inconsistent
+/// payload would otherwise index out of bounds).
+fn check_consistent(m: &Model) -> Result<(), String> {
+    let p = &m.particles;
+    let n = p.len();
+    let lanes = [p.radius.len(), p.vel.len(), p.mass.len(), p.force.len(), p.material.len(), p.fixed.len()];
+    if lanes.iter().chain([&p.origin.len()]).any(|&l| l != n) {
+        return Err("particle lanes of different lengths".into());
+    }
+    let h = &p.heat;
+    if [h.damping.len(), h.contact_damping.len(), h.friction.len(), h.breakage.len(), h.wall_work.len()]
+        .iter()
+        .any(|&l| l != n)
+    {
+        return Err("heat ledger does not match the particles".into());
+    }
+    if let Some(rot) = &p.rotation {
+        if rot.ang_vel.len() != n || rot.torque.len() != n {
+            return Err("rotation lanes do not match the particles".into());
+        }
+    }
+    if p.material.iter().any(|&k| k as usize >= m.materials.len()) {
+        return Err("a particle refers to a missing material".into());
+    }
+    if m.wall_contacts.len() != n * m.walls.len() {
+        return Err("wall contact states do not match particles × walls".into());
+    }
+    let c = &m.contacts;
+    if !c.row_start.is_empty() {
+        let rows_ok = c.row_start.len() == n + 1
+            && c.row_start.windows(2).all(|w| w[0] <= w[1])
+            && c.row_start[n] as usize == c.other.len()
+            && c.state.len() == c.other.len()
+            && c.other.iter().all(|&j| (j as usize) < n);
+        if !rows_ok {
+            return Err("neighbour rows do not match the particles".into());
+        }
+    }
+    if c.has_pair_ids() && c.pair.iter().any(|&k| k as usize >= c.pair_count()) {
+        return Err("pair ids out of range".into());
+    }
+    Ok(())
+}

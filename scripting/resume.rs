@@ -1,0 +1,318 @@
+//! Interrupt and resume (`matdem-rs run SCRIPT --resume DIR`).
+//!
+//! A Rhai script cannot be frozen mid-way, so a resumed run *replays* it from the start.
+//! For the replay to follow the same path, every call that lets the script see the
+//! simulation — a run or balance and what it returned, a measured quantity, a lane such as
+//! `d.z`, a record row — is written to a journal as it happens. On Ctrl-C or SIGTERM the
+//! engine finishes its current chunk of steps, and the host writes, into `OUT/resume/`, a
+//! checkpoint of every live model and the journal (last, so its presence means the folder is
+//! whole), then exits with 130.
+//!
+//! On `--resume`, the script runs again with the same parameters; each journaled call
+//! returns what it returned the first time instead of touching the models, and output
+//! writes are skipped (those files were finished before the interruption). At the call that
+//! was interrupted, every model is restored from its checkpoint, the rest of that call's
+//! steps run, and from there on the script runs normally. The engine is deterministic on the
+//! CPU backend, so the final outputs equal those of an uninterrupted run bit for bit.
+
+use crate::api::field::{Field, Mask};
+use crate::api::Host;
+use matdem_engine::simulation::Balance;
+use rhai::{Array, Dynamic, EvalAltResult, Map};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// The folder under a run's output folder that holds what a resume needs.
+pub const RESUME_DIR: &str = "resume";
+const JOURNAL_FILE: &str = "journal.ron";
+
+/// Marker of the error that unwinds a script once the resume folder is written. Rhai's
+/// `try`/`catch` cannot catch a termination, so a script cannot swallow it.
+pub const INTERRUPTED: &str = "__matdem_interrupted__";
+
+/// A value a script saw, in a form that can be written down and given back bit for bit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Value {
+    Unit,
+    Bool(bool),
+    Int(i64),
+    /// Stored as bits: RON prints NaNs and infinities, but bits are exact by construction.
+    Float(u64),
+    Str(String),
+    Field(Vec<u64>),
+    Mask(Vec<bool>),
+    Array(Vec<Value>),
+    Map(Vec<(String, Value)>),
+    /// The call failed with this message (a script may catch it).
+    Error(String),
+}
+
+impl Value {
+    /// `None` for a type the journal does not know (a host bug: the caller says which call).
+    pub fn from_dynamic(v: &Dynamic) -> Option<Value> {
+        if v.is_unit() {
+            return Some(Value::Unit);
+        }
+        if let Ok(b) = v.as_bool() {
+            return Some(Value::Bool(b));
+        }
+        if let Ok(i) = v.as_int() {
+            return Some(Value::Int(i));
+        }
+        if let Ok(x) = v.as_float() {
+            return Some(Value::Float(x.to_bits()));
+        }
+        if let Some(s) = v.clone().try_cast::<rhai::ImmutableString>() {
+            return Some(Value::Str(s.to_string()));
+        }
+        if let Some(f) = v.clone().try_cast::<Field>() {
+            return Some(Value::Field(f.0.iter().map(|x| x.to_bits()).collect()));
+        }
+        if let Some(m) = v.clone().try_cast::<Mask>() {
+            return Some(Value::Mask(m.0.to_vec()));
+        }
+        if let Some(a) = v.clone().try_cast::<Array>() {
+            return a.iter().map(Value::from_dynamic).collect::<Option<Vec<_>>>().map(Value::Array);
+        }
+        if let Some(m) = v.clone().try_cast::<Map>() {
+            return m
+                .iter()
+                .map(|(k, v)| Value::from_dynamic(v).map(|v| (k.to_string(), v)))
+                .collect::<Option<Vec<_>>>()
+                .map(Value::Map);
+        }
+        None
+    }
+
+    pub fn to_dynamic(&self) -> Result<Dynamic, Box<EvalAltResult>> {
+        Ok(match self {
+            Value::Unit => Dynamic::UNIT,
+            Value::Bool(b) => Dynamic::from_bool(*b),
+            Value::Int(i) => Dynamic::from_int(*i),
+            Value::Float(bits) => Dynamic::from_float(f64::from_bits(*bits)),
+            Value::Str(s) => Dynamic::from(s.clone()),
+            Value::Field(v) => Dynamic::from(Field::new(v.iter().map(|b| f64::from_bits(*b)).collect())),
+            Value::Mask(v) => Dynamic::from(Mask(Rc::new(v.clone()))),
+            Value::Array(a) => Dynamic::from_array(a.iter().map(Value::to_dynamic).collect::<Result<_, _>>()?),
+            Value::Map(m) => {
+                let mut map = Map::new();
+                for (k, v) in m {
+                    map.insert(k.as_str().into(), v.to_dynamic()?);
+                }
+                Dynamic::from_map(map)
+            }
+            Value::Error(msg) => return Err(msg.clone().into()),
+        })
+    }
+}
+
+/// One observed call: its name and what it gave the script.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Entry {
+    pub call: String,
+    pub value: Value,
+}
+
+/// How far the interrupted run or balance had got.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Interrupted {
+    /// The call's name (`run`, `balance`, …) and its position in the journal.
+    pub call: String,
+    pub index: usize,
+    /// The run as the engine saw it (a standard balance already turned into its step count).
+    pub how: SavedBalance,
+    /// Steps it had completed.
+    pub done: u64,
+    /// Creation numbers of the models saved beside the journal (`model_<n>.mdem`).
+    pub models: Vec<usize>,
+}
+
+/// [`Balance`] in a form that can be saved.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum SavedBalance {
+    Steps(u64),
+    Tolerance { ratio_bits: u64, max_steps: u64 },
+}
+
+impl SavedBalance {
+    pub fn from_balance(b: Balance) -> Option<Self> {
+        match b {
+            Balance::Steps(n) => Some(SavedBalance::Steps(n)),
+            Balance::Tolerance { ratio, max_steps } => {
+                Some(SavedBalance::Tolerance { ratio_bits: ratio.to_bits(), max_steps })
+            }
+            Balance::Standard { .. } => None,
+        }
+    }
+
+    pub fn to_balance(self) -> Balance {
+        match self {
+            SavedBalance::Steps(n) => Balance::Steps(n),
+            SavedBalance::Tolerance { ratio_bits, max_steps } => {
+                Balance::Tolerance { ratio: f64::from_bits(ratio_bits), max_steps }
+            }
+        }
+    }
+}
+
+/// `OUT/resume/journal.ron`: what the interrupted run was and what its script saw.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JournalFile {
+    /// SHA-256 of the script, which must not change between the run and its resume.
+    pub script_sha256: String,
+    /// The `--set` parameters as given, name and text.
+    pub params: Vec<(String, String)>,
+    pub entries: Vec<Entry>,
+    pub interrupted: Interrupted,
+}
+
+/// The host's side of journaling: the entries so far and, while replaying, where it is.
+#[derive(Default)]
+pub struct Session {
+    /// What a resume checks and reuses: the script's hash and the parameters as given.
+    pub script_sha256: String,
+    pub params: Vec<(String, String)>,
+    pub entries: Vec<Entry>,
+    /// Entries handed back so far while replaying.
+    pub cursor: usize,
+    /// Set while replaying a resumed run: what to restore at the interrupted call.
+    pub pending: Option<Pending>,
+}
+
+/// What a resumed run restores when its replay reaches the interrupted call.
+pub struct Pending {
+    pub interrupted: Interrupted,
+    pub models: Vec<(usize, matdem_engine::checkpoint::Checkpoint)>,
+}
+
+impl Session {
+    pub fn replaying(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// The next journaled value for `call` while replaying; an error if the script has taken
+    /// another path than the interrupted run (it changed, or reads something unjournaled).
+    pub fn next(&mut self, call: &str) -> Result<Value, Box<EvalAltResult>> {
+        match self.entries.get(self.cursor) {
+            Some(e) if e.call == call => {
+                self.cursor += 1;
+                Ok(e.value.clone())
+            }
+            other => Err(diverged(self.cursor, call, other.map_or("the interrupted call", |e| e.call.as_str()))),
+        }
+    }
+}
+
+pub fn diverged(index: usize, got: &str, expected: &str) -> Box<EvalAltResult> {
+    format!(
+        "cannot resume: at its model call #{index} the script calls `{got}` where the interrupted run called \
+         `{expected}`; resume only with the script and parameters that were interrupted, or start a fresh run"
+    )
+    .into()
+}
+
+/// The resume folder of run folder `out_dir`.
+pub fn resume_dir(out_dir: &Path) -> PathBuf {
+    out_dir.join(RESUME_DIR)
+}
+
+pub fn model_file(dir: &Path, n: usize) -> PathBuf {
+    dir.join(format!("model_{n}.mdem"))
+}
+
+/// Writes the journal last: a resume folder without it is incomplete and refused.
+pub fn write_journal(dir: &Path, journal: &JournalFile) -> std::io::Result<()> {
+    let text = ron::ser::to_string_pretty(journal, ron::ser::PrettyConfig::default())
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
+    crate::atomic::write(&dir.join(JOURNAL_FILE), text.as_bytes())
+}
+
+/// The run folder of `--resume DIR`, where DIR is the run's output folder or its `resume`
+/// folder.
+pub fn run_folder(dir: &Path) -> PathBuf {
+    if dir.join(JOURNAL_FILE).is_file() {
+        dir.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    } else {
+        dir.to_path_buf()
+    }
+}
+
+/// Writes the resume folder of an interrupted run: a checkpoint of every live model, then
+/// the journal. Returns the folder.
+pub fn write_resume(host: &Host, call: &str, how: SavedBalance, done: u64) -> Result<PathBuf, String> {
+    let dir = resume_dir(&host.out_dir);
+    let mut numbers = Vec::new();
+    for (n, weak) in host.models.borrow().iter().enumerate() {
+        if let Some(data) = weak.upgrade() {
+            let path = model_file(&dir, n);
+            let bytes = crate::api::checkpoint::checkpoint_bytes(&data.borrow());
+            crate::atomic::write(&path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            numbers.push(n);
+        }
+    }
+    let s = host.session.borrow();
+    let journal = JournalFile {
+        script_sha256: s.script_sha256.clone(),
+        params: s.params.clone(),
+        entries: s.entries.clone(),
+        interrupted: Interrupted { call: call.to_string(), index: s.entries.len(), how, done, models: numbers },
+    };
+    write_journal(&dir, &journal).map_err(|e| format!("cannot write {}: {e}", dir.join(JOURNAL_FILE).display()))?;
+    Ok(dir)
+}
+
+/// At the interrupted call of a resumed run: puts every saved model back and ends the
+/// replay. Returns what remains to run of that call.
+pub fn restore(host: &Host, call: &str) -> Result<(Balance, u64), Box<EvalAltResult>> {
+    let pending = {
+        let mut s = host.session.borrow_mut();
+        let Some(p) = s.pending.take() else {
+            return Err("internal error: nothing to restore; please report this bug".into());
+        };
+        if p.interrupted.call != call || s.cursor != p.interrupted.index {
+            return Err(diverged(s.cursor, call, &p.interrupted.call));
+        }
+        p
+    };
+    let models = host.models.borrow();
+    for (n, ck) in pending.models {
+        let data = models.get(n).and_then(|w| w.upgrade()).ok_or_else(|| -> Box<EvalAltResult> {
+            format!(
+                "cannot resume: model #{n} of the interrupted run does not exist at this point of the script; resume \
+                 only with the script and parameters that were interrupted, or start a fresh run"
+            )
+            .into()
+        })?;
+        crate::api::checkpoint::restore(&mut data.borrow_mut(), ck)
+            .map_err(|e| -> Box<EvalAltResult> { format!("cannot resume: model #{n}: {e}").into() })?;
+    }
+    Ok((pending.interrupted.how.to_balance(), pending.interrupted.done))
+}
+
+/// Reads what `--resume DIR` needs. Returns the journal and the models, or a message saying
+/// what to do.
+pub fn load(dir: &Path) -> Result<(JournalFile, Vec<(usize, matdem_engine::checkpoint::Checkpoint)>), String> {
+    let rdir = resume_dir(&run_folder(dir));
+    let jpath = rdir.join(JOURNAL_FILE);
+    let text = std::fs::read_to_string(&jpath).map_err(|e| {
+        format!(
+            "error: cannot resume from {}: no readable {} ({e}); give the output folder of an interrupted run \
+             (it holds resume/{JOURNAL_FILE})",
+            dir.display(),
+            jpath.display()
+        )
+    })?;
+    let journal: JournalFile = ron::from_str(&text).map_err(|e| {
+        format!("error: {} is damaged ({e}); the interrupted run cannot be resumed, start a fresh run", jpath.display())
+    })?;
+    let mut models = Vec::new();
+    for &n in &journal.interrupted.models {
+        let path = model_file(&rdir, n);
+        let bytes = std::fs::read(&path).map_err(|e| format!("error: cannot read {}: {e}", path.display()))?;
+        let ck = matdem_engine::checkpoint::decode(&bytes)
+            .map_err(|e| format!("error: cannot resume from {}: {e}", path.display()))?;
+        models.push((n, ck));
+    }
+    Ok((journal, models))
+}

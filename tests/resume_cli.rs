@@ -1,0 +1,126 @@
+//! Interrupt and resume: SIGTERM in the middle of `matdem-rs run` keeps the finished outputs,
+//! saves a resume point and exits 130; `--resume` then ends with outputs equal bit for bit to
+//! those of a run that was never interrupted (CPU backend). Also the run record.
+
+mod common;
+use common::{bin, stderr, temp_dir};
+use std::path::Path;
+use std::process::{Child, Command};
+use std::time::{Duration, Instant};
+
+/// Settles a ~300-grain box in stages (a few seconds in release): runs, lane reads,
+/// energies, records and tables between the stages, then a tolerance balance and a save.
+const SCRIPT: &str = r#"
+let b = new_box("tiny");
+b.ball_r = 0.5e-3; b.distri_rate = 0.2;
+b.sample_w = 6e-3; b.sample_l = 6e-3; b.sample_h = 8e-3;
+b.set_type("top_platen");
+let d = b.build_initial_model();
+d.set_group_mat("sample", material_micro("grain", #{ kn: 2e4, ks: 8e3, r: 0.5e-3, mu_p: 0.5, restitution: 0.5 }));
+d.set_standard_dt();
+d.gravity = [0.0, 0.0, -9.81 * 50.0];
+d.local_damping = 0.3;
+for k in 0..8 {
+    d.run(2500);
+    d.record(#{ stage: k, mean_z: d.z.mean(), ke: d.energies().kinetic });
+    d.status.save("progress.csv");
+    if k == 1 { d.connect("all", 1e-5); }
+}
+let r = d.balance_until(0.05, 4000);
+d.record(#{ stage: 99, steps: r.steps });
+d.status.save("final.csv");
+d.save("settled");
+print("done");
+"#;
+
+/// Kills the child on every path, so a failing test leaves no process behind.
+struct Running(Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn run(script: &Path, out: &Path) -> std::process::Output {
+    bin().arg("run").arg(script).arg("--out").arg(out).output().unwrap()
+}
+
+#[test]
+fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
+    let dir = temp_dir("resume_sigterm");
+    let script = dir.join("tiny.rhai");
+    std::fs::write(&script, SCRIPT).unwrap();
+
+    let straight = run(&script, &dir.join("straight"));
+    assert!(straight.status.success(), "{}", stderr(&straight));
+
+    let out = dir.join("cut");
+    let mut child = Running(bin().arg("run").arg(&script).arg("--out").arg(&out).spawn().unwrap());
+    // Interrupt once the first stage's table is written: well inside the run.
+    let start = Instant::now();
+    while !out.join("progress.csv").exists() {
+        assert!(start.elapsed() < Duration::from_secs(60), "the run never wrote its first table");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let kill = Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap();
+    assert!(kill.success());
+    let status = child.0.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "an interrupted run exits with 130");
+    assert!(out.join("resume/journal.ron").is_file() && out.join("resume/model_0.mdem").is_file());
+    assert!(!out.join("final.csv").exists(), "the interruption must land before the end of the run");
+    assert!(out.join("progress.csv").is_file(), "finished outputs are kept");
+    let record = std::fs::read_to_string(out.join("run.ron")).unwrap();
+    assert!(record.contains("status: \"interrupted\"") && record.contains("exit_code: Some(130)"), "{record}");
+
+    // A changed script is refused before anything runs.
+    let changed = dir.join("changed.rhai");
+    std::fs::write(&changed, SCRIPT.replace("0..8", "0..9")).unwrap();
+    let o = bin().arg("run").arg(&changed).arg("--resume").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("has changed since the run was interrupted"), "{}", stderr(&o));
+
+    let resumed = bin().arg("run").arg(&script).arg("--resume").arg(&out).output().unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    for file in ["final.csv", "progress.csv", "settled.mdem"] {
+        let (a, b) = (std::fs::read(dir.join("straight").join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
+        assert!(a == b, "{file} of the resumed run differs from the uninterrupted run's");
+    }
+    assert!(!out.join("resume").exists(), "a finished run leaves nothing to resume");
+    let record = std::fs::read_to_string(out.join("run.ron")).unwrap();
+    assert!(record.contains("status: \"ok\"") && record.contains("resumed_from: Some("), "{record}");
+}
+
+#[test]
+fn resume_without_a_resume_point_says_what_to_give() {
+    let dir = temp_dir("resume_missing");
+    let script = dir.join("tiny.rhai");
+    std::fs::write(&script, "print(1);").unwrap();
+    let o = bin().arg("run").arg(&script).arg("--resume").arg(dir.join("nothing")).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("give the output folder of an interrupted run"), "{}", stderr(&o));
+}
+
+#[test]
+fn every_run_folder_records_the_script_hash_parameters_backend_and_exit() {
+    let dir = temp_dir("run_record");
+    let script = dir.join("fails.rhai");
+    let text = "let x = params.a * 2;\nthrow \"stop\";\n";
+    std::fs::write(&script, text).unwrap();
+    let o = bin().arg("run").arg(&script).arg("--out").arg(dir.join("out")).args(["--set", "a=1.5"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let record = std::fs::read_to_string(dir.join("out/run.ron")).unwrap();
+    let sha = matdem_rs::run_record::sha256_hex(text.as_bytes());
+    for want in [
+        format!("script_sha256: \"{sha}\""),
+        "(\"a\", \"1.5\")".to_string(),
+        "backend: \"auto (cpu, f64)\"".to_string(),
+        format!("matdem_rs_version: \"{}\"", env!("CARGO_PKG_VERSION")),
+        "status: \"failed\"".to_string(),
+        "exit_code: Some(1)".to_string(),
+        "finished: Some(\"20".to_string(),
+    ] {
+        assert!(record.contains(&want), "run.ron lacks {want}:\n{record}");
+    }
+}
