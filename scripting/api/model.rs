@@ -19,6 +19,8 @@ pub struct ModelData {
     pub status: Table,
     /// Creation number within the run (see [`Host::adopt`]).
     pub number: usize,
+    /// The ParaView series `snapshot_every` set up (shared with the simulation's observer).
+    pub snapshots: Rc<RefCell<super::snapshots::SnapshotLog>>,
     plan_printed: bool,
 }
 
@@ -34,6 +36,7 @@ impl ModelHandle {
             sim: Simulation::new(model),
             status: Table::default(),
             number,
+            snapshots: Rc::default(),
             plan_printed: false,
         })))
     }
