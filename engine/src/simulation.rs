@@ -217,6 +217,13 @@ impl Simulation {
         contact_stats(&self.model, &plan)
     }
 
+    /// The normal contact load each particle carries (N), with rows covering every contact.
+    pub fn contact_loads(&mut self) -> Vec<f64> {
+        self.refresh_rows();
+        let plan = self.plan().clone();
+        crate::status::contact_loads(&self.model, &plan)
+    }
+
     /// Rebuilds the neighbour rows if they do not cover the current positions (never built,
     /// particles added, or drifted past half the skin), so observers see every contact.
     fn refresh_rows(&mut self) {
