@@ -244,7 +244,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     lane_get!("mass", |m, i| m.particles.mass[i]);
     lane_get!("material", |m, i| m.particles.material[i] as f64);
     engine
-        .register_get("contact_load", observed!("contact_load", |d| { Field::new(d.data().sim.contact_loads()) }))
+        .register_get("contact_load", observed!("contact_load", |d| Field::new(d.data().sim.contact_loads())))
         .register_get("n", |d: &mut ModelHandle| d.model().len() as INT)
         .register_get("name", |d: &mut ModelHandle| d.data().name.clone())
         .register_get("time", observed!("time", |d| d.model().clock.time))
