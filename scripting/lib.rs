@@ -12,6 +12,7 @@ pub mod report;
 pub mod resume;
 pub mod run;
 pub mod run_record;
+pub mod snapshot;
 pub mod stdlib;
 pub mod study;
 

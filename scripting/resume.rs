@@ -223,7 +223,7 @@ pub fn model_file(dir: &Path, n: usize) -> PathBuf {
 
 /// Writes the journal last: a resume folder without it is incomplete and refused.
 pub fn write_journal(dir: &Path, journal: &JournalFile) -> std::io::Result<()> {
-    let text = ron::ser::to_string_pretty(journal, ron::ser::PrettyConfig::default())
+    let text = ron::ser::to_string_pretty(journal, ron::ser::PrettyConfig::default().compact_arrays(true))
         .map_err(|e| std::io::Error::other(e.to_string()))?;
     crate::atomic::write(&dir.join(JOURNAL_FILE), text.as_bytes())
 }

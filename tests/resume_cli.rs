@@ -4,8 +4,9 @@
 
 mod common;
 use common::{bin, stderr, temp_dir};
+use std::io::Read;
 use std::path::Path;
-use std::process::{Child, Command};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Settles a ~300-grain box in stages (a few seconds in release): runs, lane reads,
@@ -57,7 +58,17 @@ fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
     assert!(straight.status.success(), "{}", stderr(&straight));
 
     let out = dir.join("cut");
-    let mut child = Running(bin().arg("run").arg(&script).arg("--out").arg(&out).spawn().unwrap());
+    let mut child = Running(
+        bin()
+            .arg("run")
+            .arg(&script)
+            .arg("--out")
+            .arg(&out)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     // Interrupt once the first stage's table is written: well inside the run.
     let start = Instant::now();
     while !out.join("progress.csv").exists() {
@@ -67,7 +78,10 @@ fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
     let kill = Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap();
     assert!(kill.success());
     let status = child.0.wait().unwrap();
-    assert_eq!(status.code(), Some(130), "an interrupted run exits with 130");
+    let mut err = String::new();
+    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "an interrupted run exits with 130: {err}");
+    assert!(err.contains("--resume") && err.contains("stopped after"), "says how to continue: {err}");
     assert!(out.join("resume/journal.ron").is_file() && out.join("resume/model_0.mdem").is_file());
     assert!(!out.join("final.csv").exists(), "the interruption must land before the end of the run");
     assert!(out.join("progress.csv").is_file(), "finished outputs are kept");

@@ -20,6 +20,9 @@ pub enum Error {
     Unstable(Box<Instability>),
     #[error("run cancelled after {completed_steps} step(s)")]
     Cancelled { completed_steps: u64 },
+    /// A host observer (snapshots) failed; the message is the host's.
+    #[error("{0}")]
+    Observer(String),
 }
 
 fn hint(suggestion: &Option<String>, known: &[String]) -> String {

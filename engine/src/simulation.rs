@@ -34,7 +34,20 @@ pub enum Balance {
 pub struct Simulation {
     pub model: Model,
     backend: Option<(PlanKey, CpuBackend)>,
+    /// Called whenever the step count reaches a multiple of its period (snapshots).
+    pub observer: Option<Observer>,
 }
+
+/// A host callback run at every `every`-th step of the model's clock, between steps, with
+/// the model as it is then; an error stops the run. Runs are cut into chunks that end on
+/// those steps, which changes no result: chunk ends only check, report and observe.
+pub struct Observer {
+    pub every: u64,
+    pub call: ObserverFn,
+}
+
+/// What an observer runs; its error message stops the run.
+pub type ObserverFn = Box<dyn FnMut(&Model) -> std::result::Result<(), String>>;
 
 /// Steps between the unbalanced-force checks of a tolerance balance.
 const TOLERANCE_CHUNK: u64 = 100;
@@ -52,7 +65,7 @@ pub struct RunReport {
 
 impl Simulation {
     pub fn new(model: Model) -> Self {
-        Simulation { model, backend: None }
+        Simulation { model, backend: None, observer: None }
     }
 
     /// The plan for the model as it is now.
@@ -80,12 +93,15 @@ impl Simulation {
         }
         check_time_step(&self.model)?;
         let guard_every = self.model.settings.guard_every.max(1);
-        let Simulation { model, backend } = self;
+        let Simulation { model, backend, observer } = self;
         let backend = prepared(backend, model);
         let mut samples = Vec::new();
         let mut done = 0;
         while done < steps {
-            let chunk = guard_every.min(steps - done);
+            let mut chunk = guard_every.min(steps - done);
+            if let Some(o) = observer.as_ref().filter(|o| o.every > 0) {
+                chunk = chunk.min(o.every - model.clock.step % o.every);
+            }
             // Step a chunk on a pool thread: the stages' parallel loops then join within
             // the pool instead of waking it from outside several times per step.
             rayon::scope(|_| {
@@ -100,6 +116,9 @@ impl Simulation {
             done += chunk;
             samples.drain(..).for_each(&mut *sample);
             check_state(model)?;
+            if let Some(o) = observer.as_mut().filter(|o| o.every > 0 && model.clock.step % o.every == 0) {
+                (o.call)(model).map_err(Error::Observer)?;
+            }
             progress(done);
             if ctl.is_cancelled() {
                 return Err(Error::Cancelled { completed_steps: done });
@@ -196,6 +215,13 @@ impl Simulation {
         self.refresh_rows();
         let plan = self.plan().clone();
         contact_stats(&self.model, &plan)
+    }
+
+    /// The normal contact load each particle carries (N), with rows covering every contact.
+    pub fn contact_loads(&mut self) -> Vec<f64> {
+        self.refresh_rows();
+        let plan = self.plan().clone();
+        crate::status::contact_loads(&self.model, &plan)
     }
 
     /// Rebuilds the neighbour rows if they do not cover the current positions (never built,

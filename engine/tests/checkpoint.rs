@@ -114,3 +114,50 @@ fn a_well_formed_payload_with_inconsistent_lanes_is_refused_not_stepped() {
     assert!(matches!(e, CheckpointError::Incompatible { .. }), "{e:?}");
     assert!(e.to_string().contains("particle lanes"), "{e}");
 }
+
+#[test]
+fn a_cancelled_balance_continued_with_balance_from_ends_like_the_uncancelled_one() {
+    use matdem_engine::{Balance, Error};
+    use std::sync::atomic::Ordering;
+    for how in [Balance::Steps(900), Balance::Tolerance { ratio: 1e-9, max_steps: 900 }] {
+        let mut straight = loaded_sample();
+        let done = straight.balance(how, &RunControl::default(), &mut |_| {}).unwrap();
+
+        let mut cut = loaded_sample();
+        let ctl = RunControl::default();
+        let flag = ctl.cancel.clone();
+        // Cancel from the progress report after 300 steps, as a signal handler would.
+        let e = cut.balance(how, &ctl, &mut |k| flag.store(k >= 300, Ordering::Relaxed)).unwrap_err();
+        let Error::Cancelled { completed_steps } = e else { panic!("{e:?}") };
+        assert_eq!(completed_steps, 300, "{how:?}");
+        let bytes = encode(&cut.model, b"");
+        let mut resumed = Simulation::new(decode(&bytes).unwrap().model);
+        let rest = resumed.balance_from(how, completed_steps, &RunControl::default(), &mut |_| {}).unwrap();
+        assert_eq!(rest, done, "{how:?}: same steps and unbalanced ratio");
+        assert!(encode(&straight.model, b"") == encode(&resumed.model, b""), "{how:?}: state differs");
+    }
+}
+
+#[test]
+fn an_observer_sees_every_nth_step_and_changes_no_result() {
+    use matdem_engine::simulation::Observer;
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    let mut plain = loaded_sample();
+    run(&mut plain, 1000);
+    let mut watched = loaded_sample();
+    let seen = Rc::new(RefCell::new(Vec::new()));
+    let log = seen.clone();
+    watched.observer = Some(Observer {
+        every: 37,
+        call: Box::new(move |m| {
+            log.borrow_mut().push(m.clock.step);
+            Ok(())
+        }),
+    });
+    run(&mut watched, 1000);
+    let start = plain.model.clock.step - 1000;
+    let expected: Vec<u64> = (start + 1..=start + 1000).filter(|s| s % 37 == 0).collect();
+    assert_eq!(*seen.borrow(), expected);
+    assert!(encode(&plain.model, b"") == encode(&watched.model, b""), "observing changed the run");
+}

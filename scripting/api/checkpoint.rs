@@ -4,6 +4,7 @@
 //! cut/assign → test steps can be separate scripts.
 
 use super::model::{ModelData, ModelHandle};
+use super::snapshots::SnapshotLog;
 use super::table::TableData;
 use super::{err, Host, RhaiResult};
 use matdem_engine::checkpoint::{decode, encode, Checkpoint};
@@ -14,13 +15,17 @@ use std::rc::Rc;
 /// The extension of checkpoint files, added when a name has none.
 pub const EXTENSION: &str = "mdem";
 
-/// What the host keeps with a model in its checkpoint: the name and the record table.
+/// What the host keeps with a model in its checkpoint: the name, the record table and the
+/// snapshot series.
 #[derive(Serialize, Deserialize)]
 struct ModelAnnex {
     name: String,
     /// `d.status` columns; values as bits so NaN back-fills survive exactly.
     status: Vec<(String, Vec<u64>)>,
     rows: usize,
+    /// The snapshot series, so a resumed run keeps writing it (`load_model` starts none).
+    #[serde(default)]
+    snapshots: SnapshotLog,
 }
 
 /// `name` with `.mdem` added when it has no extension.
@@ -39,6 +44,7 @@ pub fn checkpoint_bytes(data: &ModelData) -> Vec<u8> {
         name: data.name.clone(),
         status: t.columns.iter().map(|(c, v)| (c.clone(), v.iter().map(|x| x.to_bits()).collect())).collect(),
         rows: t.rows,
+        snapshots: data.snapshots.borrow().clone(),
     };
     let annex = ron::to_string(&annex).expect("strings and integers always serialise");
     encode(&data.sim.model, annex.as_bytes())
@@ -51,6 +57,8 @@ pub fn restore(data: &mut ModelData, ck: Checkpoint) -> Result<(), String> {
     data.sim = matdem_engine::Simulation::new(ck.model);
     data.name = annex.name;
     *data.status.0.borrow_mut() = table_of(annex.status, annex.rows);
+    *data.snapshots.borrow_mut() = annex.snapshots;
+    super::snapshots::install(data);
     Ok(())
 }
 

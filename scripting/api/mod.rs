@@ -10,6 +10,7 @@ pub mod materials;
 pub mod metrics;
 pub mod model;
 pub mod plot;
+pub mod snapshots;
 pub mod table;
 
 use crate::resume::{Entry, Session, Value};
@@ -173,5 +174,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     model::register(engine, host.clone());
     checkpoint::register(engine, host.clone());
     box_builder::register(engine, host.clone());
+    snapshots::register(engine, host.clone());
     plot::register(engine, host);
 }

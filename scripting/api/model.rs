@@ -7,7 +7,7 @@ use super::{err, raise, Host, RhaiResult, PLAN_DONE};
 use crate::resume::{self, SavedBalance, INTERRUPTED};
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;
-use matdem_engine::status::{contact_loads, porosity, Region};
+use matdem_engine::status::{porosity, Region};
 use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
 use rhai::{Array, Dynamic, Engine, EvalAltResult, Map, FLOAT, INT};
 use std::cell::{RefCell, RefMut};
@@ -19,6 +19,8 @@ pub struct ModelData {
     pub status: Table,
     /// Creation number within the run (see [`Host::adopt`]).
     pub number: usize,
+    /// The ParaView series `snapshot_every` set up (shared with the simulation's observer).
+    pub snapshots: Rc<RefCell<super::snapshots::SnapshotLog>>,
     plan_printed: bool,
 }
 
@@ -34,6 +36,7 @@ impl ModelHandle {
             sim: Simulation::new(model),
             status: Table::default(),
             number,
+            snapshots: Rc::default(),
             plan_printed: false,
         })))
     }
@@ -241,14 +244,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     lane_get!("mass", |m, i| m.particles.mass[i]);
     lane_get!("material", |m, i| m.particles.material[i] as f64);
     engine
-        .register_get(
-            "contact_load",
-            observed!("contact_load", |d| {
-                let mut data = d.data();
-                let plan = data.sim.plan().clone();
-                Field::new(contact_loads(&data.sim.model, &plan))
-            }),
-        )
+        .register_get("contact_load", observed!("contact_load", |d| Field::new(d.data().sim.contact_loads())))
         .register_get("n", |d: &mut ModelHandle| d.model().len() as INT)
         .register_get("name", |d: &mut ModelHandle| d.data().name.clone())
         .register_get("time", observed!("time", |d| d.model().clock.time))

@@ -6,7 +6,6 @@ use super::model::ModelHandle;
 use super::table::Table;
 use super::{err, Host, RhaiResult};
 use crate::plot::{LineChart, ParticlePicture};
-use matdem_engine::status::contact_loads;
 use rhai::{Dynamic, Engine, FLOAT};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -15,19 +14,18 @@ use std::rc::Rc;
 #[derive(Clone)]
 pub struct Chart(pub Rc<RefCell<LineChart>>);
 
-/// Renders and writes a figure; journaled, so a resumed run neither redraws nor rewrites
-/// the figures finished before its interruption.
+/// Renders and writes a figure. Callers wrap it, and whatever reads the model for it, in
+/// one `observe`, so a resumed run neither redraws nor rewrites the figures finished before
+/// its interruption.
 fn save_figure(
     host: &Host,
     name: &str,
     save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>,
 ) -> RhaiResult<Dynamic> {
-    host.observe("save_figure", || {
-        let path = host.out_path(name)?;
-        let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
-        host.note_written(written.iter().cloned());
-        Ok(Dynamic::from_array(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect()))
-    })
+    let path = host.out_path(name)?;
+    let written = save(&path).map_err(|e| err(format!("cannot save `{name}`: {e}")))?;
+    host.note_written(written.iter().cloned());
+    Ok(Dynamic::from_array(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect()))
 }
 
 /// The values of a named per-particle field for pictures.
@@ -55,10 +53,7 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
             }
             v
         }
-        "contact_load" | "force" => {
-            let plan = data.sim.plan().clone();
-            contact_loads(&data.sim.model, &plan)
-        }
+        "contact_load" | "force" => data.sim.contact_loads(),
         other => {
             return Err(super::raise(matdem_engine::Error::unknown(
                 "particle field",
@@ -131,29 +126,35 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     let h = host.clone();
     engine.register_fn("save", move |c: &mut Chart, name: &str| {
         let chart = c.0.borrow();
-        save_figure(&h, name, |p| chart.save(p))
+        h.observe("save_chart", || save_figure(&h, name, |p| chart.save(p)))
     });
     let h = host.clone();
     engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str| {
-        let (values, label) = particle_field(d, field)?;
-        let pic = picture(d, values, label, None);
-        save_figure(&h, name, |p| pic.save(p))
+        h.observe("show", || {
+            let (values, label) = particle_field(d, field)?;
+            let pic = picture(d, values, label, None);
+            save_figure(&h, name, |p| pic.save(p))
+        })
     });
     let h = host.clone();
     engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str, slice: FLOAT| {
         if !(slice.is_finite() && slice > 0.0) {
             return Err(err(format!("show: the slice half-width must be > 0 m, got {slice}")));
         }
-        let (values, label) = particle_field(d, field)?;
-        let pic = picture(d, values, label, Some(slice));
-        save_figure(&h, name, |p| pic.save(p))
+        h.observe("show", || {
+            let (values, label) = particle_field(d, field)?;
+            let pic = picture(d, values, label, Some(slice));
+            save_figure(&h, name, |p| pic.save(p))
+        })
     });
     let h = host;
     engine.register_fn("show", move |d: &mut ModelHandle, values: Field, label: &str, name: &str| {
         if values.0.len() != d.data().sim.model.len() {
             return Err(err(format!("show: {} values for {} particles", values.0.len(), d.data().sim.model.len())));
         }
-        let pic = picture(d, values.0.to_vec(), label.to_string(), None);
-        save_figure(&h, name, |p| pic.save(p))
+        h.observe("show", || {
+            let pic = picture(d, values.0.to_vec(), label.to_string(), None);
+            save_figure(&h, name, |p| pic.save(p))
+        })
     });
 }
