@@ -3,9 +3,11 @@
 
 use crate::api::{Host, PLAN_DONE};
 use crate::report::{render, Sources};
+use matdem_engine::backend::gpu::device::GpuContext;
 use rhai::{Dynamic, EvalAltResult, Scope};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// What the command line asked for, resolved.
 pub struct RunConfig {
@@ -15,6 +17,8 @@ pub struct RunConfig {
     pub params: Vec<(String, Dynamic)>,
     pub progress: bool,
     pub plan_only: bool,
+    /// The GPU the script's models step on; `None` for the CPU backend.
+    pub gpu: Option<Arc<GpuContext>>,
 }
 
 /// Why a run failed, already worded for a person.
@@ -61,6 +65,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
+    host.gpu = cfg.gpu.clone();
     for (k, v) in &cfg.params {
         host.params.insert(k.as_str().into(), v.clone());
     }

@@ -34,6 +34,15 @@ pub enum Balance {
 pub struct Simulation {
     pub model: Model,
     backend: Option<(PlanKey, CpuBackend)>,
+    /// Set when the model runs on a GPU: the device and the pipelines for the current plan.
+    #[cfg(feature = "gpu")]
+    gpu: Option<GpuRunner>,
+}
+
+#[cfg(feature = "gpu")]
+struct GpuRunner {
+    ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>,
+    prepared: Option<(PlanKey, crate::backend::gpu::GpuBackend)>,
 }
 
 /// What a prepared plan depends on.
@@ -48,8 +57,30 @@ pub struct RunReport {
 }
 
 impl Simulation {
+    /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation { model, backend: None }
+        Simulation {
+            model,
+            backend: None,
+            #[cfg(feature = "gpu")]
+            gpu: None,
+        }
+    }
+
+    /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
+    /// contact statistics, scripts' arrays) read the model, which each run brings up to date.
+    #[cfg(feature = "gpu")]
+    pub fn with_gpu(model: Model, ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>) -> Self {
+        Simulation { gpu: Some(GpuRunner { ctx, prepared: None }), ..Self::new(model) }
+    }
+
+    /// The backend in words: `cpu (f64)` or `gpu (f32) on <adapter>`.
+    pub fn backend_name(&self) -> String {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return format!("gpu (f32) on {}", g.ctx.describe());
+        }
+        "cpu (f64)".to_string()
     }
 
     /// The plan for the model as it is now.
@@ -76,8 +107,12 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &mut self.gpu {
+            return run_on_gpu(g, &mut self.model, steps, every, ctl, progress, sample);
+        }
         let guard_every = self.model.settings.guard_every.max(1);
-        let Simulation { model, backend } = self;
+        let Simulation { model, backend, .. } = self;
         let backend = prepared(backend, model);
         let mut samples = Vec::new();
         let mut done = 0;
@@ -146,8 +181,13 @@ impl Simulation {
         ((50.0 * (longest / d + 1.0)) as u64).max(500)
     }
 
-    /// Heap bytes of the prepared backend's own buffers (0 before the first run).
+    /// Heap bytes of the prepared backend's own buffers (0 before the first run); on the GPU
+    /// the bytes of all device buffers.
     pub fn backend_bytes(&self) -> usize {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return g.prepared.as_ref().map_or(0, |(_, b)| b.device_bytes() as usize);
+        }
         self.backend.as_ref().map_or(0, |(_, b)| b.scratch_bytes())
     }
 
@@ -174,6 +214,32 @@ impl Simulation {
             rebuild(&mut self.model);
         }
     }
+}
+
+/// A run on the GPU, with the pipelines prepared for the model's current revision.
+#[cfg(feature = "gpu")]
+fn run_on_gpu(
+    g: &mut GpuRunner,
+    model: &mut Model,
+    steps: u64,
+    every: u64,
+    ctl: &RunControl,
+    progress: &mut dyn FnMut(u64),
+    sample: &mut dyn FnMut(EnergySample),
+) -> Result<RunReport> {
+    let fresh = |(rev, settings): &PlanKey| *rev == model.revision && *settings == model.settings;
+    if !g.prepared.as_ref().is_some_and(|(key, _)| fresh(key)) {
+        let backend = crate::backend::gpu::GpuBackend::prepare(g.ctx.clone(), model)?;
+        g.prepared = Some(((model.revision, model.settings.clone()), backend));
+    }
+    let backend = &mut g.prepared.as_mut().expect("prepared above").1;
+    let plan = backend.plan.clone();
+    backend.run(model, steps, every, ctl, progress, &mut |m| {
+        let mut energies = potential_energies(m, &plan);
+        energies.kinetic = kinetic_energy(m);
+        sample(EnergySample { step: m.clock.step, time: m.clock.time, energies });
+    })?;
+    Ok(RunReport { steps, unbalanced_ratio: None })
 }
 
 /// The backend prepared for the model's current revision (rebuilt when it changed).

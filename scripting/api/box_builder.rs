@@ -3,7 +3,7 @@
 
 use super::field::to_numbers;
 use super::model::ModelHandle;
-use super::{err, raise, RhaiResult};
+use super::{err, raise, Host, RhaiResult};
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
 use matdem_engine::{Material, Model};
 use rhai::{Array, Engine, FLOAT, INT};
@@ -59,7 +59,7 @@ fn finite_positive(name: &str, v: f64) -> RhaiResult<f64> {
     }
 }
 
-fn build(b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
+fn build(b: &mut BoxBuilder, host: &Host) -> RhaiResult<ModelHandle> {
     let data = b.0.borrow().clone();
     let classes = if data.gradation.is_empty() {
         let r = finite_positive("ball_r", data.ball_r)?;
@@ -96,12 +96,12 @@ fn build(b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
     for (k, ids) in built.class_ids.into_iter().enumerate() {
         model.groups.set(&format!("class{}", k + 1), ids);
     }
-    let handle = ModelHandle::new(&data.name, model);
+    let handle = ModelHandle::new(&data.name, model, host.gpu.clone());
     b.0.borrow_mut().model = Some(handle.clone());
     Ok(handle)
 }
 
-pub fn register(engine: &mut Engine) {
+pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<BoxBuilder>("Box");
     engine.register_fn("new_box", |name: &str| BoxBuilder::new(name));
     macro_rules! num_prop {
@@ -159,7 +159,7 @@ pub fn register(engine: &mut Engine) {
                 other => Err(raise(matdem_engine::Error::unknown("box type", other, &["top_platen"]))),
             }
         })
-        .register_fn("build_initial_model", build)
+        .register_fn("build_initial_model", move |b: &mut BoxBuilder| build(b, &host))
         .register_get("d", |b: &mut BoxBuilder| -> RhaiResult<ModelHandle> {
             b.0.borrow().model.clone().ok_or_else(|| err("the box has no model yet: call build_initial_model() first"))
         })

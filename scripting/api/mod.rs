@@ -11,10 +11,12 @@ pub mod model;
 pub mod plot;
 pub mod table;
 
+use matdem_engine::backend::gpu::device::GpuContext;
 use rhai::{Engine, EvalAltResult};
 use std::cell::RefCell;
 use std::path::{Component, Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
 
@@ -42,6 +44,9 @@ pub struct Host {
     pub control: matdem_engine::backend::RunControl,
     /// Files written so far, for the summary.
     pub written: RefCell<Vec<PathBuf>>,
+    /// The GPU every model of the run steps on (`--backend gpu`, or `auto` with a hardware
+    /// GPU); `None` runs on the CPU backend.
+    pub gpu: Option<Arc<GpuContext>>,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -56,6 +61,7 @@ impl Host {
             plan_only: false,
             control: Default::default(),
             written: RefCell::new(Vec::new()),
+            gpu: None,
         }
     }
 
@@ -98,6 +104,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     materials::register(engine);
     metrics::register(engine, host.clone());
     model::register(engine, host.clone());
-    box_builder::register(engine);
+    box_builder::register(engine, host.clone());
     plot::register(engine, host);
 }

@@ -4,6 +4,7 @@
 use super::field::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table};
 use super::{err, raise, Host, RhaiResult, PLAN_DONE};
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;
 use matdem_engine::status::{contact_loads, porosity, Region};
@@ -11,6 +12,7 @@ use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
 use rhai::{Array, Dynamic, Engine, Map, FLOAT, INT};
 use std::cell::{RefCell, RefMut};
 use std::rc::Rc;
+use std::sync::Arc;
 
 pub struct ModelData {
     pub name: String,
@@ -24,10 +26,15 @@ pub struct ModelData {
 pub struct ModelHandle(pub Rc<RefCell<ModelData>>);
 
 impl ModelHandle {
-    pub fn new(name: &str, model: Model) -> Self {
+    /// A model stepping on `gpu` when given, else on the CPU backend.
+    pub fn new(name: &str, model: Model, gpu: Option<Arc<GpuContext>>) -> Self {
+        let sim = match gpu {
+            Some(ctx) => Simulation::with_gpu(model, ctx),
+            None => Simulation::new(model),
+        };
         ModelHandle(Rc::new(RefCell::new(ModelData {
             name: name.to_string(),
-            sim: Simulation::new(model),
+            sim,
             status: Table::default(),
             plan_printed: false,
         })))
