@@ -110,6 +110,7 @@ fn run_on_gpu_backend_matches_cpu() {
         let b = new_box("drop");
         b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
         let d = b.build_initial_model();
+        d.gravity = [0.0, 0.0, -9.81];
         d.set_standard_dt();
         d.balance("standard");
         print(`zmean=${d.z.mean()}`);

@@ -206,7 +206,7 @@ const STORAGE: wgpu::BufferUsages =
 impl DeviceLanes {
     /// Uploads `h`. Refuses a lane larger than the device's storage binding limit.
     pub fn upload(ctx: &GpuContext, h: &HostLanes, params: Params, wall_groups: usize) -> Result<Self> {
-        let limit = u64::from(ctx.limits.max_storage_buffer_binding_size).min(ctx.limits.max_buffer_size);
+        let limit = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
         let mut bytes = 0u64;
         let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
             // An empty lane still needs a buffer to bind, as large as the largest element a

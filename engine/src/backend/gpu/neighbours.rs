@@ -22,7 +22,8 @@ pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes)
 pub fn steps_until_rebuild(drift: f64, speed: f64, skin: f64, dt: f64, most: u64) -> Option<u64> {
     let margin = 0.5 * skin - drift;
     let per_step = 2.0 * speed * dt;
-    if !(margin > per_step) {
+    // NaN (a diverged state) must rebuild too, hence no `margin <= per_step`.
+    if margin.partial_cmp(&per_step) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     if per_step == 0.0 {
