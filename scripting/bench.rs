@@ -1,7 +1,16 @@
 //! `matdem-rs bench`: times the standard lattice scene ([`matdem_engine::bench`]) and prints
 //! throughput, contacts, memory and the machine, as text or as one JSON object.
 
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::bench::{run, BenchReport, LatticeScene};
+use matdem_engine::Simulation;
+use std::sync::Arc;
+
+/// Which backend ran, and on what.
+struct Backend {
+    name: &'static str,
+    device: String,
+}
 use std::fmt::Write as _;
 
 /// What to measure.
@@ -12,6 +21,8 @@ pub struct BenchConfig {
     pub warmup: u64,
     pub steps: u64,
     pub json: bool,
+    /// Bench this GPU instead of the CPU backend.
+    pub gpu: Option<Arc<GpuContext>>,
 }
 
 /// Builds and times the scene; returns what to print on stdout.
@@ -25,9 +36,17 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
         return Err("error: --steps must be at least 1".into());
     }
     let model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
-    let (report, _) = run(model, cfg.warmup, cfg.steps).map_err(|e| format!("error: the bench run failed: {e}"))?;
-    let device = cpu_model();
-    Ok(if cfg.json { json(&scene, &report, &device) } else { text(&scene, &report, &device) })
+    let sim = match &cfg.gpu {
+        Some(ctx) => Simulation::with_gpu(model, ctx.clone()),
+        None => Simulation::new(model),
+    };
+    let (report, _) = run(sim, cfg.warmup, cfg.steps).map_err(|e| format!("error: the bench run failed: {e}"))?;
+    let device = match &cfg.gpu {
+        Some(ctx) => ctx.describe(),
+        None => cpu_model(),
+    };
+    let backend = Backend { name: if cfg.gpu.is_some() { "gpu" } else { "cpu" }, device };
+    Ok(if cfg.json { json(&scene, &report, &backend) } else { text(&scene, &report, &backend) })
 }
 
 /// The CPU's model name from /proc/cpuinfo (Linux), else the architecture.
@@ -65,10 +84,14 @@ fn scene_line(s: &LatticeScene) -> String {
     )
 }
 
-fn text(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
+fn text(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
     let mut o = String::new();
     let _ = writeln!(o, "scene: {}", scene_line(s));
-    let _ = writeln!(o, "backend: cpu (f64), {} thread(s) on {device}", r.threads);
+    if b.name == "gpu" {
+        let _ = writeln!(o, "backend: gpu (f32) on {}", b.device);
+    } else {
+        let _ = writeln!(o, "backend: cpu (f64), {} thread(s) on {}", r.threads, b.device);
+    }
     let _ = writeln!(o, "steps: {} warm-up + {} timed in {:.3} s", r.warmup, r.steps, r.seconds);
     let _ = writeln!(o, "particle-steps per second: {:.4e}", r.particle_steps_per_s);
     let _ = writeln!(
@@ -79,8 +102,13 @@ fn text(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
     );
     let _ = writeln!(
         o,
-        "memory per particle: {:.0} bytes (particle lanes, neighbour rows, pair and wall contact state, contact scratch)",
-        r.bytes_per_particle
+        "memory per particle: {:.0} bytes ({})",
+        r.bytes_per_particle,
+        if b.name == "gpu" {
+            "device buffers: particle lanes, neighbour rows, pair and wall contact state"
+        } else {
+            "particle lanes, neighbour rows, pair and wall contact state, contact scratch"
+        }
     );
     o
 }
@@ -110,10 +138,10 @@ fn json_str(s: &str) -> String {
     o
 }
 
-fn json(s: &LatticeScene, r: &BenchReport, device: &str) -> String {
+fn json(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
     let fields: Vec<(&str, String)> = vec![
-        ("backend", json_str("cpu")),
-        ("device", json_str(device)),
+        ("backend", json_str(b.name)),
+        ("device", json_str(&b.device)),
         ("threads", r.threads.to_string()),
         ("scene", json_str("lattice")),
         ("nx", s.nx.to_string()),

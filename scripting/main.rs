@@ -1,6 +1,7 @@
 //! The `matdem-rs` command: parses arguments and hands off to the library.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
 use matdem_engine::backend::RunControl;
 use matdem_rs::bench::{run_bench, BenchConfig};
 use matdem_rs::run::{run_script, RunConfig, RunError};
@@ -8,6 +9,7 @@ use matdem_rs::study::{run_study, summary, write_outputs, StudyConfig, Vary};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 
 #[derive(Parser)]
 #[command(
@@ -148,9 +150,10 @@ fn main() -> ExitCode {
                 params,
                 progress,
                 plan_only: false,
-                backend: backend_name(backend),
+                backend: String::new(),
                 control,
                 resume,
+                gpu: None,
             };
             (cfg, backend)
         }
@@ -168,28 +171,32 @@ fn main() -> ExitCode {
                 params,
                 progress: false,
                 plan_only: true,
-                backend: backend_name(Backend::Cpu),
+                backend: "cpu (f64)".to_string(),
                 control: RunControl::default(),
                 resume: None,
+                gpu: None,
             };
             (cfg, Backend::Cpu)
         }
         Command::Bench { backend, particles, steps, warmup, json } => {
-            return bench(backend, BenchConfig { particles, warmup, steps, json });
+            return bench(backend, BenchConfig { particles, warmup, steps, json, gpu: None });
         }
         Command::Study { script, vary, metric, set, reference, out, backend } => {
             return study(script, vary, metric, set, reference, out, backend);
         }
     };
-    match backend {
-        Backend::Gpu => {
-            eprintln!("error: this build has no GPU backend yet; use --backend cpu (or auto, which uses the CPU)");
-            return ExitCode::from(2);
+    let mut cfg = cfg;
+    if !cfg.plan_only {
+        match open_backend(backend) {
+            Ok(gpu) => {
+                cfg.backend = match &gpu {
+                    Some(ctx) => format!("gpu (f32) on {}", ctx.describe()),
+                    None => "cpu (f64)".to_string(),
+                };
+                cfg.gpu = gpu;
+            }
+            Err(code) => return code,
         }
-        Backend::Auto if !cfg.plan_only => {
-            eprintln!("backend: cpu (f64, {} threads); this build has no GPU backend", rayon_threads())
-        }
-        _ => {}
     }
     match run_script(&cfg) {
         Ok(written) => {
@@ -222,18 +229,35 @@ fn stop_on_signals(control: &RunControl) -> std::io::Result<()> {
     Ok(())
 }
 
-fn backend_name(b: Backend) -> String {
-    b.to_possible_value().map_or_else(|| "auto".to_string(), |v| v.get_name().to_string())
-        + match b {
-            Backend::Gpu => "",
-            _ => " (cpu, f64)",
+/// Opens the device `--backend` asks for and says on stderr which one runs (and, for `auto`
+/// on the CPU, why). `--backend gpu` without a usable adapter ends the command (exit 2).
+fn open_backend(backend: Backend) -> Result<Option<Arc<GpuContext>>, ExitCode> {
+    let choice = match backend {
+        Backend::Auto => BackendChoice::Auto,
+        Backend::Cpu => BackendChoice::Cpu,
+        Backend::Gpu => BackendChoice::Gpu,
+    };
+    match select(choice) {
+        Ok(Compute::Gpu(ctx)) => {
+            let note = if ctx.is_software() { " — a software device: correct, not fast" } else { "" };
+            eprintln!("backend: gpu (f32) on {}{note}", ctx.describe());
+            Ok(Some(ctx))
         }
+        Ok(Compute::Cpu { reason }) => {
+            eprintln!("backend: cpu (f64, {} threads): {reason}", rayon_threads());
+            Ok(None)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            Err(ExitCode::from(2))
+        }
+    }
 }
 
-fn bench(backend: Backend, cfg: BenchConfig) -> ExitCode {
-    if backend == Backend::Gpu {
-        eprintln!("error: the GPU backend is not built yet; bench the CPU backend with --backend cpu");
-        return ExitCode::from(2);
+fn bench(backend: Backend, mut cfg: BenchConfig) -> ExitCode {
+    match open_backend(backend) {
+        Ok(gpu) => cfg.gpu = gpu,
+        Err(code) => return code,
     }
     match run_bench(&cfg) {
         Ok(out) => {

@@ -6,11 +6,13 @@ use crate::api::{Host, PLAN_DONE};
 use crate::report::{render, Sources};
 use crate::resume::{self, Pending, Session, INTERRUPTED};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::RunControl;
 use rhai::{Dynamic, EvalAltResult, Scope};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// What the command line asked for, resolved.
 pub struct RunConfig {
@@ -26,6 +28,8 @@ pub struct RunConfig {
     pub control: RunControl,
     /// `--resume DIR`: continue the interrupted run whose output folder (or resume folder) is DIR.
     pub resume: Option<PathBuf>,
+    /// The GPU the script's models step on; `None` for the CPU backend.
+    pub gpu: Option<Arc<GpuContext>>,
 }
 
 /// Why a run failed, already worded for a person.
@@ -144,6 +148,7 @@ fn evaluate(cfg: &RunConfig, text: &str, session: Session) -> Result<Vec<PathBuf
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
     host.control = cfg.control.clone();
+    host.gpu = cfg.gpu.clone();
     for (k, v) in &params {
         host.params.insert(k.as_str().into(), parse_value(v));
     }

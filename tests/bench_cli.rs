@@ -24,8 +24,31 @@ fn bench_json_reports_positive_figures() {
 }
 
 #[test]
-fn bench_on_gpu_is_refused_with_exit_code_2() {
-    let o = bin().args(["bench", "--backend", "gpu", "--particles", "100", "--steps", "1"]).output().unwrap();
+fn bench_on_gpu_without_an_adapter_is_refused_with_exit_code_2() {
+    let o =
+        bin_without_gpu().args(["bench", "--backend", "gpu", "--particles", "100", "--steps", "1"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("GPU backend is not built yet"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no usable GPU"), "{}", stderr(&o));
+}
+
+// The bench scene on the GPU (lavapipe in CI): runs, reports the adapter and the device
+// bytes per particle, and sees the lattice's contacts as the CPU does.
+#[test]
+fn bench_on_gpu_reports_the_adapter_and_device_memory() {
+    let o = bin()
+        .args(["bench", "--backend", "gpu", "--particles", "500", "--steps", "20", "--warmup", "5", "--json"])
+        .output()
+        .unwrap();
+    if o.status.code() == Some(2) && !gpu_required() {
+        eprintln!("skipped: no GPU adapter: {}", stderr(&o));
+        return;
+    }
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+    assert_eq!(v["backend"], "gpu");
+    let bytes = v["bytes_per_particle"].as_f64().unwrap();
+    assert!(bytes > 100.0 && bytes < 1024.0, "{out}");
+    let c = v["contacts_per_particle"].as_f64().unwrap();
+    assert!((4.0..=6.0).contains(&c), "contacts per particle {c}");
 }

@@ -85,7 +85,50 @@ fn help_shows_examples() {
 #[test]
 fn gpu_backend_without_adapter_is_a_clear_error() {
     let dir = temp_dir("gpu");
-    let o = run_script(&dir, "s.rhai", "print(1);", &["--backend", "gpu"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("no GPU backend"));
+    std::fs::write(dir.join("s.rhai"), "print(1);").unwrap();
+    let o = bin_without_gpu().arg("run").arg(dir.join("s.rhai")).args(["--backend", "gpu"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("error: no usable GPU") && err.contains("--backend cpu"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn auto_backend_without_a_hardware_gpu_runs_on_the_cpu_and_says_why() {
+    let dir = temp_dir("auto");
+    std::fs::write(dir.join("s.rhai"), "print(1);").unwrap();
+    let o = bin_without_gpu().arg("run").arg(dir.join("s.rhai")).args(["--backend", "auto"]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("backend: cpu (f64"), "{}", stderr(&o));
+}
+
+// A script on the GPU (Mesa's software Vulkan in CI): a small box of grains balanced under
+// gravity settles to the mean height the CPU finds, within 1e-3 relative.
+#[test]
+fn run_on_gpu_backend_matches_cpu() {
+    let script = r#"
+        let b = new_box("drop");
+        b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+        let d = b.build_initial_model();
+        d.gravity = [0.0, 0.0, -9.81];
+        d.set_standard_dt();
+        d.balance("standard");
+        print(`zmean=${d.z.mean()}`);
+    "#;
+    let mut out = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        let dir = temp_dir(&format!("gpu_run_{backend}"));
+        let o = run_script(&dir, "s.rhai", script, &["--backend", backend]);
+        if backend == "gpu" && o.status.code() == Some(2) && !gpu_required() {
+            eprintln!("skipped: no GPU adapter: {}", stderr(&o));
+            return;
+        }
+        assert!(o.status.success(), "{backend}: {}", stderr(&o));
+        if backend == "gpu" {
+            assert!(stderr(&o).contains("backend: gpu (f32) on"), "{}", stderr(&o));
+        }
+        let z: f64 = stdout(&o).lines().find_map(|l| l.strip_prefix("zmean=")).unwrap().trim().parse().unwrap();
+        out.push(z);
+    }
+    assert!(((out[1] - out[0]) / out[0]).abs() < 1e-3, "mean height cpu {} gpu {}", out[0], out[1]);
 }

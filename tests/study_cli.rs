@@ -69,3 +69,43 @@ fn study_of_a_metric_the_script_never_reports_says_which_it_did() {
     assert!(err.contains("did not report `strain`; it reported: inverse"), "{err}");
     assert!(err.contains("no run gave a result"), "{err}");
 }
+
+// `--vary backend=cpu,gpu` (Mesa's software Vulkan in CI): both settings run the same script
+// and report the same settled height within 1e-3 relative, and the table names the backends.
+#[test]
+fn study_varies_the_backend() {
+    let dir = temp_dir("study_backend");
+    let script = dir.join("drop.rhai");
+    std::fs::write(
+        &script,
+        r#"
+        let b = new_box("drop");
+        b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+        let d = b.build_initial_model();
+        d.gravity = [0.0, 0.0, -9.81];
+        d.set_standard_dt();
+        d.balance("standard");
+        report("zmean", d.z.mean());
+        "#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = bin()
+        .arg("study")
+        .arg(&script)
+        .args(["--vary", "backend=cpu,gpu", "--metric", "zmean", "--reference", "backend=cpu", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2, "{csv}");
+    assert_eq!((rows[0][1], rows[1][1]), ("cpu", "gpu"), "{csv}");
+    if rows[1][3].is_empty() && !gpu_required() {
+        eprintln!("skipped: no GPU adapter: {csv}");
+        return;
+    }
+    let err: f64 = rows[1][4].parse().unwrap_or_else(|_| panic!("{csv}"));
+    assert!(err < 1e-3, "{csv}");
+}

@@ -134,16 +134,17 @@ pub struct BenchReport {
     pub contacts_per_particle: f64,
     /// Mean particle–wall contacts per particle at the end (during the last step).
     pub wall_contacts_per_particle: f64,
-    /// Memory per particle (bytes): [`model_bytes`] and the backend's scratch buffers.
+    /// Memory per particle (bytes): [`model_bytes`] and the backend's scratch buffers on the
+    /// CPU; the device buffers on the GPU.
     pub bytes_per_particle: f64,
     /// Worker threads of the rayon pool the steps ran on.
     pub threads: usize,
 }
 
 /// Runs `warmup` untimed steps, then `steps` timed ones, through [`Simulation::run`] (so
-/// neighbour rebuilds and the stability guard are part of the time, as in a real run).
-pub fn run(model: Model, warmup: u64, steps: u64) -> Result<(BenchReport, Simulation)> {
-    let mut sim = Simulation::new(model);
+/// neighbour rebuilds and the stability guard are part of the time, as in a real run, and
+/// on the GPU the upload before and the download after the steps).
+pub fn run(mut sim: Simulation, warmup: u64, steps: u64) -> Result<(BenchReport, Simulation)> {
     let ctl = RunControl::default();
     sim.run(warmup, &ctl, &mut |_| {})?;
     let t0 = Instant::now();
@@ -161,7 +162,11 @@ pub fn run(model: Model, warmup: u64, steps: u64) -> Result<(BenchReport, Simula
         particle_steps_per_s: if seconds > 0.0 { n as f64 * steps as f64 / seconds } else { 0.0 },
         contacts_per_particle: 2.0 * touching_pairs(m) as f64 / nf,
         wall_contacts_per_particle: wall_contacts as f64 / nf,
-        bytes_per_particle: (model_bytes(m) + sim.backend_bytes()) as f64 / nf,
+        bytes_per_particle: if sim.backend_name().starts_with("gpu") {
+            sim.backend_bytes() as f64 / nf
+        } else {
+            (model_bytes(m) + sim.backend_bytes()) as f64 / nf
+        },
         threads: rayon::current_num_threads(),
     };
     Ok((report, sim))
@@ -233,7 +238,7 @@ mod tests {
         let m = scene.build().unwrap();
         // Pairs along x, y and z of a 4 × 5 × 6 block.
         assert_eq!(touching_pairs(&m), 3 * 5 * 6 + 4 * 4 * 6 + 4 * 5 * 5);
-        let (report, sim) = run(m, 2, 3).unwrap();
+        let (report, sim) = run(Simulation::new(m), 2, 3).unwrap();
         assert_eq!(report.particles, 120);
         // Floor 4·5, x sides 2·5·6, y sides 2·4·6.
         let walls: u32 = sim.model.walls.iter().map(|w| w.contacts).sum();

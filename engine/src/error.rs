@@ -23,6 +23,26 @@ pub enum Error {
     /// A host observer (snapshots) failed; the message is the host's.
     #[error("{0}")]
     Observer(String),
+    /// The GPU backend could not start or run (an environment problem, not the script's).
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// Why the GPU backend cannot run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    #[error("no usable GPU: {reason}; run with --backend cpu (or auto, which falls back to the CPU)")]
+    NoAdapter { reason: String },
+    #[error(
+        "the GPU backend needs {bytes} bytes for its `{lane}` buffer but this device allows {limit} per storage \
+         binding; run fewer particles or use --backend cpu"
+    )]
+    BufferTooLarge { lane: &'static str, bytes: u64, limit: u64 },
+    #[error("this build has no GPU backend (compiled without the `gpu` feature); use --backend cpu")]
+    NotBuilt,
+    #[error("the GPU device failed: {0}")]
+    Device(String),
 }
 
 fn hint(suggestion: &Option<String>, known: &[String]) -> String {

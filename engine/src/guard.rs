@@ -71,7 +71,7 @@ pub fn check_state(m: &Model) -> Result<()> {
     Ok(())
 }
 
-fn unstable(m: &Model, particle: usize, what: String) -> Error {
+pub(crate) fn unstable(m: &Model, particle: usize, what: String) -> Error {
     let (_, critical_dt) = m.critical_dt().unwrap_or((particle, f64::NAN));
     Error::Unstable(Box::new(Instability {
         step: m.clock.step,

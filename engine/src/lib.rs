@@ -35,7 +35,7 @@ pub mod state;
 pub mod status;
 pub mod walls;
 
-pub use error::{Error, Result};
+pub use error::{Error, GpuError, Result};
 pub use materials::{MacroProperties, Material};
 pub use model::{Model, NormalKind, Settings, TangentialKind};
 pub use physics::Vec3;

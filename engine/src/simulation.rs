@@ -36,6 +36,15 @@ pub struct Simulation {
     backend: Option<(PlanKey, CpuBackend)>,
     /// Called whenever the step count reaches a multiple of its period (snapshots).
     pub observer: Option<Observer>,
+    /// Set when the model runs on a GPU: the device and the pipelines for the current plan.
+    #[cfg(feature = "gpu")]
+    gpu: Option<GpuRunner>,
+}
+
+#[cfg(feature = "gpu")]
+struct GpuRunner {
+    ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>,
+    prepared: Option<(PlanKey, crate::backend::gpu::GpuBackend)>,
 }
 
 /// A host callback run at every `every`-th step of the model's clock, between steps, with
@@ -64,8 +73,42 @@ pub struct RunReport {
 }
 
 impl Simulation {
+    /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation { model, backend: None, observer: None }
+        Simulation {
+            model,
+            backend: None,
+            observer: None,
+            #[cfg(feature = "gpu")]
+            gpu: None,
+        }
+    }
+
+    /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
+    /// contact statistics, scripts' arrays) read the model, which each run brings up to date.
+    #[cfg(feature = "gpu")]
+    pub fn with_gpu(model: Model, ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>) -> Self {
+        Simulation { gpu: Some(GpuRunner { ctx, prepared: None }), ..Self::new(model) }
+    }
+
+    /// Puts `model` in place of the current one (a loaded checkpoint), on the same backend;
+    /// prepared plans are dropped, so nothing of the old model's per-pair state carries over.
+    pub fn replace_model(&mut self, model: Model) {
+        self.model = model;
+        self.backend = None;
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &mut self.gpu {
+            g.prepared = None;
+        }
+    }
+
+    /// The backend in words: `cpu (f64)` or `gpu (f32) on <adapter>`.
+    pub fn backend_name(&self) -> String {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return format!("gpu (f32) on {}", g.ctx.describe());
+        }
+        "cpu (f64)".to_string()
     }
 
     /// The plan for the model as it is now.
@@ -92,8 +135,33 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &mut self.gpu {
+            let Some(o) = self.observer.as_mut().filter(|o| o.every > 0) else {
+                return run_on_gpu(g, &mut self.model, steps, every, ctl, progress, sample);
+            };
+            // Observed runs go in pieces that end on the observer's steps; each piece brings
+            // the model back from the device, which the observer then reads.
+            let mut done = 0;
+            while done < steps {
+                let piece = (o.every - self.model.clock.step % o.every).min(steps - done);
+                run_on_gpu(g, &mut self.model, piece, every, ctl, &mut |k| progress(done + k), sample).map_err(
+                    |e| match e {
+                        Error::Cancelled { completed_steps } => {
+                            Error::Cancelled { completed_steps: done + completed_steps }
+                        }
+                        other => other,
+                    },
+                )?;
+                done += piece;
+                if self.model.clock.step % o.every == 0 {
+                    (o.call)(&self.model).map_err(Error::Observer)?;
+                }
+            }
+            return Ok(RunReport { steps, unbalanced_ratio: None });
+        }
         let guard_every = self.model.settings.guard_every.max(1);
-        let Simulation { model, backend, observer } = self;
+        let Simulation { model, backend, observer, .. } = self;
         let backend = prepared(backend, model);
         let mut samples = Vec::new();
         let mut done = 0;
@@ -197,8 +265,13 @@ impl Simulation {
         ((50.0 * (longest / d + 1.0)) as u64).max(500)
     }
 
-    /// Heap bytes of the prepared backend's own buffers (0 before the first run).
+    /// Heap bytes of the prepared backend's own buffers (0 before the first run); on the GPU
+    /// the bytes of all device buffers.
     pub fn backend_bytes(&self) -> usize {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return g.prepared.as_ref().map_or(0, |(_, b)| b.device_bytes() as usize);
+        }
         self.backend.as_ref().map_or(0, |(_, b)| b.scratch_bytes())
     }
 
@@ -232,6 +305,32 @@ impl Simulation {
             rebuild(&mut self.model);
         }
     }
+}
+
+/// A run on the GPU, with the pipelines prepared for the model's current revision.
+#[cfg(feature = "gpu")]
+fn run_on_gpu(
+    g: &mut GpuRunner,
+    model: &mut Model,
+    steps: u64,
+    every: u64,
+    ctl: &RunControl,
+    progress: &mut dyn FnMut(u64),
+    sample: &mut dyn FnMut(EnergySample),
+) -> Result<RunReport> {
+    let fresh = |(rev, settings): &PlanKey| *rev == model.revision && *settings == model.settings;
+    if !g.prepared.as_ref().is_some_and(|(key, _)| fresh(key)) {
+        let backend = crate::backend::gpu::GpuBackend::prepare(g.ctx.clone(), model)?;
+        g.prepared = Some(((model.revision, model.settings.clone()), backend));
+    }
+    let backend = &mut g.prepared.as_mut().expect("prepared above").1;
+    let plan = backend.plan.clone();
+    backend.run(model, steps, every, ctl, progress, &mut |m| {
+        let mut energies = potential_energies(m, &plan);
+        energies.kinetic = kinetic_energy(m);
+        sample(EnergySample { step: m.clock.step, time: m.clock.time, energies });
+    })?;
+    Ok(RunReport { steps, unbalanced_ratio: None })
 }
 
 /// The backend prepared for the model's current revision (rebuilt when it changed).

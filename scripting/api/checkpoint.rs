@@ -54,7 +54,7 @@ pub fn checkpoint_bytes(data: &ModelData) -> Vec<u8> {
 /// variables holding `d.status` keep seeing it).
 pub fn restore(data: &mut ModelData, ck: Checkpoint) -> Result<(), String> {
     let annex = host_annex(&ck.annex)?;
-    data.sim = matdem_engine::Simulation::new(ck.model);
+    data.sim.replace_model(ck.model);
     data.name = annex.name;
     *data.status.0.borrow_mut() = table_of(annex.status, annex.rows);
     *data.snapshots.borrow_mut() = annex.snapshots;

@@ -14,11 +14,13 @@ pub mod snapshots;
 pub mod table;
 
 use crate::resume::{Entry, Session, Value};
+use matdem_engine::backend::gpu::device::GpuContext;
 use model::{ModelData, ModelHandle};
 use rhai::{Dynamic, Engine, EvalAltResult};
 use std::cell::RefCell;
 use std::path::{Component, Path, PathBuf};
 use std::rc::{Rc, Weak};
+use std::sync::Arc;
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
 
@@ -52,6 +54,9 @@ pub struct Host {
     pub models: RefCell<Vec<Weak<RefCell<ModelData>>>>,
     /// The journal of what the script saw, and the replay state of a resumed run.
     pub session: RefCell<Session>,
+    /// The GPU every model of the run steps on (`--backend gpu`, or `auto` with a hardware
+    /// GPU); `None` runs on the CPU backend.
+    pub gpu: Option<Arc<GpuContext>>,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -69,6 +74,7 @@ impl Host {
             script_dir: PathBuf::from("."),
             models: RefCell::new(Vec::new()),
             session: RefCell::new(Session::default()),
+            gpu: None,
         }
     }
 
@@ -108,7 +114,7 @@ impl Host {
     /// Gives a new model to the script under the next creation number.
     pub fn adopt(&self, name: &str, model: matdem_engine::Model) -> ModelHandle {
         let mut models = self.models.borrow_mut();
-        let handle = ModelHandle::new(name, model, models.len());
+        let handle = ModelHandle::new(name, model, models.len(), self.gpu.clone());
         models.push(Rc::downgrade(&handle.0));
         handle
     }

@@ -5,6 +5,7 @@ use super::field::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table};
 use super::{err, raise, Host, RhaiResult, PLAN_DONE};
 use crate::resume::{self, SavedBalance, INTERRUPTED};
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;
 use matdem_engine::status::{porosity, Region};
@@ -12,6 +13,7 @@ use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
 use rhai::{Array, Dynamic, Engine, EvalAltResult, Map, FLOAT, INT};
 use std::cell::{RefCell, RefMut};
 use std::rc::Rc;
+use std::sync::Arc;
 
 pub struct ModelData {
     pub name: String,
@@ -29,11 +31,16 @@ pub struct ModelData {
 pub struct ModelHandle(pub Rc<RefCell<ModelData>>);
 
 impl ModelHandle {
-    /// A handle for model number `number`; scripts get theirs through [`Host::adopt`].
-    pub fn new(name: &str, model: Model, number: usize) -> Self {
+    /// A handle for model number `number`, stepping on `gpu` when given, else on the CPU
+    /// backend; scripts get theirs through [`Host::adopt`].
+    pub fn new(name: &str, model: Model, number: usize, gpu: Option<Arc<GpuContext>>) -> Self {
+        let sim = match gpu {
+            Some(ctx) => Simulation::with_gpu(model, ctx),
+            None => Simulation::new(model),
+        };
         ModelHandle(Rc::new(RefCell::new(ModelData {
             name: name.to_string(),
-            sim: Simulation::new(model),
+            sim,
             status: Table::default(),
             number,
             snapshots: Rc::default(),

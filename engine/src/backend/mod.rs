@@ -1,6 +1,9 @@
-//! Where time steps run. The CPU backend is the f64 reference.
+//! Where time steps run. The CPU backend is the f64 reference; the GPU backend (feature
+//! `gpu`) runs the same stages as WGSL kernels in f32.
 
 pub mod cpu;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

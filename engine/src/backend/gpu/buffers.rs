@@ -1,0 +1,359 @@
+//! The device's copy of a model: one buffer per lane, in the layout common.wgsl declares,
+//! and the conversions between the model's f64 lanes and the device's f32 ones.
+//!
+//! Positions go up as an f32 origin (the f64 position rounded) plus the f32 remainder, and
+//! the kernels move only the remainder: a step's displacement of 1e-9 m is then kept
+//! instead of being rounded away against a coordinate of 0.05 m.
+
+use super::device::GpuContext;
+use crate::error::{GpuError, Result};
+use crate::model::Model;
+use crate::physics::contact_law::{PairParams, PairState};
+use crate::physics::Vec3;
+use crate::plan::StepPlan;
+use crate::walls::{WallMotion, WallShape};
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// Scene constants (`Params` in common.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct Params {
+    pub n: u32,
+    pub nw: u32,
+    pub nmat: u32,
+    pub max_events: u32,
+    pub dt: f32,
+    pub local_damping: f32,
+    pub max_overlap_ratio: f32,
+    pub wall_groups: u32,
+    pub gravity: [f32; 4],
+}
+
+/// A wall (`Wall` in common.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Default)]
+pub struct WallLane {
+    pub point: [f32; 4],
+    pub normal: [f32; 4],
+    pub motion: [f32; 4],
+    pub prescribed: [f32; 4],
+    pub velocity: [f32; 4],
+    pub moved: [f32; 4],
+    pub load: [f32; 4],
+    pub load2: [f32; 4],
+}
+
+/// Slots of the counters buffer (C_* in common.wgsl).
+pub const C_STEP: usize = 0;
+pub const C_EVENTS: usize = 1;
+pub const C_DRIFT: usize = 2;
+pub const C_SPEED: usize = 3;
+pub const C_GUARD: usize = 4;
+pub const COUNTERS: usize = 8;
+
+fn v4(v: &Vec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+fn pair_lane(p: &PairParams) -> [f32; 12] {
+    let f = |x: f64| x as f32;
+    [
+        f(p.kn),
+        f(p.ks),
+        f(p.breaking_force),
+        f(p.fs0),
+        f(p.mu),
+        f(p.e_star),
+        f(p.g_star),
+        f(p.zeta),
+        f(p.alpha),
+        0.0,
+        0.0,
+        0.0,
+    ]
+}
+
+/// The model's particles, rows and walls as f32 lanes, ready to upload.
+pub struct HostLanes {
+    pub origin: Vec<[f32; 4]>,
+    pub disp: Vec<[f32; 4]>,
+    pub vel: Vec<[f32; 4]>,
+    pub body: Vec<[f32; 4]>,
+    pub kind: Vec<u32>,
+    pub force: Vec<[f32; 4]>,
+    pub ang_vel: Vec<[f32; 4]>,
+    pub torque: Vec<[f32; 4]>,
+    pub built: Vec<[f32; 4]>,
+    pub row_start: Vec<u32>,
+    pub other: Vec<u32>,
+    pub state: Vec<[f32; 4]>,
+    pub wall_state: Vec<[f32; 4]>,
+    pub walls: Vec<WallLane>,
+    pub pairs: Vec<[f32; 12]>,
+    pub wall_pairs: Vec<[f32; 12]>,
+    /// Bonds that may still break: room for their events.
+    pub bonds: usize,
+}
+
+impl HostLanes {
+    /// Converts the model (rows must be current) for a device run with `plan`.
+    /// `damping_rate[i]` is c_i/m_i of the viscous damping (empty when off).
+    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64]) -> Self {
+        let p = &m.particles;
+        let n = p.len();
+        let mut origin = Vec::with_capacity(n);
+        let mut disp = Vec::with_capacity(n);
+        let mut built = Vec::with_capacity(n);
+        for i in 0..n {
+            let x = p.pos[i];
+            let o = Vec3::new(f64::from(x.x as f32), f64::from(x.y as f32), f64::from(x.z as f32));
+            origin.push(v4(&o, p.radius[i] as f32));
+            disp.push(v4(&(x - o), 0.0));
+            built.push(v4(&(m.contacts.built_at[i] - o), 0.0));
+        }
+        let body =
+            (0..n).map(|i| [p.mass[i] as f32, damping_rate.get(i).copied().unwrap_or(0.0) as f32, 0.0, 0.0]).collect();
+        let kind = (0..n).map(|i| p.material[i] | (u32::from(p.fixed[i]) << 24)).collect();
+        let (ang_vel, torque) = match (&p.rotation, plan.rotation) {
+            (Some(r), true) => {
+                (r.ang_vel.iter().map(|w| v4(w, 0.0)).collect(), r.torque.iter().map(|t| v4(t, 0.0)).collect())
+            }
+            _ => (Vec::new(), Vec::new()),
+        };
+        let c = &m.contacts;
+        let state: Vec<[f32; 4]> = c.state.iter().map(|s| v4(&s.shear, if s.bonded { 1.0 } else { 0.0 })).collect();
+        let bonds = c.state.iter().filter(|s| s.bonded).count() / 2;
+        let walls = m
+            .walls
+            .iter()
+            .map(|w| {
+                let (point, normal) = match &w.shape {
+                    WallShape::Plane { point, normal } => (v4(point, 0.0), v4(normal, 0.0)),
+                    WallShape::Cylinder { center, radius } => (v4(center, *radius as f32), [0.0, 0.0, 1.0, 1.0]),
+                };
+                let (kind, stress, max_speed, prescribed) = match &w.motion {
+                    WallMotion::Fixed => (0.0, 0.0, 0.0, Vec3::zeros()),
+                    WallMotion::Velocity(v) => (1.0, 0.0, 0.0, *v),
+                    WallMotion::Servo { stress, max_speed } => (2.0, *stress as f32, *max_speed as f32, Vec3::zeros()),
+                };
+                WallLane {
+                    point,
+                    normal,
+                    motion: [kind, stress, max_speed, w.area as f32],
+                    prescribed: v4(&prescribed, 0.0),
+                    velocity: v4(&w.velocity, 0.0),
+                    moved: [0.0; 4],
+                    load: v4(&w.force, w.normal_force as f32),
+                    load2: [w.stiffness as f32, w.contacts as f32, 0.0, 0.0],
+                }
+            })
+            .collect();
+        HostLanes {
+            origin,
+            disp,
+            vel: p.vel.iter().map(|v| v4(v, 0.0)).collect(),
+            body,
+            kind,
+            force: p.force.iter().map(|f| v4(f, 0.0)).collect(),
+            ang_vel,
+            torque,
+            built,
+            row_start: c.row_start.clone(),
+            other: c.other.clone(),
+            state,
+            wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, 0.0)).collect(),
+            walls,
+            pairs: plan.pair.iter().map(pair_lane).collect(),
+            wall_pairs: plan.wall.iter().map(pair_lane).collect(),
+            bonds,
+        }
+    }
+}
+
+/// The device buffers. Lanes a plan does not use (rotation off, no walls) are 128-byte
+/// placeholders, so every kernel binds the same layout.
+pub struct DeviceLanes {
+    pub n: usize,
+    pub params: wgpu::Buffer,
+    pub origin: wgpu::Buffer,
+    pub disp: wgpu::Buffer,
+    pub vel: wgpu::Buffer,
+    pub body: wgpu::Buffer,
+    pub kind: wgpu::Buffer,
+    pub force: wgpu::Buffer,
+    pub ang_vel: wgpu::Buffer,
+    pub torque: wgpu::Buffer,
+    pub built: wgpu::Buffer,
+    pub row_start: wgpu::Buffer,
+    pub other: wgpu::Buffer,
+    pub state: wgpu::Buffer,
+    pub wall_state: wgpu::Buffer,
+    pub walls: wgpu::Buffer,
+    pub pairs: wgpu::Buffer,
+    pub wall_pairs: wgpu::Buffer,
+    pub partials: wgpu::Buffer,
+    pub counters: wgpu::Buffer,
+    pub events: wgpu::Buffer,
+    pub max_events: usize,
+    /// Bytes of all device buffers.
+    pub bytes: u64,
+}
+
+const STORAGE: wgpu::BufferUsages =
+    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
+
+impl DeviceLanes {
+    /// Uploads `h`. Refuses a lane larger than the device's storage binding limit.
+    pub fn upload(ctx: &GpuContext, h: &HostLanes, params: Params, wall_groups: usize) -> Result<Self> {
+        let limit = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+        let mut bytes = 0u64;
+        let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
+            // An empty lane still needs a buffer to bind, as large as the largest element a
+            // shader reads from one (a wall, 128 bytes).
+            let zeros = [0u8; 128];
+            let contents = if data.is_empty() { &zeros[..] } else { data };
+            if contents.len() as u64 > limit {
+                return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
+            }
+            bytes += contents.len() as u64;
+            Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(lane),
+                contents,
+                usage: STORAGE,
+            }))
+        };
+        let max_events = h.bonds.max(1);
+        let mut counters = [0u32; COUNTERS];
+        counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
+        let lanes = DeviceLanes {
+            n: h.origin.len(),
+            origin: make("origin", bytes_of(&h.origin))?,
+            disp: make("displacement", bytes_of(&h.disp))?,
+            vel: make("velocity", bytes_of(&h.vel))?,
+            body: make("body", bytes_of(&h.body))?,
+            kind: make("kind", bytes_of(&h.kind))?,
+            force: make("force", bytes_of(&h.force))?,
+            ang_vel: make("angular velocity", bytes_of(&h.ang_vel))?,
+            torque: make("torque", bytes_of(&h.torque))?,
+            built: make("row build positions", bytes_of(&h.built))?,
+            row_start: make("row starts", bytes_of(&h.row_start))?,
+            other: make("neighbour ids", bytes_of(&h.other))?,
+            state: make("pair state", bytes_of(&h.state))?,
+            wall_state: make("wall contact state", bytes_of(&h.wall_state))?,
+            walls: make("walls", bytes_of(&h.walls))?,
+            pairs: make("pair constants", bytes_of(&h.pairs))?,
+            wall_pairs: make("wall constants", bytes_of(&h.wall_pairs))?,
+            partials: make("wall load partials", bytes_of(&initial_partials(h, wall_groups)))?,
+            counters: make("counters", bytes_of(&counters))?,
+            events: make("breakage events", &vec![0u8; max_events * 16])?,
+            params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            }),
+            max_events,
+            bytes: 0,
+        };
+        Ok(DeviceLanes { bytes: bytes + std::mem::size_of::<Params>() as u64, ..lanes })
+    }
+}
+
+/// The wall-load partials before the first step: the first workgroup's hold the model's last
+/// loads, so the first walls stage of a run sums them back exactly and moves the walls as
+/// the CPU would from them.
+fn initial_partials(h: &HostLanes, wall_groups: usize) -> Vec<[f32; 4]> {
+    let nw = h.walls.len();
+    let mut p = vec![[0.0f32; 4]; wall_groups.max(1) * nw * 2];
+    for (w, wall) in h.walls.iter().enumerate() {
+        let l = wall.load;
+        // Partials hold the force on the particles: the opposite of the wall's load.
+        p[w * 2] = [-l[0], -l[1], -l[2], l[3]];
+        p[w * 2 + 1] = wall.load2;
+    }
+    p
+}
+
+fn bytes_of<T: Pod>(v: &[T]) -> &[u8] {
+    bytemuck::cast_slice(v)
+}
+
+/// Copies `buffer` back to the host (blocking).
+pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Result<Vec<T>> {
+    let size = (count * std::mem::size_of::<T>()) as u64;
+    if size == 0 {
+        return Ok(Vec::new());
+    }
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+    ctx.queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| GpuError::Device(e.to_string()))?
+        .map_err(|e| GpuError::Device(format!("reading a buffer back: {e}")))?;
+    let view = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("{e:?}")))?;
+    let out = bytemuck::cast_slice::<u8, T>(&view).to_vec();
+    drop(view);
+    staging.unmap();
+    Ok(out)
+}
+
+/// Writes the device's state back into the model: positions (origin + displacement, in f64),
+/// velocities, forces, angular lanes, pair and wall-contact states, walls and their loads.
+pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model, rotation: bool) -> Result<()> {
+    let n = d.n;
+    let disp: Vec<[f32; 4]> = read(ctx, &d.disp, n)?;
+    let vel: Vec<[f32; 4]> = read(ctx, &d.vel, n)?;
+    let force: Vec<[f32; 4]> = read(ctx, &d.force, n)?;
+    let to64 = |a: &[f32; 4]| Vec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
+    let p = &mut m.particles;
+    for i in 0..n {
+        p.pos[i] = to64(&h.origin[i]) + to64(&disp[i]);
+        p.vel[i] = to64(&vel[i]);
+        p.force[i] = to64(&force[i]);
+    }
+    if rotation {
+        let w: Vec<[f32; 4]> = read(ctx, &d.ang_vel, n)?;
+        let t: Vec<[f32; 4]> = read(ctx, &d.torque, n)?;
+        if let Some(r) = &mut p.rotation {
+            for i in 0..n {
+                r.ang_vel[i] = to64(&w[i]);
+                r.torque[i] = to64(&t[i]);
+            }
+        }
+    }
+    let state: Vec<[f32; 4]> = read(ctx, &d.state, h.state.len())?;
+    for (s, g) in m.contacts.state.iter_mut().zip(&state) {
+        *s = PairState { shear: to64(g), bonded: g[3] != 0.0, dashpot: 0.0 };
+    }
+    let wall_state: Vec<[f32; 4]> = read(ctx, &d.wall_state, h.wall_state.len())?;
+    for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
+        *s = PairState { shear: to64(g), bonded: false, dashpot: 0.0 };
+    }
+    let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
+    for (w, g) in m.walls.iter_mut().zip(&walls) {
+        let moved = to64(&g.moved);
+        match &mut w.shape {
+            // The host's shape is the one uploaded: add the device's move to it in f64.
+            WallShape::Plane { point, .. } => *point += moved,
+            WallShape::Cylinder { radius, .. } => *radius += moved.x,
+        }
+        w.displacement += moved;
+        w.velocity = to64(&g.velocity);
+        w.force = to64(&g.load);
+        w.normal_force = f64::from(g.load[3]);
+        w.stiffness = f64::from(g.load2[0]);
+        w.contacts = g.load2[1] as u32;
+    }
+    Ok(())
+}

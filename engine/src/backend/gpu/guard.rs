@@ -1,0 +1,23 @@
+//! Stage 7 on the GPU: the stability guard's checks (shaders/guard.wgsl), run every
+//! `guard_every` steps. When one fails the host brings the state back and words the
+//! CPU guard's message ([`crate::guard`]), so both backends stop with the same text.
+
+use super::buffers::DeviceLanes;
+use super::shaders::{self, groups_for, Kernel};
+
+pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, "guard", shaders::GUARD, "check_state", constants)
+}
+
+pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
+    let buffers = [&d.params, &d.origin, &d.disp, &d.vel, &d.force, &d.row_start, &d.other, &d.walls, &d.counters];
+    Kernel::bind(device, p, &buffers, groups_for(d.n))
+}
+
+/// What each guard slot means, worded as the CPU guard words it.
+pub const FAILURES: [&str; 4] = [
+    "has a non-finite position, velocity or force",
+    "moves more than 50% of its radius per step",
+    "overlaps a neighbour by more than the allowed fraction of the smaller radius",
+    "is pushed through a wall",
+];

@@ -1,0 +1,15 @@
+//! Stages 4–5 on the GPU: body forces, damping and leapfrog integration
+//! (shaders/integrate.wgsl). CPU twin: [`crate::backend::cpu::integrate`].
+
+use super::buffers::DeviceLanes;
+use super::shaders::{self, groups_for, Kernel};
+
+pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, "integrate", shaders::INTEGRATE, "integrate", constants)
+}
+
+pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
+    let buffers =
+        [&d.params, &d.origin, &d.body, &d.kind, &d.force, &d.vel, &d.disp, &d.torque, &d.ang_vel, &d.counters];
+    Kernel::bind(device, p, &buffers, groups_for(d.n))
+}

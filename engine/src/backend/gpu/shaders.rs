@@ -1,0 +1,138 @@
+//! The WGSL sources (the only file that names shader paths) and the one way a stage becomes
+//! a pipeline: `common.wgsl` prepended to the stage's file, the plan's choices passed as
+//! pipeline-overridable constants, so a switched-off effect is compiled out.
+
+use crate::model::{NormalKind, TangentialKind};
+use crate::plan::StepPlan;
+
+pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
+pub const NEIGHBOURS: &str = include_str!("../../../../shaders/neighbours.wgsl");
+pub const CONTACT_FORCES: &str = include_str!("../../../../shaders/contact_forces.wgsl");
+pub const WALL_FORCES: &str = include_str!("../../../../shaders/wall_forces.wgsl");
+pub const WALLS: &str = include_str!("../../../../shaders/walls.wgsl");
+pub const INTEGRATE: &str = include_str!("../../../../shaders/integrate.wgsl");
+pub const GUARD: &str = include_str!("../../../../shaders/guard.wgsl");
+
+/// Every stage by name, for validation without a device.
+pub const STAGES: [(&str, &str); 6] = [
+    ("neighbours", NEIGHBOURS),
+    ("contact_forces", CONTACT_FORCES),
+    ("wall_forces", WALL_FORCES),
+    ("walls", WALLS),
+    ("integrate", INTEGRATE),
+    ("guard", GUARD),
+];
+
+/// A stage's full source.
+pub fn source(stage: &str) -> String {
+    format!("{COMMON}\n{stage}")
+}
+
+/// The plan's choices as the overrides of common.wgsl.
+pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    vec![
+        ("NORMAL_HERTZ", flag(plan.normal == NormalKind::Hertz)),
+        ("MINDLIN", flag(plan.tangential == TangentialKind::Mindlin)),
+        ("DASHPOT", flag(plan.dashpot)),
+        ("ROTATION", flag(plan.rotation)),
+        ("VISCOUS", flag(plan.damping > 0.0)),
+        ("LOCAL", flag(plan.local_damping > 0.0)),
+    ]
+}
+
+/// A compute pipeline for `entry` of a stage, its bind group layout derived from the shader.
+pub fn pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    stage: &str,
+    entry: &str,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source(stage).into()),
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: true },
+        cache: None,
+    })
+}
+
+/// A pipeline bound to its buffers, and how many workgroups one dispatch needs.
+pub struct Kernel {
+    pub pipeline: wgpu::ComputePipeline,
+    pub bind_group: wgpu::BindGroup,
+    pub groups: (u32, u32),
+}
+
+impl Kernel {
+    /// Binds `buffers` to bindings 0, 1, 2, … of group 0.
+    pub fn bind(
+        device: &wgpu::Device,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer],
+        groups: (u32, u32),
+    ) -> Self {
+        let layout = pipeline.get_bind_group_layout(0);
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+            .collect();
+        let bind_group =
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+        Kernel { pipeline: pipeline.clone(), bind_group, groups }
+    }
+
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+    }
+}
+
+/// Workgroups of 64 covering `n` items, as a 2-D grid when one row of 65,535 is not enough.
+pub fn groups_for(n: usize) -> (u32, u32) {
+    let total = n.div_ceil(64).max(1);
+    if total <= 65_535 {
+        (total as u32, 1)
+    } else {
+        (65_535, total.div_ceil(65_535) as u32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_stage_parses_and_validates() {
+        for (name, stage) in STAGES {
+            naga_parse(&source(stage)).unwrap_or_else(|e| panic!("{name}.wgsl: {e}"));
+        }
+    }
+
+    fn naga_parse(src: &str) -> Result<(), String> {
+        // wgpu re-exports naga; parse and validate as wgpu would.
+        let module = wgpu::naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
+        let mut v = wgpu::naga::valid::Validator::new(
+            wgpu::naga::valid::ValidationFlags::all(),
+            wgpu::naga::valid::Capabilities::all(),
+        );
+        v.validate(&module).map_err(|e| e.emit_to_string(src))?;
+        Ok(())
+    }
+
+    #[test]
+    fn large_counts_use_a_second_grid_dimension() {
+        assert_eq!(groups_for(1), (1, 1));
+        assert_eq!(groups_for(64 * 65_535), (65_535, 1));
+        let (x, y) = groups_for(50_000_000);
+        assert!(x as usize * y as usize * 64 >= 50_000_000 && y == 12);
+    }
+}

@@ -1,0 +1,35 @@
+//! Stage 3b on the GPU: particle–wall contacts and per-workgroup wall loads
+//! (shaders/wall_forces.wgsl). Built only when the scene has walls.
+//! CPU twin: [`crate::backend::cpu::wall_forces`].
+
+use super::buffers::DeviceLanes;
+use super::shaders::{self, groups_for, Kernel};
+
+pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, "wall_forces", shaders::WALL_FORCES, "compute_wall_forces", constants)
+}
+
+pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
+    let buffers = [
+        &d.params,
+        &d.origin,
+        &d.disp,
+        &d.vel,
+        &d.body,
+        &d.kind,
+        &d.walls,
+        &d.wall_pairs,
+        &d.wall_state,
+        &d.force,
+        &d.ang_vel,
+        &d.torque,
+        &d.partials,
+    ];
+    Kernel::bind(device, p, &buffers, groups_for(d.n))
+}
+
+/// Workgroups of the wall pass: one load partial per workgroup and wall.
+pub fn partial_groups(n: usize) -> usize {
+    let (x, y) = groups_for(n);
+    x as usize * y as usize
+}

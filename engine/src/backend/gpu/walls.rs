@@ -1,0 +1,20 @@
+//! Stage 1 on the GPU: the wall loads of the last step are summed and the walls move
+//! (prescribed velocity or servo), in one single-workgroup dispatch (shaders/walls.wgsl),
+//! so a servo platen runs without a round trip to the host. Built only when the scene has
+//! walls. CPU twin: [`crate::walls::Wall::advance`].
+
+use super::buffers::DeviceLanes;
+use super::shaders::{self, Kernel};
+
+pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, "walls", shaders::WALLS, "advance_walls", constants)
+}
+
+/// The loads alone (no move), so the host reads the loads of the run's last step.
+pub fn sum_pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, "sum_wall_loads", shaders::WALLS, "sum_wall_loads", constants)
+}
+
+pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
+    Kernel::bind(device, p, &[&d.params, &d.walls, &d.partials], (1, 1))
+}

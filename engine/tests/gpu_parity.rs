@@ -1,0 +1,365 @@
+//! The GPU backend (WGSL, f32) against the CPU reference (f64) on the same small scenes:
+//! impacts, deposition, bonded breakage, an oedometer stage with a servo platen, and the
+//! stability guard; and two GPU runs against each other (bitwise).
+//!
+//! Without a GPU adapter each test prints a note and passes, unless MATDEM_REQUIRE_GPU=1 (CI,
+//! which installs Mesa's software Vulkan driver), when it fails. Tolerances are stated per
+//! test: single contacts agree to f32 round-off (~1e-4 relative); many-body scenes are
+//! chaotic, so they compare what the physics fixes (weights, stresses, mean heights).
+#![cfg(feature = "gpu")]
+
+mod common;
+
+use common::{material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres, HertzImpact};
+use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
+use matdem_engine::builder::Rng;
+use matdem_engine::physics::contact_law::BreakKind;
+use matdem_engine::state::particles::dof;
+use matdem_engine::{Material, Model, NormalKind, Simulation, TangentialKind, Vec3, Wall, WallMotion};
+use std::sync::Arc;
+
+/// A GPU device, or `None` (after a note) when there is none and none is required.
+fn gpu(test: &str) -> Option<Arc<GpuContext>> {
+    let required = std::env::var("MATDEM_REQUIRE_GPU").is_ok_and(|v| v == "1");
+    let why = match select(BackendChoice::Gpu) {
+        Ok(Compute::Gpu(ctx)) => return Some(ctx),
+        Ok(Compute::Cpu { reason }) => reason,
+        Err(e) => e.to_string(),
+    };
+    assert!(!required, "{test}: MATDEM_REQUIRE_GPU=1 but no GPU adapter: {why}");
+    eprintln!("{test}: skipped: no GPU adapter ({why})");
+    None
+}
+
+/// The same model on both backends.
+fn both(model: Model, ctx: &Arc<GpuContext>) -> (Simulation, Simulation) {
+    (Simulation::new(model.clone()), Simulation::with_gpu(model, ctx.clone()))
+}
+
+// Hertz impact of two glass spheres (Chung & Ooi test 1; physics.md §1), one step per
+// run so each step is observed: the GPU's peak overlap, peak force, contact duration and
+// rebound speed equal the CPU's within 1e-3 and the analytic δmax, Fmax, t_c within 1%.
+#[test]
+fn hertz_pair_impact_matches_cpu_and_chung_ooi() {
+    let Some(ctx) = gpu("hertz_pair_impact") else { return };
+    let (young, nu, rho, r, v) = (4.8e10, 0.2, 2800.0, 0.01, 10.0);
+    let expected = HertzImpact::two_spheres(young, nu, rho, r, v);
+    let mut model = two_spheres(material("glass", rho, 1e6, young, nu), r, 1e-6, v, NormalKind::Hertz);
+    model.set_dt(expected.t_c / 200.0).unwrap();
+    let (mut cpu, mut gpu) = both(model, &ctx);
+    let a = run_impact(&mut cpu, 2000, probe_pair);
+    let b = run_impact(&mut gpu, 2000, probe_pair);
+    eprintln!("cpu {a:?}\ngpu {b:?}");
+    assert!(rel(b.max_overlap, a.max_overlap) < 1e-3, "δmax {} vs {}", b.max_overlap, a.max_overlap);
+    assert!(rel(b.peak_force, a.peak_force) < 1e-3, "Fmax {} vs {}", b.peak_force, a.peak_force);
+    assert!(rel(b.duration(), a.duration()) < 1e-3, "t_c {} vs {}", b.duration(), a.duration());
+    assert!(rel(b.v_out, a.v_out) < 1e-3, "rebound {} vs {}", b.v_out, a.v_out);
+    assert!(rel(b.max_overlap, expected.delta_max) < 0.01);
+    assert!(rel(b.peak_force, expected.f_max) < 0.01);
+    assert!(rel(b.duration(), expected.t_c) < 0.01);
+}
+
+// A linear spring–dashpot sphere dropped on a wall with restitution 0.5 and friction: the
+// rebound speed equals the CPU's within 1e-3 and the requested e within 1%.
+#[test]
+fn linear_wall_impact_with_dashpot_matches_cpu() {
+    let Some(ctx) = gpu("linear_wall_impact") else { return };
+    let mut mat = material("steel", 7800.0, 1e6, 2e11, 0.3);
+    mat.restitution = 0.5;
+    mat.mu_p = 0.3;
+    mat.ks = 4e5;
+    let mut model = sphere_on_plane(mat, 0.005, 1e-6, 1.0, NormalKind::Linear);
+    // Oblique: the friction and the shear spring work too.
+    model.particles.vel[0].x = 0.3;
+    let m = model.particles.mass[0];
+    let t_c = std::f64::consts::PI * (m / 2e6).sqrt();
+    model.set_dt(t_c / 300.0).unwrap();
+    let (mut cpu, mut gpu) = both(model, &ctx);
+    let a = run_impact(&mut cpu, 3000, probe_wall);
+    let b = run_impact(&mut gpu, 3000, probe_wall);
+    eprintln!("cpu e = {:.6}, gpu e = {:.6}", a.restitution(), b.restitution());
+    assert!(rel(b.restitution(), a.restitution()) < 1e-3);
+    assert!(rel(b.restitution(), 0.5) < 0.01);
+    let (va, vb) = (cpu.model.particles.vel[0].x, gpu.model.particles.vel[0].x);
+    assert!(rel(vb, va) < 1e-3, "tangential speed after the bounce: {vb} vs {va}");
+}
+
+/// Grains of radii 0.8–1.0·r0 on a grid of `pitch` over an `nx·ny` footprint: Hertz–Mindlin,
+/// friction, dashpot, rotation and gravity.
+fn grains(nx: usize, ny: usize, nz: usize, pitch: f64, seed: u64) -> Model {
+    let r0 = GRAIN_R;
+    let mut m = Model::new();
+    m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
+    m.settings.normal = NormalKind::Hertz;
+    m.settings.tangential = TangentialKind::Mindlin;
+    m.settings.rotation = true;
+    let mut mat = material("sand", 2650.0, 1e5, 5e7, 0.25);
+    mat.mu_p = 0.5;
+    mat.restitution = 0.3;
+    let k = m.add_material(mat).unwrap();
+    let mut rng = Rng::new(seed);
+    for iz in 0..nz {
+        for iy in 0..ny {
+            for ix in 0..nx {
+                let r = r0 * (0.8 + 0.2 * rng.uniform());
+                let pos = Vec3::new(ix as f64 + 0.5, iy as f64 + 0.5, iz as f64 + 0.5) * pitch;
+                let id = m.add_particle(pos, r, k).unwrap();
+                m.particles.vel[id] = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 0.0) * 0.05;
+            }
+        }
+    }
+    m
+}
+
+const GRAIN_R: f64 = 0.002;
+const PITCH: f64 = 2.3 * GRAIN_R;
+
+/// [`grains`] on a loose grid dropped into a box of five walls under gravity `g` (MatDEM's
+/// sedimentation speeds the fall up the same way), with Cundall's local damping.
+fn deposition(nx: usize, ny: usize, nz: usize, g: f64, seed: u64) -> Model {
+    let mut m = grains(nx, ny, nz, PITCH, seed);
+    m.settings.gravity = Vec3::new(0.0, 0.0, -g);
+    m.settings.local_damping = 0.7;
+    let (w, l) = (nx as f64 * PITCH, ny as f64 * PITCH);
+    for (name, point, normal) in [
+        ("floor", Vec3::zeros(), Vec3::z()),
+        ("left", Vec3::zeros(), Vec3::x()),
+        ("right", Vec3::new(w, 0.0, 0.0), -Vec3::x()),
+        ("front", Vec3::zeros(), Vec3::y()),
+        ("back", Vec3::new(0.0, l, 0.0), -Vec3::y()),
+    ] {
+        m.add_wall(Wall::plane(name, point, normal, w * l).unwrap()).unwrap();
+    }
+    m.set_standard_dt().unwrap();
+    m
+}
+
+/// Runs `steps` steps in chunks of 9 and returns the mean of `f` after each chunk of the
+/// last `last` steps: loads in a granular sample fluctuate, their time average does not. (An
+/// odd chunk samples odd and even steps alike: a servo platen's load alternates a little.)
+fn run_averaging(sim: &mut Simulation, steps: u64, last: u64, f: impl Fn(&Simulation) -> f64) -> f64 {
+    let (mut sum, mut count) = (0.0, 0);
+    let mut done = 0;
+    while done < steps {
+        let k = 9.min(steps - done);
+        run(sim, k).unwrap();
+        done += k;
+        if done > steps - last {
+            sum += f(sim);
+            count += 1;
+        }
+    }
+    sum / f64::from(count)
+}
+
+fn mean_z(m: &Model) -> f64 {
+    m.particles.pos.iter().map(|x| x.z).sum::<f64>() / m.len() as f64
+}
+
+/// MatDEM's balance after a fall: local damping off, strong viscous damping on (a change of
+/// plan in the middle of a run).
+fn balance(sim: &mut Simulation, steps: u64) {
+    sim.model.settings.local_damping = 0.0;
+    sim.model.settings.damping = 0.2;
+    run(sim, steps).unwrap();
+}
+
+// Deposition of 48 grains at 100 m/s², then a balance: the walls carry the grains' weight on
+// both backends (within 3%: the pile still creeps, and the viscous damping carries the rest;
+// the CPU reference carries 98.0%), the GPU's wall load is the CPU's within 0.5%, and the
+// GPU deposit's mean height is the CPU's within 1% (the packings differ grain by grain, as
+// f32 and f64 part ways in a chaotic pile; the deposit does not).
+#[test]
+fn deposition_settles_like_cpu() {
+    let Some(ctx) = gpu("deposition") else { return };
+    let g = 100.0;
+    let model = deposition(4, 4, 3, g, 7);
+    let weight: f64 = model.particles.mass.iter().sum::<f64>() * g;
+    let (mut cpu, mut gpu) = both(model, &ctx);
+    for sim in [&mut cpu, &mut gpu] {
+        run(sim, 5000).unwrap();
+        balance(sim, 4000);
+    }
+    // The grains push down on the walls: at rest the walls' loads sum to the weight.
+    let carried = |s: &Simulation| -s.model.walls.iter().map(|w| w.force.z).sum::<f64>();
+    let (za, zb) = (mean_z(&cpu.model), mean_z(&gpu.model));
+    eprintln!(
+        "mean z cpu {za:.6e} gpu {zb:.6e}; walls carry / weight cpu {:.5} gpu {:.5}",
+        carried(&cpu) / weight,
+        carried(&gpu) / weight
+    );
+    assert!(rel(zb, za) < 0.01, "mean height {zb} vs {za}");
+    assert!(rel(carried(&gpu), carried(&cpu)) < 0.005);
+    assert!(rel(carried(&gpu), weight) < 0.03 && rel(carried(&cpu), weight) < 0.03);
+    assert_eq!(gpu.model.clock.step, 9000);
+}
+
+// Determinism: the deposition scene twice on the GPU, 2,000 steps with rebuilds of the rows
+// as the grains fall: positions, velocities and angular velocities bitwise equal.
+#[test]
+fn two_gpu_runs_are_bitwise_equal() {
+    let Some(ctx) = gpu("two_gpu_runs") else { return };
+    let go = || {
+        let mut sim = Simulation::with_gpu(deposition(4, 4, 5, 9.81, 3), ctx.clone());
+        run(&mut sim, 2000).unwrap();
+        let p = &sim.model.particles;
+        let w = &p.rotation.as_ref().unwrap().ang_vel;
+        let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
+        (bits(&p.pos), bits(&p.vel), bits(w))
+    };
+    let a = go();
+    let b = go();
+    assert!(a == b, "two GPU runs of the same scene differ");
+}
+
+fn bond_material() -> Material {
+    let mut mat = material("rock", 2650.0, 1e6, 1e9, 0.0);
+    mat.ks = 1e6;
+    mat.xb = 1e-5;
+    mat.fs0 = 5.0;
+    mat.mu_p = 0.5;
+    mat
+}
+
+/// A bonded pair (touching, `overlap` apart) whose velocities are prescribed.
+fn prescribed_bonded_pair(overlap: f64, v0: Vec3, v1: Vec3) -> Model {
+    let mut m = two_spheres(bond_material(), 0.01, -overlap, 0.0, NormalKind::Linear);
+    assert_eq!(m.connect(None, 1e-9).unwrap(), 1);
+    m.fix(&[0, 1], dof::ALL, true).unwrap();
+    m.particles.vel[0] = v0;
+    m.particles.vel[1] = v1;
+    m.set_dt(1e-6).unwrap();
+    m
+}
+
+// Bonded breakage, linear bonded law: a pair pulled apart breaks in tension at Kn·Xb and a
+// pressed pair sheared breaks at Fs0 + μp·Fn, on the GPU at the CPU's step (±1: the
+// threshold is crossed in f32) with the same kind.
+#[test]
+fn bonded_pairs_break_in_tension_and_shear_like_cpu() {
+    let Some(ctx) = gpu("bonded_breakage") else { return };
+    let v = 5e-3;
+    let cases = [
+        ("tension", prescribed_bonded_pair(0.0, Vec3::new(-v, 0.0, 0.0), Vec3::new(v, 0.0, 0.0)), BreakKind::Tension),
+        ("shear", prescribed_bonded_pair(1e-5, Vec3::zeros(), Vec3::new(0.0, 0.05, 0.0)), BreakKind::Shear),
+    ];
+    for (name, model, kind) in cases {
+        let (mut cpu, mut gpu) = both(model, &ctx);
+        run(&mut cpu, 1500).unwrap();
+        run(&mut gpu, 1500).unwrap();
+        let (a, b) = (cpu.model.breakages.clone(), gpu.model.breakages.clone());
+        eprintln!("{name}: cpu {a:?}\n{name}: gpu {b:?}");
+        assert_eq!(a.len(), 1, "{name}: the CPU breaks the bond once");
+        assert_eq!(b.len(), 1, "{name}: the GPU breaks the bond once");
+        assert_eq!((b[0].i, b[0].j, b[0].kind), (0, 1, kind));
+        assert!(a[0].step.abs_diff(b[0].step) <= 1, "{name}: broke at step {} vs {}", b[0].step, a[0].step);
+        assert_eq!(gpu.model.bond_count(), 0);
+    }
+}
+
+// A bonded block (4×4×4 simple cubic, bonded to its neighbours) torn apart: the bottom layer
+// held, the top layer pulled up. The GPU breaks the same number of bonds as the CPU, all in
+// tension, within one step of the CPU's first break.
+#[test]
+fn bonded_block_torn_apart_breaks_like_cpu() {
+    let Some(ctx) = gpu("bonded_block") else { return };
+    let mut m = Model::new();
+    let k = m.add_material(bond_material()).unwrap();
+    let r = 0.01;
+    for x in matdem_engine::builder::simple_cubic(4, 4, 4, 2.0 * r, Vec3::repeat(r)) {
+        m.add_particle(x, r, k).unwrap();
+    }
+    m.connect(None, 1e-9).unwrap();
+    let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
+    let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
+    m.fix(&bottom, dof::ALL, true).unwrap();
+    for &i in &top {
+        m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, 0.01);
+    }
+    m.fix(&top, dof::ALL, true).unwrap();
+    m.set_dt(1e-6).unwrap();
+    let (mut cpu, mut gpu) = both(m, &ctx);
+    run(&mut cpu, 3000).unwrap();
+    run(&mut gpu, 3000).unwrap();
+    let (a, b) = (&cpu.model.breakages, &gpu.model.breakages);
+    eprintln!(
+        "cpu: {} breaks, first at step {:?}; gpu: {} breaks, first at step {:?}",
+        a.len(),
+        a.first().map(|x| x.step),
+        b.len(),
+        b.first().map(|x| x.step)
+    );
+    assert!(!a.is_empty(), "the pull must break bonds");
+    assert_eq!(a.len(), b.len());
+    assert!(b.iter().all(|x| x.kind == BreakKind::Tension));
+    assert!(a[0].step.abs_diff(b[0].step) <= 1);
+}
+
+/// [`grains`] deposited (on the CPU) in a ring, the inside of a cylinder, on a floor, with a
+/// top platen resting just above them, ready for a servo stage.
+fn oedometer_sample() -> Model {
+    let n = 4;
+    let pitch = 2.02 * GRAIN_R;
+    let mut m = grains(n, n, n, pitch, 11);
+    m.settings.gravity = Vec3::new(0.0, 0.0, -100.0);
+    m.settings.local_damping = 0.7;
+    let side = n as f64 * pitch;
+    // The corner grains touch the ring or press into it a little.
+    let ring_r = 1.5 * pitch * std::f64::consts::SQRT_2 + 0.95 * GRAIN_R;
+    let area = std::f64::consts::PI * ring_r * ring_r;
+    let centre = Vec3::new(0.5 * side, 0.5 * side, 0.0);
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), area).unwrap()).unwrap();
+    m.add_wall(Wall::cylinder("ring", centre, ring_r, 2.0 * std::f64::consts::PI * ring_r * side).unwrap()).unwrap();
+    m.set_standard_dt().unwrap();
+    let mut sim = Simulation::new(m);
+    run(&mut sim, 4000).unwrap();
+    balance(&mut sim, 2000);
+    let mut m = sim.model;
+    let top = (0..m.len()).map(|i| m.particles.pos[i].z + m.particles.radius[i]).fold(0.0, f64::max);
+    m.add_wall(Wall::plane("top_platen", Vec3::new(0.0, 0.0, top + 0.05 * GRAIN_R), -Vec3::z(), area).unwrap())
+        .unwrap();
+    m
+}
+
+// An oedometer-like stage on a deposited sample: 64 grains in a ring, a servo platen brought
+// to 20 kPa. Over the last 2,000 of 5,000 steps the GPU's platen stress (time average), the
+// platen's travel and the ring's load equal the CPU's within 1%, and the servo has brought the
+// platen to its target on both (within 20%: its 20%-per-step gain overshoots and rings on a
+// stiff sample; measured 16.8 kPa on both).
+#[test]
+fn oedometer_stage_with_ring_and_servo_platen_matches_cpu() {
+    let Some(ctx) = gpu("oedometer_stage") else { return };
+    let target = 2e4;
+    let mut model = oedometer_sample();
+    model.wall_mut("top_platen").unwrap().motion = WallMotion::Servo { stress: target, max_speed: 0.2 };
+    let (mut cpu, mut gpu) = both(model, &ctx);
+    let stress = |s: &Simulation| s.model.walls[2].stress();
+    let sa = run_averaging(&mut cpu, 5000, 2000, stress);
+    let sb = run_averaging(&mut gpu, 5000, 2000, stress);
+    let (da, db) = (cpu.model.walls[2].displacement.z, gpu.model.walls[2].displacement.z);
+    let ring = |s: &Simulation| s.model.walls[1].normal_force;
+    eprintln!(
+        "platen stress cpu {sa:.1} gpu {sb:.1} Pa (target {target}); moved cpu {da:.4e} gpu {db:.4e} m; \
+         ring load cpu {:.3} gpu {:.3} N",
+        ring(&cpu),
+        ring(&gpu)
+    );
+    assert!(rel(sb, sa) < 0.01, "platen stress {sb} vs {sa}");
+    assert!(rel(db, da) < 0.01, "platen travel {db} vs {da}");
+    assert!(ring(&cpu) > 0.0 && rel(ring(&gpu), ring(&cpu)) < 0.01, "the ring holds the grains in");
+    assert!(rel(sa, target) < 0.2 && rel(sb, target) < 0.2, "stresses {sa}, {sb}");
+}
+
+// The stability guard on the GPU stops a run with the CPU guard's message: two spheres
+// placed 60% into each other (the guard allows 50% of the smaller radius).
+#[test]
+fn gpu_guard_stops_with_the_cpu_message() {
+    let Some(ctx) = gpu("gpu_guard") else { return };
+    let mut m = two_spheres(material("soft", 1000.0, 1.0, 1e3, 0.0), 0.01, -0.012, 0.0, NormalKind::Linear);
+    m.set_standard_dt().unwrap();
+    let (mut cpu, mut gpu) = both(m, &ctx);
+    let a = run(&mut cpu, 1).unwrap_err().to_string();
+    let b = run(&mut gpu, 1).unwrap_err().to_string();
+    assert!(a.contains("overlaps particle 1"), "{a}");
+    assert_eq!(a, b);
+}

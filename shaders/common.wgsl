@@ -1,0 +1,209 @@
+// Shared by every GPU stage: the scene constants, the lane layout and the contact law.
+// This file is prepended to each stage's source (see engine/src/backend/gpu/shaders.rs).
+//
+// Positions are split into a per-upload origin and the displacement since (both f32), so a
+// step's move of 1e-9 m is not lost against a coordinate of 0.05 m, and the distance of two
+// neighbours is computed from the small differences of both parts.
+
+// The plan's choices, fixed when a pipeline is built: a switched-off effect is folded away.
+override NORMAL_HERTZ: bool = false;
+override MINDLIN: bool = false;
+override DASHPOT: bool = false;
+override ROTATION: bool = false;
+override VISCOUS: bool = false;
+override LOCAL: bool = false;
+
+const WALL_PLANE: u32 = 0u;
+const WALL_CYLINDER: u32 = 1u;
+const MAX_WALLS: u32 = 8u;
+
+// Slots of the counters buffer.
+const C_STEP: u32 = 0u;
+const C_EVENTS: u32 = 1u;
+const C_DRIFT: u32 = 2u;
+const C_SPEED: u32 = 3u;
+const C_GUARD: u32 = 4u; // four slots: non-finite, too fast, overlap, through a wall
+
+struct Params {
+    n: u32,
+    nw: u32,
+    nmat: u32,
+    max_events: u32,
+    dt: f32,
+    local_damping: f32,
+    max_overlap_ratio: f32,
+    wall_groups: u32,
+    gravity: vec4<f32>,
+}
+
+// Pair constants (PairParams in physics/contact_law.rs), 48 bytes.
+struct Pair {
+    kn: f32,
+    ks: f32,
+    breaking_force: f32,
+    fs0: f32,
+    mu: f32,
+    e_star: f32,
+    g_star: f32,
+    zeta: f32,
+    alpha: f32,
+    pad0: f32,
+    pad1: f32,
+    pad2: f32,
+}
+
+// A wall (walls.rs): the shape at upload, its motion and the loads of the last step.
+struct Wall {
+    // Plane: a point; cylinder: the axis point, radius in w.
+    point: vec4<f32>,
+    // Unit normal into the particles' region; w = shape (WALL_PLANE, WALL_CYLINDER).
+    normal: vec4<f32>,
+    // x = 0 fixed, 1 prescribed velocity, 2 servo; y = target stress; z = max speed; w = area.
+    motion: vec4<f32>,
+    // Prescribed velocity.
+    prescribed: vec4<f32>,
+    // Velocity during the last step.
+    velocity: vec4<f32>,
+    // Moved since upload (a cylinder's radius change is x).
+    moved: vec4<f32>,
+    // Force the particles exert on the wall (xyz) and the summed normal force (w).
+    load: vec4<f32>,
+    // x = summed normal stiffness, y = contacts.
+    load2: vec4<f32>,
+}
+
+// One contact evaluated for one row.
+struct Contact {
+    force: vec3<f32>,
+    shear: vec3<f32>,
+    bonded: bool,
+    // 0 none, 1 tension, 2 shear (BreakKind).
+    broke: u32,
+    stiffness: f32,
+}
+
+fn hertz_constant(e_star: f32, r_star: f32) -> f32 {
+    return 4.0 / 3.0 * e_star * sqrt(r_star);
+}
+
+fn normal_force(p: Pair, r_star: f32, overlap: f32) -> f32 {
+    if NORMAL_HERTZ {
+        return hertz_constant(p.e_star, r_star) * overlap * sqrt(overlap);
+    }
+    return p.kn * overlap;
+}
+
+fn normal_stiffness(p: Pair, r_star: f32, overlap: f32) -> f32 {
+    if NORMAL_HERTZ {
+        return 1.5 * hertz_constant(p.e_star, r_star) * sqrt(overlap);
+    }
+    return p.kn;
+}
+
+fn dashpot_coefficient(p: Pair, r_star: f32, m_star: f32, overlap: f32) -> f32 {
+    if NORMAL_HERTZ {
+        return p.alpha * sqrt(m_star * hertz_constant(p.e_star, r_star)) * sqrt(sqrt(overlap));
+    }
+    return 2.0 * p.zeta * sqrt(p.kn * m_star);
+}
+
+fn shear_stiffness(p: Pair, r_star: f32, overlap: f32) -> f32 {
+    if MINDLIN {
+        return 8.0 * p.g_star * sqrt(r_star * max(overlap, 0.0));
+    }
+    return p.ks;
+}
+
+// Keeps the shear force's magnitude while turning it into the plane normal to n.
+fn rotate_into_plane(s: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let s2 = dot(s, s);
+    if s2 == 0.0 {
+        return s;
+    }
+    let q = s - n * dot(n, s);
+    let q2 = dot(q, q);
+    if q2 == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return q * sqrt(s2 / q2);
+}
+
+// MatDEM's linear elastic-brittle bonded contact with the scene's normal law, a shear spring
+// with a Coulomb cap and an optional normal dashpot: `contact` in physics/contact_law.rs,
+// line for line, without its heat bookkeeping. Every operation is odd in (n, v_rel, shear),
+// so the two rows of a pair compute opposite forces. Call only when bonded or overlapping.
+fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f32, p: Pair,
+           shear_in: vec3<f32>, bonded_in: bool, dt: f32) -> Contact {
+    var out: Contact;
+    out.bonded = bonded_in;
+    out.broke = 0u;
+    let touching = overlap > 0.0;
+    var fn_el = p.kn * overlap;
+    var kn = p.kn;
+    if touching {
+        fn_el = normal_force(p, r_star, overlap);
+        kn = normal_stiffness(p, r_star, overlap);
+    }
+    out.stiffness = kn;
+    let vn = dot(v_rel, n);
+    let kt = shear_stiffness(p, r_star, overlap);
+    let vt = v_rel - n * vn;
+    var s = rotate_into_plane(shear_in, n) - vt * (kt * dt);
+    if bonded_in && fn_el < -p.breaking_force {
+        out.broke = 1u;
+        out.bonded = false;
+        out.shear = vec3<f32>(0.0);
+        out.force = vec3<f32>(0.0);
+        return out;
+    }
+    var fn_total = fn_el;
+    if DASHPOT && touching {
+        fn_total += dashpot_coefficient(p, r_star, m_star, overlap) * vn;
+    }
+    var limit = p.mu * max(fn_el, 0.0);
+    if out.bonded {
+        limit = max(p.fs0 + p.mu * fn_el, 0.0);
+    }
+    let s2 = dot(s, s);
+    if s2 > limit * limit {
+        if out.bonded {
+            // The bond fails in shear; from now on only friction holds.
+            out.bonded = false;
+            out.broke = 2u;
+            limit = p.mu * max(fn_el, 0.0);
+            if !touching {
+                fn_total = 0.0;
+            }
+        }
+        if s2 > limit * limit {
+            s = s * (limit / sqrt(s2));
+        }
+    }
+    out.shear = s;
+    out.force = s - n * fn_total;
+    return out;
+}
+
+// Unit normal into the particles' region and the gap from wall `w` to a particle whose
+// origin is `o` and displacement `u` (positive inside).
+fn wall_normal_and_gap(w: Wall, o: vec3<f32>, u: vec3<f32>) -> vec4<f32> {
+    if u32(w.normal.w) == WALL_CYLINDER {
+        let rho = vec2<f32>(o.x - w.point.x, o.y - w.point.y) + u.xy;
+        let len = length(rho);
+        if len > 0.0 {
+            return vec4<f32>(-rho.x / len, -rho.y / len, 0.0, (w.point.w + w.moved.x) - len);
+        }
+        return vec4<f32>(1.0, 0.0, 0.0, w.point.w + w.moved.x);
+    }
+    let nrm = w.normal.xyz;
+    return vec4<f32>(nrm, dot(o - w.point.xyz, nrm) + dot(u - w.moved.xyz, nrm));
+}
+
+// Velocity of a wall's surface.
+fn wall_surface_velocity(w: Wall, inward: vec3<f32>) -> vec3<f32> {
+    if u32(w.normal.w) == WALL_CYLINDER {
+        // A growing ring moves its surface outwards, against the inward normal.
+        return -inward * w.velocity.x;
+    }
+    return w.velocity.xyz;
+}

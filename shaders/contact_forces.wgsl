@@ -1,0 +1,86 @@
+// Stage 3 on the GPU: particle–particle contact forces. One invocation per particle walks
+// its own neighbour row, evaluates every contact from its side, updates the row's pair state
+// and writes its summed force (and torque): no atomics on floats, so the sums are
+// deterministic. CPU twin: backend/cpu/contact_forces.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> body: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> kind: array<u32>;
+@group(0) @binding(6) var<storage, read> row_start: array<u32>;
+@group(0) @binding(7) var<storage, read> other: array<u32>;
+@group(0) @binding(8) var<storage, read_write> state: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> pairs: array<Pair>;
+@group(0) @binding(10) var<storage, read_write> force: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> ang_vel: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> torque: array<vec4<f32>>;
+@group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(14) var<storage, read_write> events: array<vec4<u32>>;
+
+@compute @workgroup_size(64)
+fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
+                          @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if i >= params.n {
+        return;
+    }
+    let oi = origin[i].xyz;
+    let ri = origin[i].w;
+    let ui = disp[i].xyz;
+    let vi = vel[i].xyz;
+    let mi = body[i].x;
+    let mati = kind[i] & 0xffffu;
+    var wi = vec3<f32>(0.0);
+    if ROTATION {
+        wi = ang_vel[i].xyz;
+    }
+    let dt = params.dt;
+    var f = vec3<f32>(0.0);
+    var t = vec3<f32>(0.0);
+    let end = row_start[i + 1u];
+    for (var e = row_start[i]; e < end; e++) {
+        let j = other[e];
+        let st = state[e];
+        let bonded = st.w != 0.0;
+        // Both parts of the position differ little between neighbours: subtract each first.
+        let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+        let rj = origin[j].w;
+        let touch = ri + rj;
+        let dist2 = dot(d, d);
+        if !bonded && dist2 >= touch * touch {
+            // Apart: a contact that has just opened lets its shear spring go.
+            if any(st != vec4<f32>(0.0)) {
+                state[e] = vec4<f32>(0.0);
+            }
+            continue;
+        }
+        let dist = sqrt(dist2);
+        let n = d / dist;
+        var v_rel = vi - vel[j].xyz;
+        if ROTATION {
+            // Grouped so that the other row computes exactly the opposite vector.
+            v_rel = v_rel + (cross(wi, n * ri) - cross(ang_vel[j].xyz, n * -rj));
+        }
+        let mj = body[j].x;
+        let p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
+        let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, st.xyz, bonded, dt);
+        f += c.force;
+        if ROTATION {
+            t += cross(n * ri, c.shear);
+        }
+        state[e] = vec4<f32>(c.shear, select(0.0, 1.0, c.bonded));
+        if c.broke != 0u && i < j {
+            // Breakage events are few: append (step, i, j, kind); the host sorts them.
+            let k = atomicAdd(&counters[C_EVENTS], 1u);
+            if k < params.max_events {
+                events[k] = vec4<u32>(atomicLoad(&counters[C_STEP]), i, j, c.broke);
+            }
+        }
+    }
+    force[i] = vec4<f32>(f, 0.0);
+    if ROTATION {
+        torque[i] = vec4<f32>(t, 0.0);
+    }
+}

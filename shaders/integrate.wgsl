@@ -1,0 +1,62 @@
+// Stages 4–5 on the GPU: gravity, MatDEM's viscous damping (semi-implicit), Cundall's local
+// damping, blocked degrees of freedom and leapfrog integration; rotation when the plan has
+// it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> body: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> kind: array<u32>;
+@group(0) @binding(4) var<storage, read> force: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> vel: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> disp: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> torque: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> ang_vel: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
+
+@compute @workgroup_size(64)
+fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if i == 0u {
+        atomicAdd(&counters[C_STEP], 1u);
+    }
+    if i >= params.n {
+        return;
+    }
+    let dt = params.dt;
+    let mi = body[i].x;
+    // Half the viscous damping coefficient times dt over m (semi-implicit form).
+    let a = 0.5 * body[i].y * dt;
+    let v0 = vel[i].xyz;
+    var f_total = force[i].xyz + params.gravity.xyz * mi;
+    if LOCAL {
+        // Cundall's local damping: −α·|F|·sign(v) per component (sign(0) = 0).
+        f_total = f_total - params.local_damping * abs(f_total) * sign(v0);
+    }
+    let accel = f_total / mi;
+    var v1 = v0 + accel * dt;
+    if VISCOUS {
+        v1 = (v0 * (1.0 - a) + accel * dt) / (1.0 + a);
+    }
+    let fixed = kind[i] >> 24u;
+    if (fixed & 1u) != 0u {
+        v1.x = v0.x;
+    }
+    if (fixed & 2u) != 0u {
+        v1.y = v0.y;
+    }
+    if (fixed & 4u) != 0u {
+        v1.z = v0.z;
+    }
+    vel[i] = vec4<f32>(v1, 0.0);
+    disp[i] = vec4<f32>(disp[i].xyz + v1 * dt, 0.0);
+    if ROTATION {
+        let r = origin[i].w;
+        let inertia = 0.4 * mi * r * r;
+        let w0 = ang_vel[i].xyz;
+        var w1 = w0 + torque[i].xyz / inertia * dt;
+        if VISCOUS {
+            w1 = (w0 * (1.0 - a) + torque[i].xyz / inertia * dt) / (1.0 + a);
+        }
+        ang_vel[i] = vec4<f32>(w1, 0.0);
+    }
+}

@@ -1,0 +1,23 @@
+// Stage 2 on the GPU: how far the particles have drifted since the neighbour rows were built,
+// and how fast the fastest moves, so the host knows when the rows must be rebuilt (drift over
+// half the skin) and how many steps it may run before it must look again. Non-negative f32s
+// order like their bits, so an integer atomicMax finds the largest.
+// CPU twin: neighbours::is_stale in backend/cpu/neighbours.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> built: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
+
+@compute @workgroup_size(64)
+fn measure_drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if i >= params.n {
+        return;
+    }
+    let d = disp[i].xyz - built[i].xyz;
+    atomicMax(&counters[C_DRIFT], bitcast<u32>(dot(d, d)));
+    let v = vel[i].xyz;
+    atomicMax(&counters[C_SPEED], bitcast<u32>(dot(v, v)));
+}

@@ -1,0 +1,100 @@
+// Stage 3b on the GPU: particle–wall contacts. Each particle tests every wall (a scene has at
+// most eight) and adds the contact forces to its own force; each workgroup sums its
+// particles' loads on each wall in a fixed tree order and leaves one partial per wall, which
+// the walls stage of the next step adds up (walls.wgsl). CPU twin: backend/cpu/wall_forces.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> body: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> kind: array<u32>;
+@group(0) @binding(6) var<storage, read> walls: array<Wall>;
+@group(0) @binding(7) var<storage, read> wall_pairs: array<Pair>;
+@group(0) @binding(8) var<storage, read_write> wall_state: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> force: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> ang_vel: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> torque: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> partials: array<vec4<f32>>;
+
+var<workgroup> red_force: array<vec4<f32>, 64>;
+var<workgroup> red_stiffness: array<vec4<f32>, 64>;
+
+@compute @workgroup_size(64)
+fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
+                       @builtin(num_workgroups) groups: vec3<u32>,
+                       @builtin(workgroup_id) wg: vec3<u32>,
+                       @builtin(local_invocation_index) li: u32) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    let nw = params.nw;
+    // This particle's loads on each wall: force on the particle (xyz) and normal load (w);
+    // stiffness and contact count.
+    var load: array<vec4<f32>, MAX_WALLS>;
+    var load2: array<vec4<f32>, MAX_WALLS>;
+    if i < params.n {
+        let oi = origin[i].xyz;
+        let ri = origin[i].w;
+        let ui = disp[i].xyz;
+        let vi = vel[i].xyz;
+        let mi = body[i].x;
+        let mati = kind[i] & 0xffffu;
+        var wi = vec3<f32>(0.0);
+        var t = vec3<f32>(0.0);
+        if ROTATION {
+            wi = ang_vel[i].xyz;
+            t = torque[i].xyz;
+        }
+        var f = force[i].xyz;
+        for (var w = 0u; w < nw; w++) {
+            let wall = walls[w];
+            let ng = wall_normal_and_gap(wall, oi, ui);
+            let inward = ng.xyz;
+            let overlap = ri - ng.w;
+            let e = i * nw + w;
+            let st = wall_state[e];
+            if overlap <= 0.0 {
+                if any(st != vec4<f32>(0.0)) {
+                    wall_state[e] = vec4<f32>(0.0);
+                }
+                continue;
+            }
+            let nrm = -inward;
+            let v_wall = wall_surface_velocity(wall, inward);
+            var v_rel = vi - v_wall;
+            if ROTATION {
+                v_rel = v_rel + cross(wi, nrm * ri);
+            }
+            let c = contact(nrm, overlap, v_rel, ri, mi, wall_pairs[w * params.nmat + mati], st.xyz, false,
+                            params.dt);
+            wall_state[e] = vec4<f32>(c.shear, 0.0);
+            f += c.force;
+            if ROTATION {
+                t += cross(nrm * ri, c.shear);
+            }
+            load[w] += vec4<f32>(c.force, max(dot(c.force, inward), 0.0));
+            load2[w] += vec4<f32>(c.stiffness, 1.0, 0.0, 0.0);
+        }
+        force[i] = vec4<f32>(f, 0.0);
+        if ROTATION {
+            torque[i] = vec4<f32>(t, 0.0);
+        }
+    }
+    let group = wg.x + wg.y * groups.x;
+    for (var w = 0u; w < nw; w++) {
+        red_force[li] = load[w];
+        red_stiffness[li] = load2[w];
+        workgroupBarrier();
+        for (var s = 32u; s > 0u; s >>= 1u) {
+            if li < s {
+                red_force[li] += red_force[li + s];
+                red_stiffness[li] += red_stiffness[li + s];
+            }
+            workgroupBarrier();
+        }
+        if li == 0u {
+            partials[(group * nw + w) * 2u] = red_force[0];
+            partials[(group * nw + w) * 2u + 1u] = red_stiffness[0];
+        }
+        workgroupBarrier();
+    }
+}

@@ -1,0 +1,88 @@
+// Stage 1 on the GPU: walls. One workgroup sums the wall-force partials the workgroups of
+// the last step's wall pass left (in a fixed order: deterministic) into each wall's load, then
+// moves each wall by one step: a prescribed velocity, or a servo that closes 20% of the
+// stress error per step with a gain from the contact stiffness. At the first step after an
+// upload the partials hold the model's last loads. CPU twin: Wall::advance in walls.rs.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> walls: array<Wall>;
+@group(0) @binding(2) var<storage, read> partials: array<vec4<f32>>;
+
+var<workgroup> red_force: array<vec4<f32>, 64>;
+var<workgroup> red_stiffness: array<vec4<f32>, 64>;
+
+// Sums the partials into each wall's load (all 64 invocations take part).
+fn sum_loads(li: u32) {
+    let nw = params.nw;
+    for (var w = 0u; w < nw; w++) {
+        var force = vec4<f32>(0.0);
+        var stiffness = vec4<f32>(0.0);
+        for (var g = li; g < params.wall_groups; g += 64u) {
+            force += partials[(g * nw + w) * 2u];
+            stiffness += partials[(g * nw + w) * 2u + 1u];
+        }
+        red_force[li] = force;
+        red_stiffness[li] = stiffness;
+        workgroupBarrier();
+        for (var s = 32u; s > 0u; s >>= 1u) {
+            if li < s {
+                red_force[li] += red_force[li + s];
+                red_stiffness[li] += red_stiffness[li + s];
+            }
+            workgroupBarrier();
+        }
+        if li == 0u {
+            // The wall feels the reaction of the forces on the particles.
+            walls[w].load = vec4<f32>(-red_force[0].xyz, red_force[0].w);
+            walls[w].load2 = red_stiffness[0];
+        }
+        workgroupBarrier();
+    }
+}
+
+// The loads of the last step alone, for the host to read at the end of a run.
+@compute @workgroup_size(64)
+fn sum_wall_loads(@builtin(local_invocation_index) li: u32) {
+    sum_loads(li);
+}
+
+@compute @workgroup_size(64)
+fn advance_walls(@builtin(local_invocation_index) li: u32) {
+    sum_loads(li);
+    if li != 0u {
+        return;
+    }
+    let nw = params.nw;
+    let dt = params.dt;
+    for (var w = 0u; w < nw; w++) {
+        var wall = walls[w];
+        let motion = u32(wall.motion.x);
+        let area = wall.motion.w;
+        let stress_now = select(0.0, wall.load.w / area, area > 0.0);
+        let stiffness = wall.load2.x;
+        let max_speed = wall.motion.z;
+        var v = vec3<f32>(0.0);
+        if motion == 1u {
+            v = wall.prescribed.xyz;
+        } else if motion == 2u {
+            if u32(wall.normal.w) == WALL_PLANE {
+                let error_force = (wall.motion.y - stress_now) * area;
+                var speed = max_speed;
+                if stiffness > 0.0 {
+                    speed = 0.2 * error_force / (stiffness * dt);
+                }
+                v = wall.normal.xyz * clamp(speed, -max_speed, max_speed);
+            } else {
+                let error_force = (stress_now - wall.motion.y) * area;
+                var speed = -max_speed;
+                if stiffness > 0.0 {
+                    speed = 0.2 * error_force / (stiffness * dt);
+                }
+                v = vec3<f32>(clamp(speed, -max_speed, max_speed), 0.0, 0.0);
+            }
+        }
+        wall.velocity = vec4<f32>(v, 0.0);
+        wall.moved = vec4<f32>(wall.moved.xyz + v * dt, 0.0);
+        walls[w] = wall;
+    }
+}
