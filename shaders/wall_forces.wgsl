@@ -27,62 +27,59 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                        @builtin(local_invocation_index) li: u32) {
     let i = gid.x + gid.y * groups.x * 64u;
     let nw = params.nw;
-    // This particle's loads on each wall: force on the particle (xyz) and normal load (w);
-    // stiffness and contact count.
-    var load: array<vec4<f32>, MAX_WALLS>;
-    var load2: array<vec4<f32>, MAX_WALLS>;
-    if i < params.n {
-        let oi = origin[i].xyz;
-        let ri = origin[i].w;
-        let ui = disp[i].xyz;
-        let vi = vel[i].xyz;
-        let mi = body[i].x;
-        let mati = kind[i] & 0xffffu;
-        var wi = vec3<f32>(0.0);
-        var t = vec3<f32>(0.0);
-        if ROTATION {
-            wi = ang_vel[i].xyz;
-            t = torque[i].xyz;
-        }
-        var f = force[i].xyz;
-        for (var w = 0u; w < nw; w++) {
-            let wall = walls[w];
-            let ng = wall_normal_and_gap(wall, oi, ui);
-            let inward = ng.xyz;
-            let overlap = ri - ng.w;
-            let e = i * nw + w;
+    let inside = i < params.n;
+    let k = min(i, params.n - 1u);
+    let oi = origin[k].xyz;
+    let ri = origin[k].w;
+    let ui = disp[k].xyz;
+    let vi = vel[k].xyz;
+    let mi = body[k].x;
+    let mati = kind[k] & 0xffffu;
+    var wi = vec3<f32>(0.0);
+    var t = vec3<f32>(0.0);
+    if ROTATION {
+        wi = ang_vel[k].xyz;
+        t = torque[k].xyz;
+    }
+    var f = force[k].xyz;
+    let group = wg.x + wg.y * groups.x;
+    // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
+    // the workgroup's loads on the wall, summed in a fixed tree order.
+    for (var w = 0u; w < nw; w++) {
+        // Force on the particle (xyz) and normal load (w); stiffness and contact count.
+        var load = vec4<f32>(0.0);
+        var load2 = vec4<f32>(0.0);
+        let wall = walls[w];
+        let ng = wall_normal_and_gap(wall, oi, ui);
+        let inward = ng.xyz;
+        let overlap = ri - ng.w;
+        let e = k * nw + w;
+        if inside {
             let st = wall_state[e];
             if overlap <= 0.0 {
                 if any(st != vec4<f32>(0.0)) {
                     wall_state[e] = vec4<f32>(0.0);
                 }
-                continue;
+            } else {
+                let nrm = -inward;
+                let v_wall = wall_surface_velocity(wall, inward);
+                var v_rel = vi - v_wall;
+                if ROTATION {
+                    v_rel = v_rel + cross(wi, nrm * ri);
+                }
+                let c = contact(nrm, overlap, v_rel, ri, mi, wall_pairs[w * params.nmat + mati], st.xyz, false,
+                                params.dt);
+                wall_state[e] = vec4<f32>(c.shear, 0.0);
+                f += c.force;
+                if ROTATION {
+                    t += cross(nrm * ri, c.shear);
+                }
+                load = vec4<f32>(c.force, max(dot(c.force, inward), 0.0));
+                load2 = vec4<f32>(c.stiffness, 1.0, 0.0, 0.0);
             }
-            let nrm = -inward;
-            let v_wall = wall_surface_velocity(wall, inward);
-            var v_rel = vi - v_wall;
-            if ROTATION {
-                v_rel = v_rel + cross(wi, nrm * ri);
-            }
-            let c = contact(nrm, overlap, v_rel, ri, mi, wall_pairs[w * params.nmat + mati], st.xyz, false,
-                            params.dt);
-            wall_state[e] = vec4<f32>(c.shear, 0.0);
-            f += c.force;
-            if ROTATION {
-                t += cross(nrm * ri, c.shear);
-            }
-            load[w] += vec4<f32>(c.force, max(dot(c.force, inward), 0.0));
-            load2[w] += vec4<f32>(c.stiffness, 1.0, 0.0, 0.0);
         }
-        force[i] = vec4<f32>(f, 0.0);
-        if ROTATION {
-            torque[i] = vec4<f32>(t, 0.0);
-        }
-    }
-    let group = wg.x + wg.y * groups.x;
-    for (var w = 0u; w < nw; w++) {
-        red_force[li] = load[w];
-        red_stiffness[li] = load2[w];
+        red_force[li] = load;
+        red_stiffness[li] = load2;
         workgroupBarrier();
         for (var s = 32u; s > 0u; s >>= 1u) {
             if li < s {
@@ -96,5 +93,11 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             partials[(group * nw + w) * 2u + 1u] = red_stiffness[0];
         }
         workgroupBarrier();
+    }
+    if inside {
+        force[i] = vec4<f32>(f, 0.0);
+        if ROTATION {
+            torque[i] = vec4<f32>(t, 0.0);
+        }
     }
 }

@@ -90,8 +90,8 @@ impl GpuBackend {
         ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
             if slot.is_none() {
-                // Display is terse ("Validation Error"); the detail is in Debug.
-                *slot = Some(format!("{e:?}"));
+                // Display carries the chain of causes (Debug would add the whole shader).
+                *slot = Some(e.to_string());
             }
         }));
         let device = &ctx.device;
