@@ -122,14 +122,21 @@ fn every_run_folder_records_the_script_hash_parameters_backend_and_exit() {
     let script = dir.join("fails.rhai");
     let text = "let x = params.a * 2;\nthrow \"stop\";\n";
     std::fs::write(&script, text).unwrap();
-    let o = bin().arg("run").arg(&script).arg("--out").arg(dir.join("out")).args(["--set", "a=1.5"]).output().unwrap();
+    let o = bin()
+        .arg("run")
+        .arg(&script)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--set", "a=1.5", "--backend", "cpu"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(1));
     let record = std::fs::read_to_string(dir.join("out/run.ron")).unwrap();
     let sha = matdem_rs::run_record::sha256_hex(text.as_bytes());
     for want in [
         format!("script_sha256: \"{sha}\""),
         "(\"a\", \"1.5\")".to_string(),
-        "backend: \"auto (cpu, f64)\"".to_string(),
+        "backend: \"cpu (f64)\"".to_string(),
         format!("matdem_rs_version: \"{}\"", env!("CARGO_PKG_VERSION")),
         "status: \"failed\"".to_string(),
         "exit_code: Some(1)".to_string(),
