@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod model;
 pub mod plot;
 pub mod table;
+pub mod training;
 
 use rhai::{Engine, EvalAltResult};
 use std::cell::RefCell;
@@ -99,5 +100,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     metrics::register(engine, host.clone());
     model::register(engine, host.clone());
     box_builder::register(engine);
+    training::register(engine, host.clone());
     plot::register(engine, host);
 }

@@ -59,8 +59,8 @@ impl Loading {
         Loading {
             strain_per_step: expected_peak_strain / steps_to_peak,
             expected_peak_strain,
-            max_strain_factor: 6.0,
-            stop_ratio: 0.7,
+            max_strain_factor: 4.0,
+            stop_ratio: 0.8,
         }
     }
 
@@ -128,12 +128,6 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
             (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < lo.z + 2.5 * r_mean).collect();
         m.fix(&top, dof::ALL, true)?;
         m.fix(&bottom, dof::ALL, true)?;
-        for &i in &top {
-            m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, end_speed);
-        }
-        for &i in &bottom {
-            m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, -end_speed);
-        }
         (top, bottom)
     } else {
         add_plane(&mut m, "bottom", Vec3::new(0.0, 0.0, lo.z), Vec3::z(), area)?;
@@ -161,21 +155,23 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
         }
     };
     let h0 = length(m);
-    if !tension {
-        let (top, bottom) = (m.wall_index("top")?, m.wall_index("bottom")?);
-        m.walls[top].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, -end_speed));
-        m.walls[bottom].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, end_speed));
-    }
     let broken0 = m.breakages.len();
+    // The ends start from rest and reach full speed over the first tenth of the way to the
+    // expected peak: a sudden start would send a stress wave through the sample.
+    let ramp_steps = (0.1 * loading.expected_peak_strain / loading.strain_per_step).max(1.0);
     // About 150 samples up to the expected peak.
     let every = ((loading.expected_peak_strain / loading.strain_per_step / 150.0).ceil() as u64).max(1);
     let max_strain = loading.max_strain_factor * loading.expected_peak_strain;
     let mut curve = Vec::new();
     let (mut peak, mut peak_at) = (f64::NEG_INFINITY, 0usize);
     let mut peaked = false;
+    let mut loaded_steps = 0u64;
     loop {
+        let speed = end_speed * (loaded_steps as f64 / ramp_steps).min(1.0);
+        set_end_speed(&mut sim.model, tension, speed, &top_layer, &bottom_layer)?;
         sim.run(every, ctl, &mut |_| {})?;
         steps += every;
+        loaded_steps += every;
         let m = &mut sim.model;
         let h = length(m);
         let strain = if tension { (h - h0) / h0 } else { (h0 - h) / h0 };
@@ -268,6 +264,23 @@ fn confine(sim: &mut Simulation, stress: f64, r_mean: f64, ctl: &RunControl) -> 
         }
     }
     Ok(steps)
+}
+
+/// Moves the loaded ends apart (tension) or together (compression) at `speed` each.
+fn set_end_speed(m: &mut Model, tension: bool, speed: f64, top: &[u32], bottom: &[u32]) -> Result<()> {
+    if tension {
+        for &i in top {
+            m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, speed);
+        }
+        for &i in bottom {
+            m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, -speed);
+        }
+    } else {
+        let (t, b) = (m.wall_index("top")?, m.wall_index("bottom")?);
+        m.walls[t].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, -speed));
+        m.walls[b].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, speed));
+    }
+    Ok(())
 }
 
 fn add_plane(m: &mut Model, name: &str, point: Vec3, normal: Vec3, area: f64) -> Result<()> {
