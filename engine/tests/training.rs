@@ -73,7 +73,8 @@ fn uniaxial_compression_of_fcc_111_block_measures_lattice_e_and_nu() {
 
 #[test]
 fn invalid_targets_are_refused_with_what_to_do() {
-    let cases: [(fn(&mut MacroProperties), &str); 6] = [
+    type Spoil = fn(&mut MacroProperties);
+    let cases: [(Spoil, &str); 6] = [
         (|p| p.poisson = 0.25, "ν ≤ 0.2"),
         (|p| p.internal_friction = 0.3, "μi ≥ 0.354"),
         (|p| p.tensile = -1.0, "> 0"),
@@ -121,7 +122,7 @@ fn rescaled_material_on_a_scaled_sample_gives_the_same_curve() {
 fn training_converges_for_a_soil_like_material_on_a_small_sample() {
     // Issue 5's soil (E 50 MPa, ν 0.15, Tu 20 kPa, Cu 200 kPa, μi 0.6) on 200 elements,
     // loaded at 4000 steps to the expected peak: within E, Tu, Cu ± 5 %, ν ± 0.02 and
-    // μi ± 0.05 in at most 6 rounds (measured: round 5, about 10 s on 2 cores).
+    // μi ± 0.05 in at most 6 rounds (measured: round 4, about 8 s on 2 cores).
     let t = soil();
     let opts = TrainOptions {
         sample: SampleSpec { elements: 200, ..SampleSpec::default() },

@@ -203,7 +203,9 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
             peak = stress;
             peak_at = curve.len() - 1;
         }
-        if peak > 0.0 && stress < loading.stop_ratio * peak {
+        // A drop counts only past a fifth of the expected peak strain: the first contacts
+        // of a platen rattle.
+        if peak > 0.0 && stress < loading.stop_ratio * peak && strain > 0.2 * loading.expected_peak_strain {
             peaked = true;
             break;
         }
