@@ -1,7 +1,8 @@
 //! The sample the material tests load: a box of spheres packed once (frictionless grains
-//! pressed by a servo platen until jammed), then bonded where the grains touch, as MatDEM
-//! packs, connects and cuts its training sample. Packing depends only on geometry, so one
-//! packing serves every round of training; each round bonds it with its own material.
+//! grown in place until they jam, then held by a servo platen at a small stress), then
+//! bonded where the grains touch, as MatDEM packs, connects and cuts its training sample.
+//! Packing depends only on geometry, so one packing serves every round of training; each
+//! round bonds it with its own material.
 
 use crate::backend::RunControl;
 use crate::builder::{BoxSpec, Container, SizeClass};
@@ -61,8 +62,6 @@ const START_SOLID_FRACTION: f64 = 0.3;
 /// Radius expansion: increments, and steps after each.
 const GROWTH_INCREMENTS: u64 = 40;
 const GROWTH_STEPS: u64 = 250;
-/// Neighbours closer than this fraction of the mean diameter are bonded.
-const BOND_GAP: f64 = 0.0;
 /// Unbalanced force ratio that ends relaxing the bonded sample.
 const BALANCE_RATIO: f64 = 0.01;
 /// Unbalanced force ratio that ends packing: frictionless grains at a small stress keep
@@ -181,14 +180,12 @@ impl PackedSample {
     pub fn bonded(&self, material: &Material, ctl: &RunControl) -> Result<Model> {
         let mut m = Model::new();
         let k = m.add_material(material.clone())?;
-        // MatDEM bonds neighbours within a small gap. A bond across a gap would start in
-        // tension (the spring counts from touching), so grow every grain by half the gap
-        // instead: near neighbours then touch, and the free sample swells to balance.
-        let grow = 0.5 * BOND_GAP * self.diameter();
         for (x, r) in self.pos.iter().zip(&self.radius) {
-            m.add_particle(*x, *r + grow, k)?;
+            m.add_particle(*x, *r, k)?;
         }
         m.groups.set("sample", (0..m.len() as u32).collect());
+        // Only touching pairs: a bond across a gap would start in tension (the bonded
+        // spring counts from touching), and for a rock that tension exceeds Kn·Xb.
         let bonds = m.connect(None, 0.0)?;
         if bonds == 0 {
             return Err(Error::InvalidScene("the packed sample has no touching grains to bond".into()));
