@@ -11,6 +11,7 @@ pub const SCRIPTS: &[(&str, &str)] = &[
     ("std/compaction", include_str!("../stdlib_scripts/compaction.rhai")),
     ("std/loading", include_str!("../stdlib_scripts/loading.rhai")),
     ("std/oedometer", include_str!("../stdlib_scripts/oedometer.rhai")),
+    ("std/material_tests", include_str!("../stdlib_scripts/material_tests.rhai")),
 ];
 
 /// Compiles the stdlib into modules and registers them as global functions; returns the

@@ -33,6 +33,7 @@ pub mod plan;
 pub mod simulation;
 pub mod state;
 pub mod status;
+pub mod training;
 pub mod walls;
 
 pub use error::{Error, GpuError, Result};

@@ -12,6 +12,7 @@ pub mod model;
 pub mod plot;
 pub mod snapshots;
 pub mod table;
+pub mod training;
 
 use crate::resume::{Entry, Session, Value};
 use matdem_engine::backend::gpu::device::GpuContext;
@@ -181,5 +182,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     checkpoint::register(engine, host.clone());
     box_builder::register(engine, host.clone());
     snapshots::register(engine, host.clone());
+    training::register(engine, host.clone());
     plot::register(engine, host);
 }
