@@ -2,7 +2,9 @@
 //! and turns every failure into a rendered report.
 
 use crate::api::{Host, PLAN_DONE};
+use crate::package::Package;
 use crate::report::{render, Sources};
+use crate::sandbox::{Limits, ReadRoot};
 use rhai::{Dynamic, EvalAltResult, Scope};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -15,6 +17,11 @@ pub struct RunConfig {
     pub params: Vec<(String, Dynamic)>,
     pub progress: bool,
     pub plan_only: bool,
+    /// Set when `script` is a packaged simulator (a folder or an archive); `params` then
+    /// already holds its defaults and checked `--set` values.
+    pub package: Option<Package>,
+    /// The sandbox's limits on operations, call depth and data sizes.
+    pub limits: Limits,
 }
 
 /// Why a run failed, already worded for a person.
@@ -51,8 +58,20 @@ pub fn parse_value(s: &str) -> Dynamic {
 
 /// Runs the script; returns the files it wrote.
 pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
-    let text = std::fs::read_to_string(&cfg.script)
-        .map_err(|e| RunError::Setup(format!("error: cannot read script {}: {e}", cfg.script.display())))?;
+    let (text, path, read_root) = match &cfg.package {
+        Some(p) => {
+            (p.entry_text().map_err(|e| RunError::Setup(format!("error: {e}")))?, p.entry_label(), p.root.clone())
+        }
+        None => {
+            let text = std::fs::read_to_string(&cfg.script)
+                .map_err(|e| RunError::Setup(format!("error: cannot read script {}: {e}", cfg.script.display())))?;
+            let dir = cfg.script.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            let root = ReadRoot::folder(dir).map_err(|e| {
+                RunError::Setup(format!("error: cannot open the script's folder {}: {e}", dir.display()))
+            })?;
+            (text, cfg.script.display().to_string(), root)
+        }
+    };
     if !cfg.plan_only {
         std::fs::create_dir_all(&cfg.out_dir).map_err(|e| {
             RunError::Setup(format!("error: cannot create output folder {}: {e}", cfg.out_dir.display()))
@@ -61,13 +80,13 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
+    host.read_root = read_root;
+    host.limits = cfg.limits;
     for (k, v) in &cfg.params {
         host.params.insert(k.as_str().into(), v.clone());
     }
     let host = Rc::new(host);
-    let dir = cfg.script.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let engine = crate::new_engine(host.clone(), Some(dir));
-    let path = cfg.script.display().to_string();
+    let engine = crate::new_engine(host.clone());
     let sources = Sources { main_path: &path, main_text: &text };
     let ast = engine.compile(&text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();

@@ -5,15 +5,17 @@
 
 pub mod box_builder;
 pub mod field;
+pub mod files;
 pub mod materials;
 pub mod metrics;
 pub mod model;
 pub mod plot;
 pub mod table;
 
+use crate::sandbox::{output_path, Limits, ReadRoot};
 use rhai::{Engine, EvalAltResult};
 use std::cell::RefCell;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
@@ -42,6 +44,10 @@ pub struct Host {
     pub control: matdem_engine::backend::RunControl,
     /// Files written so far, for the summary.
     pub written: RefCell<Vec<PathBuf>>,
+    /// The only place the script may read from (its folder or its package).
+    pub read_root: ReadRoot,
+    /// Limits on operations, call depth and data sizes.
+    pub limits: Limits,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -56,24 +62,20 @@ impl Host {
             plan_only: false,
             control: Default::default(),
             written: RefCell::new(Vec::new()),
+            read_root: ReadRoot::Nothing,
+            limits: Limits::default(),
         }
     }
 
     /// Resolves a relative output name inside the output folder; refuses anything that
-    /// could land outside it.
+    /// could land outside it (`..`, absolute paths, symbolic links out).
     pub fn out_path(&self, name: &str) -> RhaiResult<PathBuf> {
-        let p = Path::new(name);
-        let outside = p.is_absolute()
-            || name.is_empty()
-            || p.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
-        if outside {
-            return Err(err(format!(
-                "output path `{name}` is outside the allowed folders: give a relative name without `..`; \
-                 it is written under the run's output folder {}",
-                self.out_dir.display()
-            )));
-        }
-        Ok(self.out_dir.join(p))
+        output_path(&self.out_dir, name).map_err(err)
+    }
+
+    /// Reads a file of the script's folder or package; refuses anything outside it.
+    pub fn read(&self, name: &str) -> RhaiResult<Vec<u8>> {
+        self.read_root.read(name).map_err(err)
     }
 
     pub fn note_written(&self, paths: impl IntoIterator<Item = PathBuf>) {
@@ -99,5 +101,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     metrics::register(engine, host.clone());
     model::register(engine, host.clone());
     box_builder::register(engine);
+    files::register(engine, host.clone());
     plot::register(engine, host);
 }
