@@ -162,10 +162,7 @@ type Params = Vec<(String, rhai::Dynamic)>;
 /// The package `script` names, if it is one, and the script's parameters: a package's
 /// defaults with each `--set` checked against its manifest, or a plain script's values typed
 /// by their look.
-fn resolve_source(
-    script: &std::path::Path,
-    set: &[String],
-) -> Result<(Option<Package>, Vec<(String, rhai::Dynamic)>), String> {
+fn resolve_source(script: &std::path::Path, set: &[String]) -> Result<(Option<Package>, Params), String> {
     match Package::detect(script).map_err(|e| format!("error: {e}"))? {
         Some(p) => {
             let params = p.params(set).map_err(|e| format!("error: {e}\nnothing was run"))?;
