@@ -8,6 +8,7 @@ pub mod api;
 pub mod bench;
 pub mod package;
 pub mod plot;
+pub mod repl;
 pub mod report;
 pub mod run;
 pub mod sandbox;

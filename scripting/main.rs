@@ -61,6 +61,19 @@ enum Command {
         #[command(flatten)]
         limits: LimitArgs,
     },
+    /// An interactive session: models, variables and functions stay alive between lines.
+    #[command(after_help = "Commands inside: :help, :help NAME, :vars, :load FILE, :quit. Ctrl-C cancels the\n\
+        running balance, not the session. History: $MATDEM_HISTORY, else $XDG_DATA_HOME/matdem-rs/history,\n\
+        else ~/.matdem_history.\n\nExample:\n  matdem-rs repl examples/oedometer/compress.rhai")]
+    Repl {
+        /// A script to run first; the session then reads files from its folder.
+        script: Option<PathBuf>,
+        /// Output folder (default: out/repl).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        limits: LimitArgs,
+    },
     /// Describe a packaged simulator: what it does, its parameters (type, default, unit,
     /// range) and what it writes.
     #[command(after_help = "Example:\n  matdem-rs info examples/oedometer")]
@@ -214,6 +227,17 @@ fn main() -> ExitCode {
             (RunConfig { script, out_dir, params, progress: false, plan_only: true, package, limits }, Backend::Cpu)
         }
         Command::Info { package } => return info(&package),
+        Command::Repl { script, out, limits } => {
+            let out_dir = out.unwrap_or_else(|| PathBuf::from("out/repl"));
+            let cfg = matdem_rs::repl::ReplConfig { script, out_dir, limits: limits.resolve() };
+            return match matdem_rs::repl::run_repl(cfg) {
+                Ok(code) => ExitCode::from(code),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+            };
+        }
         Command::Pack { package, output } => return pack_command(&package, output),
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json });

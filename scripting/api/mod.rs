@@ -4,6 +4,7 @@
 //! the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
 pub mod box_builder;
+pub mod docs;
 pub mod field;
 pub mod files;
 pub mod materials;
