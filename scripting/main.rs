@@ -1,10 +1,12 @@
 //! The `matdem-rs` command: parses arguments and hands off to the library.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
 use matdem_engine::backend::RunControl;
 use matdem_rs::bench::{run_bench, BenchConfig};
-use matdem_rs::run::{run_script, RunConfig, RunError};
+use matdem_rs::package::{pack, Package};
+use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
+use matdem_rs::sandbox::Limits;
 use matdem_rs::study::{run_study, summary, write_outputs, StudyConfig, Vary};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -16,7 +18,7 @@ use std::sync::Arc;
     name = "matdem-rs",
     version,
     about = "A discrete element method workbench scripted in Rhai, modelled on MatDEM",
-    after_help = "Examples:\n  matdem-rs run examples/compress.rhai\n  matdem-rs run examples/compress.rhai --out out/full --set full=true\n  matdem-rs plan examples/compress.rhai\n  matdem-rs bench --json"
+    after_help = "Examples:\n  matdem-rs run examples/oedometer\n  matdem-rs run examples/oedometer --out out/full --set full=true\n  matdem-rs info examples/oedometer\n  matdem-rs pack examples/oedometer -o oedometer.tar\n  matdem-rs plan examples/oedometer\n  matdem-rs bench --json"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -35,12 +37,15 @@ enum Backend {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a script; everything it writes goes into one output folder.
-    #[command(after_help = "Ctrl-C or SIGTERM finishes the current chunk of steps, saves what a resume needs in \
-        OUT/resume/ and exits with 130;\n--resume continues from there (a second Ctrl-C stops at once, without saving).\n\n\
-        Examples:\n  matdem-rs run examples/compress.rhai --out out/compress --set quick=true\n  \
-        matdem-rs run examples/compress.rhai --resume out/compress")]
+    /// Run a script or a packaged simulator (a folder with simulator.ron, or its .tar archive);
+    /// everything it writes goes into one output folder.
+    #[command(after_help = "Examples:\n  matdem-rs run examples/oedometer --out out/oedometer --set quick=true\n  \
+        matdem-rs run oedometer.tar --set dt_rate=2\n  matdem-rs run my_script.rhai --set n=10\n  \
+        matdem-rs run examples/oedometer --resume out/oedometer\n\n\
+        Ctrl-C or SIGTERM finishes the current chunk of steps, saves what a resume needs in OUT/resume/ and exits \
+        with 130;\n--resume continues from there (a second Ctrl-C stops at once, without saving).")]
     Run {
+        /// A .rhai script, a package folder or a package archive (.tar).
         script: PathBuf,
         /// Output folder (default: out/<script name>; with --resume, the interrupted run's).
         #[arg(long)]
@@ -53,12 +58,46 @@ enum Command {
         set: Vec<String>,
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
+        #[command(flatten)]
+        limits: LimitArgs,
     },
     /// Print what a script's scene simulates and what it leaves out, without running it.
     Plan {
+        /// A .rhai script, a package folder or a package archive (.tar).
         script: PathBuf,
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
+        #[command(flatten)]
+        limits: LimitArgs,
+    },
+    /// An interactive session: models, variables and functions stay alive between lines.
+    #[command(after_help = "Commands inside: :help, :help NAME, :vars, :load FILE, :quit. Ctrl-C cancels the\n\
+        running balance, not the session. History: $MATDEM_HISTORY, else $XDG_DATA_HOME/matdem-rs/history,\n\
+        else ~/.matdem_history.\n\nExample:\n  matdem-rs repl examples/oedometer/compress.rhai")]
+    Repl {
+        /// A script to run first; the session then reads files from its folder.
+        script: Option<PathBuf>,
+        /// Output folder (default: out/repl).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        limits: LimitArgs,
+    },
+    /// Describe a packaged simulator: what it does, its parameters (type, default, unit,
+    /// range) and what it writes.
+    #[command(after_help = "Example:\n  matdem-rs info examples/oedometer")]
+    Info {
+        /// A package folder (with simulator.ron) or its .tar archive.
+        package: PathBuf,
+    },
+    /// Pack a simulator folder into one .tar archive that `run` and `info` take as is.
+    #[command(after_help = "Example:\n  matdem-rs pack examples/oedometer -o oedometer.tar")]
+    Pack {
+        /// The package folder (with simulator.ron).
+        package: PathBuf,
+        /// The archive to write (default: NAME-VERSION.tar).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
     /// Time the standard lattice scene (20×20×50 Hertz–Mindlin spheres in a box of five walls,
     /// as LIGGGHTS is measured on) and print particle-steps per second.
@@ -84,7 +123,7 @@ enum Command {
     #[command(after_help = "The script reports its metric with `report(\"NAME\", value)`. Each setting runs in\n\
         OUT/runNN/; OUT/study.csv and OUT/study.svg/png compare them with the reference\n\
         (by default the slowest run that finished). `--vary backend=cpu,gpu` switches backends.\n\n\
-        Example:\n  matdem-rs study examples/compress.rhai --vary dt_rate=0.25,0.5,1 --vary ring_mm=2.5,3.5 \\\n    \
+        Example:\n  matdem-rs study examples/oedometer --vary dt_rate=0.25,0.5,1 --vary ring_mm=2.5,3.5 \\\n    \
         --set samples=1 --metric strain_no1 --out out/study")]
     Study {
         script: PathBuf,
@@ -108,10 +147,57 @@ enum Command {
     },
 }
 
-fn params(set: &[String]) -> Result<Vec<(String, String)>, String> {
+/// The sandbox's limits, as typed.
+#[derive(Args)]
+struct LimitArgs {
+    /// Most Rhai operations a run may take (native calls such as a balance count as one).
+    #[arg(long, default_value_t = Limits::default().max_operations)]
+    max_operations: u64,
+    /// Deepest nesting of function calls.
+    #[arg(long, default_value_t = Limits::default().max_call_depth as u64, value_parser = clap::value_parser!(u64).range(1..=512))]
+    max_call_depth: u64,
+    /// Longest string, in bytes.
+    #[arg(long, default_value_t = Limits::default().max_string_size)]
+    max_string_size: usize,
+    /// Most items in one array.
+    #[arg(long, default_value_t = Limits::default().max_array_size)]
+    max_array_size: usize,
+    /// Most entries in one object map.
+    #[arg(long, default_value_t = Limits::default().max_map_size)]
+    max_map_size: usize,
+}
+
+impl LimitArgs {
+    fn resolve(&self) -> Limits {
+        Limits {
+            max_operations: self.max_operations,
+            max_call_depth: self.max_call_depth as usize,
+            max_string_size: self.max_string_size,
+            max_array_size: self.max_array_size,
+            max_map_size: self.max_map_size,
+        }
+    }
+}
+
+type Params = Vec<(String, rhai::Dynamic)>;
+
+/// The package `script` names, if it is one, and the script's parameters: a package's
+/// defaults with each `--set` checked against its manifest, or a plain script's values typed
+/// by their look.
+fn resolve_source(script: &std::path::Path, set: &[String]) -> Result<(Option<Package>, Params), String> {
+    match Package::detect(script).map_err(|e| format!("error: {e}"))? {
+        Some(p) => {
+            let params = p.params(set).map_err(|e| format!("error: {e}\nnothing was run"))?;
+            Ok((Some(p), params))
+        }
+        None => Ok((None, params(set)?)),
+    }
+}
+
+fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
     set.iter()
         .map(|s| match s.split_once('=') {
-            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), parse_value(v.trim()))),
             _ => Err(format!("error: --set expects NAME=VALUE, got `{s}`")),
         })
         .collect()
@@ -120,24 +206,28 @@ fn params(set: &[String]) -> Result<Vec<(String, String)>, String> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let (cfg, backend) = match cli.command {
-        Command::Run { script, out, resume, set, backend } => {
+        Command::Run { script, out, resume, set, backend, limits } => {
             if resume.is_some() && !set.is_empty() {
                 eprintln!(
                     "error: a resumed run keeps the parameters of the interrupted one (see its run.ron); drop --set"
                 );
                 return ExitCode::from(2);
             }
-            let out_dir = match (&out, &resume) {
-                (Some(o), _) => o.clone(),
-                (None, Some(dir)) => matdem_rs::resume::run_folder(dir),
-                (None, None) => PathBuf::from("out").join(script.file_stem().unwrap_or_default()),
-            };
-            let params = match params(&set) {
-                Ok(p) => p,
+            let (package, params) = match resolve_source(&script, &set) {
+                Ok(r) => r,
                 Err(e) => {
                     eprintln!("{e}");
                     return ExitCode::from(2);
                 }
+            };
+            let stem = match &package {
+                Some(p) => p.manifest.name.clone().into(),
+                None => script.file_stem().unwrap_or_default().to_os_string(),
+            };
+            let out_dir = match (out, &resume) {
+                (Some(o), _) => o,
+                (None, Some(dir)) => matdem_rs::resume::run_folder(dir),
+                (None, None) => PathBuf::from("out").join(stem),
             };
             let progress = std::io::stderr().is_terminal();
             let control = RunControl::default();
@@ -154,12 +244,14 @@ fn main() -> ExitCode {
                 control,
                 resume,
                 gpu: None,
+                package,
+                limits: limits.resolve(),
             };
             (cfg, backend)
         }
-        Command::Plan { script, set } => {
-            let params = match params(&set) {
-                Ok(p) => p,
+        Command::Plan { script, set, limits } => {
+            let (package, params) = match resolve_source(&script, &set) {
+                Ok(r) => r,
                 Err(e) => {
                     eprintln!("{e}");
                     return ExitCode::from(2);
@@ -175,9 +267,24 @@ fn main() -> ExitCode {
                 control: RunControl::default(),
                 resume: None,
                 gpu: None,
+                package,
+                limits: limits.resolve(),
             };
             (cfg, Backend::Cpu)
         }
+        Command::Info { package } => return info(&package),
+        Command::Repl { script, out, limits } => {
+            let out_dir = out.unwrap_or_else(|| PathBuf::from("out/repl"));
+            let cfg = matdem_rs::repl::ReplConfig { script, out_dir, limits: limits.resolve() };
+            return match matdem_rs::repl::run_repl(cfg) {
+                Ok(code) => ExitCode::from(code),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+            };
+        }
+        Command::Pack { package, output } => return pack_command(&package, output),
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json, gpu: None });
         }
@@ -330,4 +437,40 @@ fn parse_reference(s: &str) -> Result<Vec<(String, String)>, String> {
 
 fn rayon_threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+fn info(path: &std::path::Path) -> ExitCode {
+    match Package::open(path) {
+        Ok(p) => {
+            print!("{}", p.describe());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn pack_command(dir: &std::path::Path, output: Option<PathBuf>) -> ExitCode {
+    let output = match output {
+        Some(o) => o,
+        None => match Package::open(dir) {
+            Ok(p) => PathBuf::from(format!("{}-{}.tar", p.manifest.name, p.manifest.version)),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+    };
+    match pack(dir, &output) {
+        Ok(n) => {
+            eprintln!("packed {n} file(s) into {}; run it with `matdem-rs run {}`", output.display(), output.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
 }

@@ -41,6 +41,22 @@ fn unwind(e: &EvalAltResult) -> (&EvalAltResult, Vec<(String, String, Position)>
 pub fn message(e: &EvalAltResult) -> String {
     match e {
         EvalAltResult::ErrorRuntime(v, _) => v.to_string(),
+        // The sandbox's limits: say which one and how to raise it when the work is real.
+        EvalAltResult::ErrorTooManyOperations(_) => "too many operations: the script ran past the sandbox's \
+            operation limit (an endless loop?); if the work is real, raise it with --max-operations N"
+            .to_string(),
+        EvalAltResult::ErrorStackOverflow(_) => "too many nested function calls: the script ran past the \
+            sandbox's call depth (endless recursion?); if it is real, raise it with --max-call-depth N"
+            .to_string(),
+        EvalAltResult::ErrorDataTooLarge(what, _) => {
+            let flag = match what.as_str() {
+                w if w.contains("rray") => "--max-array-size",
+                w if w.contains("tring") => "--max-string-size",
+                w if w.contains("ap") => "--max-map-size",
+                _ => "--max-array-size, --max-string-size or --max-map-size",
+            };
+            format!("{what} too large for the sandbox's limit; if it is real, raise it with {flag} N")
+        }
         other => {
             let s = other.to_string();
             // Drop the " (line x, position y)" suffix; the snippet shows the position.

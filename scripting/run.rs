@@ -3,9 +3,11 @@
 //! interrupted run (see [`crate::resume`]).
 
 use crate::api::{Host, PLAN_DONE};
+use crate::package::Package;
 use crate::report::{render, Sources};
 use crate::resume::{self, Pending, Session, INTERRUPTED};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
+use crate::sandbox::{Limits, ReadRoot};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::RunControl;
 use rhai::{Dynamic, EvalAltResult, Scope};
@@ -18,8 +20,8 @@ use std::sync::Arc;
 pub struct RunConfig {
     pub script: PathBuf,
     pub out_dir: PathBuf,
-    /// `--set name=value`, as given.
-    pub params: Vec<(String, String)>,
+    /// `--set name=value`, typed (a package's defaults and checked values included).
+    pub params: Vec<(String, Dynamic)>,
     pub progress: bool,
     pub plan_only: bool,
     /// The backend, as the run record names it.
@@ -30,6 +32,11 @@ pub struct RunConfig {
     pub resume: Option<PathBuf>,
     /// The GPU the script's models step on; `None` for the CPU backend.
     pub gpu: Option<Arc<GpuContext>>,
+    /// Set when `script` is a packaged simulator (a folder or an archive); `params` then
+    /// already holds its defaults and checked `--set` values.
+    pub package: Option<Package>,
+    /// The sandbox's limits on operations, call depth and data sizes.
+    pub limits: Limits,
 }
 
 /// Why a run failed, already worded for a person.
@@ -79,10 +86,24 @@ pub fn parse_value(s: &str) -> Dynamic {
 /// Runs the script; returns the files it wrote. Every run folder gets a run record
 /// (`run.ron`), written when the run starts and again when it ends.
 pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
-    let text = std::fs::read_to_string(&cfg.script)
-        .map_err(|e| RunError::Setup(format!("error: cannot read script {}: {e}", cfg.script.display())))?;
+    let (text, path, read_root) = match &cfg.package {
+        Some(p) => {
+            (p.entry_text().map_err(|e| RunError::Setup(format!("error: {e}")))?, p.entry_label(), p.root.clone())
+        }
+        None => {
+            let text = std::fs::read_to_string(&cfg.script)
+                .map_err(|e| RunError::Setup(format!("error: cannot read script {}: {e}", cfg.script.display())))?;
+            let dir = cfg.script.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            let root = ReadRoot::folder(dir).map_err(|e| {
+                RunError::Setup(format!("error: cannot open the script's folder {}: {e}", dir.display()))
+            })?;
+            (text, cfg.script.display().to_string(), root)
+        }
+    };
     let sha = sha256_hex(text.as_bytes());
-    let mut session = Session { script_sha256: sha.clone(), params: cfg.params.clone(), ..Session::default() };
+    // The journal and the run record keep parameters as text; a resume types them again.
+    let params = cfg.params.iter().map(|(k, v)| (k.clone(), v.to_string())).collect();
+    let mut session = Session { script_sha256: sha.clone(), params, ..Session::default() };
     if let Some(dir) = &cfg.resume {
         let (journal, models) = resume::load(dir).map_err(RunError::Setup)?;
         if journal.script_sha256 != sha {
@@ -118,7 +139,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
             RunError::Setup(format!("error: cannot write the run record in {}: {e}", cfg.out_dir.display()))
         })?;
     }
-    let result = evaluate(cfg, &text, session);
+    let result = evaluate(cfg, &text, &path, read_root, session);
     if !cfg.plan_only {
         let (status, code) = match &result {
             Ok(_) => ("ok", 0),
@@ -142,23 +163,34 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
 }
 
 /// Prepares the host and the engine and evaluates the script.
-fn evaluate(cfg: &RunConfig, text: &str, session: Session) -> Result<Vec<PathBuf>, RunError> {
-    let params = session.params.clone();
+fn evaluate(
+    cfg: &RunConfig,
+    text: &str,
+    path: &str,
+    read_root: ReadRoot,
+    session: Session,
+) -> Result<Vec<PathBuf>, RunError> {
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
     host.control = cfg.control.clone();
     host.gpu = cfg.gpu.clone();
-    for (k, v) in &params {
-        host.params.insert(k.as_str().into(), parse_value(v));
+    host.read_root = read_root;
+    host.limits = cfg.limits;
+    if cfg.resume.is_some() {
+        for (k, v) in &session.params {
+            host.params.insert(k.as_str().into(), parse_value(v));
+        }
+    } else {
+        for (k, v) in &cfg.params {
+            host.params.insert(k.as_str().into(), v.clone());
+        }
     }
-    let dir = cfg.script.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    host.script_dir = dir.to_path_buf();
     host.session = RefCell::new(session);
+    host.resumable = !cfg.plan_only;
     let host = Rc::new(host);
-    let engine = crate::new_engine(host.clone(), Some(dir));
-    let path = cfg.script.display().to_string();
-    let sources = Sources { main_path: &path, main_text: text };
+    let engine = crate::new_engine(host.clone());
+    let sources = Sources { main_path: path, main_text: text };
     let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());

@@ -1,4 +1,4 @@
-//! The command line end to end: `run` on the oedometer example in quick mode, `plan`,
+//! The command line end to end: `run` on the oedometer package in quick mode, `plan`,
 //! `--set` parameters and `--help`.
 
 mod common;
@@ -12,9 +12,9 @@ fn csv_column(text: &str, name: &str) -> Vec<f64> {
 }
 
 #[test]
-fn compress_example_quick_writes_outputs_and_strain_and_coordination_grow() {
+fn oedometer_package_quick_writes_outputs_and_strain_and_coordination_grow() {
     let dir = temp_dir("compress_quick");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/compress.rhai");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/oedometer");
     let o = bin().args(["run", example, "--set", "quick=true", "--out"]).arg(&dir).output().unwrap();
     assert!(o.status.success(), "stderr:\n{}\nstdout:\n{}", stderr(&o), stdout(&o));
     for f in [
@@ -79,7 +79,7 @@ fn set_values_reach_the_script_as_params() {
 #[test]
 fn help_shows_examples() {
     let o = bin().arg("--help").output().unwrap();
-    assert!(stdout(&o).contains("matdem-rs run examples/compress.rhai"));
+    assert!(stdout(&o).contains("matdem-rs run examples/oedometer"));
 }
 
 #[test]

@@ -8,7 +8,7 @@ use std::rc::Rc;
 fn eval<T: Clone + 'static>(name: &str, script: &str) -> T {
     let dir = common::temp_dir(name);
     let host = Rc::new(Host::new(dir));
-    let engine = matdem_rs::new_engine(host, None);
+    let engine = matdem_rs::new_engine(host);
     engine.eval::<T>(script).unwrap_or_else(|e| panic!("script failed: {e}"))
 }
 
@@ -71,7 +71,7 @@ fn groups_from_masks_fix_and_balance_settle_the_sample() {
 fn records_make_a_table_saved_as_csv_and_a_chart() {
     let dir = common::temp_dir("records");
     let host = Rc::new(Host::new(dir.clone()));
-    let engine = matdem_rs::new_engine(host, None);
+    let engine = matdem_rs::new_engine(host);
     let script = format!(
         r#"{SMALL_BOX}
         d.gravity = [0.0, 0.0, -9.81];
@@ -97,7 +97,7 @@ fn records_make_a_table_saved_as_csv_and_a_chart() {
 fn bad_values_are_refused_with_a_message() {
     let dir = common::temp_dir("bad_values");
     let host = Rc::new(Host::new(dir));
-    let engine = matdem_rs::new_engine(host, None);
+    let engine = matdem_rs::new_engine(host);
     for (script, needle) in [
         ("let b = new_box(\"x\"); b.ball_r = -1.0;", "must be a finite number ≥ 0"),
         ("material_micro(\"m\", #{ kn: -1.0, r: 1e-3 })", "kn"),

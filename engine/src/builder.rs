@@ -105,6 +105,10 @@ pub struct BuiltBox {
     pub loose_height: f64,
 }
 
+/// The most particles a box builds: well above the paper's largest samples (4·10⁵), well
+/// under what would exhaust memory (each particle costs about 1 kB with its contact rows).
+pub const MAX_BOX_PARTICLES: usize = 20_000_000;
+
 impl BoxSpec {
     pub fn validate(&self) -> Result<()> {
         check_positive("height", self.height, false)?;
@@ -133,6 +137,14 @@ impl BoxSpec {
         }
         if !(0.0..0.9).contains(&self.target_porosity) {
             return Err(Error::param("target_porosity", self.target_porosity, "must be in [0, 0.9)"));
+        }
+        // Summed in f64: a tiny radius in a large box would overflow a count of particles.
+        let total: f64 = self.counts().iter().map(|&n| n as f64).sum();
+        if total > MAX_BOX_PARTICLES as f64 {
+            return Err(Error::InvalidScene(format!(
+                "the box would hold about {total:.3e} particles, more than the {MAX_BOX_PARTICLES} a box may build: \
+                 use larger grains (ball_r, gradation) or a smaller box"
+            )));
         }
         Ok(())
     }

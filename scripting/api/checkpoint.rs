@@ -76,12 +76,11 @@ fn table_of(columns: Vec<(String, Vec<u64>)>, rows: usize) -> TableData {
     }
 }
 
-/// Reads and decodes checkpoint `name` (see [`Host::in_path`]) into a new model.
+/// Reads and decodes checkpoint `name` (see [`Host::read_input`]) into a new model.
 fn load(host: &Host, name: &str) -> RhaiResult<ModelHandle> {
-    let path = host.in_path(&with_extension(name))?;
-    let bytes = std::fs::read(&path).map_err(|e| err(format!("cannot read {}: {e}", path.display())))?;
-    let ck = decode(&bytes).map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-    let annex = host_annex(&ck.annex).map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
+    let (path, bytes) = host.read_input(&with_extension(name))?;
+    let ck = decode(&bytes).map_err(|e| err(format!("cannot load {path}: {e}")))?;
+    let annex = host_annex(&ck.annex).map_err(|e| err(format!("cannot load {path}: {e}")))?;
     let handle = host.adopt(&annex.name, ck.model);
     *handle.data().status.0.borrow_mut() = table_of(annex.status, annex.rows);
     Ok(handle)

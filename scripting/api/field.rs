@@ -6,6 +6,9 @@ use super::{err, RhaiResult};
 use rhai::{Array, Dynamic, Engine, FLOAT, INT};
 use std::rc::Rc;
 
+/// The most values a field made by a script may hold (as many as the largest box's particles).
+const MAX_FIELD_LEN: INT = matdem_engine::builder::MAX_BOX_PARTICLES as INT;
+
 /// Numbers, one per particle or row. Cheap to clone (shared, copy on write).
 #[derive(Debug, Clone, Default)]
 pub struct Field(pub Rc<Vec<f64>>);
@@ -101,7 +104,13 @@ pub fn register(engine: &mut Engine) {
     engine.register_type_with_name::<Field>("Field").register_type_with_name::<Mask>("Mask");
     engine
         .register_fn("field", |a: Array| to_numbers(&Dynamic::from_array(a), "field").map(Field::new))
-        .register_fn("zeros", |n: INT| Field::new(vec![0.0; n.max(0) as usize]))
+        .register_fn("zeros", |n: INT| -> RhaiResult<Field> {
+            // A field is a whole-model array: cap it where memory, not the script, would fail.
+            if !(0..=MAX_FIELD_LEN).contains(&n) {
+                return Err(err(format!("zeros({n}): a field holds 0 to {MAX_FIELD_LEN} values")));
+            }
+            Ok(Field::new(vec![0.0; n as usize]))
+        })
         .register_fn("len", |f: &mut Field| f.0.len() as INT)
         .register_get("len", |f: &mut Field| f.0.len() as INT)
         .register_fn("sum", |f: &mut Field| f.0.iter().sum::<f64>())

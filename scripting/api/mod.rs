@@ -5,7 +5,9 @@
 
 pub mod box_builder;
 pub mod checkpoint;
+pub mod docs;
 pub mod field;
+pub mod files;
 pub mod materials;
 pub mod metrics;
 pub mod model;
@@ -15,11 +17,12 @@ pub mod table;
 pub mod training;
 
 use crate::resume::{Entry, Session, Value};
+use crate::sandbox::{output_path, Limits, ReadRoot};
 use matdem_engine::backend::gpu::device::GpuContext;
 use model::{ModelData, ModelHandle};
 use rhai::{Dynamic, Engine, EvalAltResult};
 use std::cell::RefCell;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::rc::{Rc, Weak};
 use std::sync::Arc;
 
@@ -49,15 +52,20 @@ pub struct Host {
     pub control: matdem_engine::backend::RunControl,
     /// Files written so far, for the summary.
     pub written: RefCell<Vec<PathBuf>>,
-    /// The script's own folder: `load_model` and other reads look here after the output folder.
-    pub script_dir: PathBuf,
     /// Every model the script created, by creation number (a resume restores them by it).
     pub models: RefCell<Vec<Weak<RefCell<ModelData>>>>,
     /// The journal of what the script saw, and the replay state of a resumed run.
     pub session: RefCell<Session>,
+    /// Whether a cancelled run saves a resume point (`matdem-rs run`); elsewhere (the REPL,
+    /// in-process engines) nothing is journaled and a cancel is a plain error.
+    pub resumable: bool,
     /// The GPU every model of the run steps on (`--backend gpu`, or `auto` with a hardware
     /// GPU); `None` runs on the CPU backend.
     pub gpu: Option<Arc<GpuContext>>,
+    /// The only place the script may read from (its folder or its package).
+    pub read_root: ReadRoot,
+    /// Limits on operations, call depth and data sizes.
+    pub limits: Limits,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -72,44 +80,32 @@ impl Host {
             plan_only: false,
             control: Default::default(),
             written: RefCell::new(Vec::new()),
-            script_dir: PathBuf::from("."),
+            read_root: ReadRoot::Nothing,
+            limits: Limits::default(),
             models: RefCell::new(Vec::new()),
             session: RefCell::new(Session::default()),
+            resumable: false,
             gpu: None,
         }
     }
 
-    /// Refuses names that could reach outside a folder: absolute, empty, or with `..`.
-    fn contained<'a>(name: &'a str, what: &str, allowed: &str) -> RhaiResult<&'a Path> {
-        let p = Path::new(name);
-        let outside = p.is_absolute()
-            || name.is_empty()
-            || p.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
-        if outside {
-            return Err(err(format!(
-                "{what} path `{name}` is outside the allowed folders: give a relative name without `..`; {allowed}"
-            )));
+    /// Reads a file the script asks for by name (a checkpoint for `load_model`, a trained
+    /// material): the run's output folder first, then the script's own folder or package.
+    /// The only place such reads are resolved; returns where it was found and the bytes.
+    pub fn read_input(&self, name: &str) -> RhaiResult<(String, Vec<u8>)> {
+        let in_out = output_path(&self.out_dir, name).map_err(err)?;
+        if in_out.is_file() {
+            let bytes = std::fs::read(&in_out).map_err(|e| err(format!("cannot read {}: {e}", in_out.display())))?;
+            return Ok((in_out.display().to_string(), bytes));
         }
-        Ok(p)
-    }
-
-    /// Resolves a file a script reads (a checkpoint for `load_model`): the run's output
-    /// folder first, then the script's own folder. The only place reads are resolved.
-    pub fn in_path(&self, name: &str) -> RhaiResult<PathBuf> {
-        let allowed = format!(
-            "it is read from the run's output folder {} or the script's folder {}",
-            self.out_dir.display(),
-            self.script_dir.display()
-        );
-        let p = Self::contained(name, "input", &allowed)?;
-        let candidates = [self.out_dir.join(p), self.script_dir.join(p)];
-        candidates.iter().find(|c| c.is_file()).cloned().ok_or_else(|| {
-            err(format!(
-                "no file `{name}`: looked for {} and {}; save it first (d.save) or put it beside the script",
-                candidates[0].display(),
-                candidates[1].display()
-            ))
-        })
+        match self.read_root.read(name) {
+            Ok(bytes) => Ok((name.to_string(), bytes)),
+            Err(e) => Err(err(format!(
+                "no file `{name}`: looked for it in the run's output folder {} and beside the script ({e}); save it \
+                 first (d.save) or put it beside the script",
+                self.out_dir.display()
+            ))),
+        }
     }
 
     /// Gives a new model to the script under the next creation number.
@@ -129,6 +125,9 @@ impl Host {
     /// journals what it gave; while replaying, gives back the journaled value instead and
     /// runs nothing (see [`crate::resume`]).
     pub fn observe(&self, call: &str, f: impl FnOnce() -> RhaiResult<Dynamic>) -> RhaiResult<Dynamic> {
+        if !self.resumable {
+            return f();
+        }
         if self.replaying() {
             return self.session.borrow_mut().next(call)?.to_dynamic();
         }
@@ -147,10 +146,15 @@ impl Host {
     }
 
     /// Resolves a relative output name inside the output folder; refuses anything that
-    /// could land outside it. The only place writes are resolved.
+    /// could land outside it (`..`, absolute paths, symbolic links out). The only place
+    /// writes are resolved.
     pub fn out_path(&self, name: &str) -> RhaiResult<PathBuf> {
-        let allowed = format!("it is written under the run's output folder {}", self.out_dir.display());
-        Ok(self.out_dir.join(Self::contained(name, "output", &allowed)?))
+        output_path(&self.out_dir, name).map_err(err)
+    }
+
+    /// Reads a file of the script's folder or package; refuses anything outside it.
+    pub fn read(&self, name: &str) -> RhaiResult<Vec<u8>> {
+        self.read_root.read(name).map_err(err)
     }
 
     pub fn note_written(&self, paths: impl IntoIterator<Item = PathBuf>) {
@@ -183,5 +187,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     box_builder::register(engine, host.clone());
     snapshots::register(engine, host.clone());
     training::register(engine, host.clone());
+    files::register(engine, host.clone());
     plot::register(engine, host);
 }

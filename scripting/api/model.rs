@@ -197,6 +197,9 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         Ok(Dynamic::from_map(map))
     });
     if let Some(completed) = cancelled {
+        if !host.resumable {
+            return Err(raise(matdem_engine::Error::Cancelled { completed_steps: completed }));
+        }
         // The journal must end before this call: take back the entry `observe` made for it.
         host.session.borrow_mut().entries.pop();
         let saved = SavedBalance::from_balance(how).expect("standard balances were turned into steps above");

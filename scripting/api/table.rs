@@ -45,6 +45,37 @@ impl TableData {
         })
     }
 
+    /// A table from CSV text: a header of column names, then rows of numbers (empty or
+    /// `NaN` cells are NaN).
+    pub fn from_csv(text: &str) -> Result<Self, String> {
+        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+        let (_, header) = lines.next().ok_or("the file is empty; expected a header line of column names")?;
+        let names: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+        let mut table = TableData::default();
+        for (k, line) in lines {
+            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+            if cells.len() != names.len() {
+                return Err(format!("line {} has {} cells; the header has {}", k + 1, cells.len(), names.len()));
+            }
+            let row = names
+                .iter()
+                .zip(cells)
+                .map(|(name, cell)| match cell {
+                    "" => Ok((name.clone(), f64::NAN)),
+                    _ => cell
+                        .parse::<f64>()
+                        .map(|x| (name.clone(), x))
+                        .map_err(|_| format!("line {}, column `{name}`: `{cell}` is not a number", k + 1)),
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            table.push(&row);
+        }
+        if table.rows == 0 {
+            table.columns = names.into_iter().map(|n| (n, Vec::new())).collect();
+        }
+        Ok(table)
+    }
+
     pub fn to_csv(&self) -> String {
         let mut s = self.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(",");
         s.push('\n');

@@ -295,7 +295,7 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
 /// `.ron`) from the run's output folder, else from the script's folder.
 fn load_trained(host: &Host, name: &str) -> RhaiResult<TrainedMaterial> {
     let rel = if name.ends_with(".ron") { name.to_string() } else { format!("materials/{name}.ron") };
-    let path = host.in_path(&rel).map_err(|e| {
+    let (path, bytes) = host.read_input(&rel).map_err(|e| {
         if e.to_string().contains("no file") {
             err(format!(
                 "no trained material `{name}`: looked for {rel} in the run's output folder and beside the script; \
@@ -305,10 +305,9 @@ fn load_trained(host: &Host, name: &str) -> RhaiResult<TrainedMaterial> {
             e
         }
     })?;
-    let text = std::fs::read_to_string(&path).map_err(|e| err(format!("cannot read {}: {e}", path.display())))?;
-    ron::from_str(&text).map_err(|e| {
-        err(format!("{} is not a trained material file ({e}); train it again with train(...)", path.display()))
-    })
+    let text = String::from_utf8(bytes).map_err(|e| err(format!("{path} is not text ({e})")))?;
+    ron::from_str(&text)
+        .map_err(|e| err(format!("{path} is not a trained material file ({e}); train it again with train(...)")))
 }
 
 fn lab_kind(kind: &str, opts: &Map) -> RhaiResult<LabTest> {

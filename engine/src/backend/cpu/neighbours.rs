@@ -160,9 +160,15 @@ fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u32)> {
     // Cells sized for the typical particle; bounded so a sparse scene stays small.
     let mut h = 2.0 * r_mean + skin;
     let ext = hi - lo;
+    if !(ext.iter().all(|e| e.is_finite()) && h.is_finite() && h > 0.0) {
+        // A diverging run (a particle flung to infinity): no grid fits it. The stability
+        // guard reports the particle at the end of the chunk.
+        return Vec::new();
+    }
     let dims = loop {
-        let d = [(ext.x / h) as usize + 1, (ext.y / h) as usize + 1, (ext.z / h) as usize + 1];
-        if d[0] * d[1] * d[2] <= 4 * n + 64 {
+        let cells = |e: f64| ((e / h) as usize).saturating_add(1);
+        let d = [cells(ext.x), cells(ext.y), cells(ext.z)];
+        if d[0].saturating_mul(d[1]).saturating_mul(d[2]) <= 4 * n + 64 {
             break d;
         }
         h *= 1.26;
