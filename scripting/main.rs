@@ -203,7 +203,30 @@ fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
         .collect()
 }
 
+/// Mesa's Vulkan drivers print `error: XDG_RUNTIME_DIR is invalid or not set` when probing
+/// adapters where it is unset (containers, CI, ssh without a session), though nothing here
+/// needs it; give them a private folder so `--backend auto` stays quiet.
+fn quiet_mesa() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+    let dir = std::env::temp_dir().join("matdem-rs-runtime");
+    let _ = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+    // Only a folder that is ours and private will do; otherwise Mesa may print its note.
+    let ours = std::fs::metadata(&dir).is_ok_and(|m| {
+        m.is_dir()
+            && m.permissions().mode() & 0o077 == 0
+            && std::fs::metadata("/proc/self").is_ok_and(|p| p.uid() == m.uid())
+    });
+    if ours {
+        // Still single-threaded: nothing else reads the environment yet.
+        std::env::set_var("XDG_RUNTIME_DIR", dir);
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_mesa();
     let cli = Cli::parse();
     let (cfg, backend) = match cli.command {
         Command::Run { script, out, resume, set, backend, limits } => {
