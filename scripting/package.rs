@@ -294,13 +294,7 @@ impl Package {
 
     fn unknown(&self, name: &str, text: &str) -> String {
         let names: Vec<&str> = self.manifest.parameters.iter().map(|p| p.name.as_str()).collect();
-        let hint = names
-            .iter()
-            .map(|k| (matdem_engine::error::edit_distance(name, k), *k))
-            .min()
-            .filter(|(d, _)| *d <= 3)
-            .map(|(_, k)| format!(" (did you mean `{k}`?)"))
-            .unwrap_or_default();
+        let hint = matdem_engine::error::did_you_mean(name, &names);
         format!(
             "--set {name}={text}: simulator `{}` has no parameter `{name}`{hint}; its parameters: {} \
              (`matdem-rs info {}` describes them)",

@@ -126,6 +126,18 @@ pub(crate) fn check_positive(name: &'static str, value: f64, allow_zero: bool) -
     Ok(value)
 }
 
+/// `` (did you mean `k`?)`` for the known name `k` closest to `name`, or nothing when none
+/// is within three edits.
+pub fn did_you_mean(name: &str, known: &[&str]) -> String {
+    known
+        .iter()
+        .map(|k| (edit_distance(name, k), *k))
+        .min()
+        .filter(|(d, _)| *d <= 3)
+        .map(|(_, k)| format!(" (did you mean `{k}`?)"))
+        .unwrap_or_default()
+}
+
 /// Levenshtein distance, for "did you mean" hints.
 pub fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();

@@ -318,10 +318,9 @@ fn run_on_gpu(
     progress: &mut dyn FnMut(u64),
     sample: &mut dyn FnMut(EnergySample),
 ) -> Result<RunReport> {
-    let fresh = |(rev, settings): &PlanKey| *rev == model.revision && *settings == model.settings;
-    if !g.prepared.as_ref().is_some_and(|(key, _)| fresh(key)) {
+    if !g.prepared.as_ref().is_some_and(|(key, _)| is_current(key, model)) {
         let backend = crate::backend::gpu::GpuBackend::prepare(g.ctx.clone(), model)?;
-        g.prepared = Some(((model.revision, model.settings.clone()), backend));
+        g.prepared = Some((plan_key(model), backend));
     }
     let backend = &mut g.prepared.as_mut().expect("prepared above").1;
     let plan = backend.plan.clone();
@@ -335,9 +334,17 @@ fn run_on_gpu(
 
 /// The backend prepared for the model's current revision (rebuilt when it changed).
 fn prepared<'a>(cache: &'a mut Option<(PlanKey, CpuBackend)>, model: &Model) -> &'a mut CpuBackend {
-    let fresh = |(rev, settings): &PlanKey| *rev == model.revision && *settings == model.settings;
-    if !cache.as_ref().is_some_and(|(key, _)| fresh(key)) {
-        *cache = Some(((model.revision, model.settings.clone()), CpuBackend::prepare(model)));
+    if !cache.as_ref().is_some_and(|(key, _)| is_current(key, model)) {
+        *cache = Some((plan_key(model), CpuBackend::prepare(model)));
     }
     &mut cache.as_mut().expect("prepared above").1
+}
+
+fn plan_key(model: &Model) -> PlanKey {
+    (model.revision, model.settings.clone())
+}
+
+/// Whether a backend prepared under `key` still fits the model (same revision and settings).
+fn is_current((rev, settings): &PlanKey, model: &Model) -> bool {
+    *rev == model.revision && *settings == model.settings
 }

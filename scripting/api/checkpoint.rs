@@ -78,7 +78,12 @@ fn table_of(columns: Vec<(String, Vec<u64>)>, rows: usize) -> TableData {
 
 /// Reads and decodes checkpoint `name` (see [`Host::read_input`]) into a new model.
 fn load(host: &Host, name: &str) -> RhaiResult<ModelHandle> {
-    let (path, bytes) = host.read_input(&with_extension(name))?;
+    let (path, bytes) = host.read_input(
+        &with_extension(name),
+        &format!(
+            "no saved model `{name}`; save it first with d.save(\"{name}\") or put its .mdem file beside the script"
+        ),
+    )?;
     let ck = decode(&bytes).map_err(|e| err(format!("cannot load {path}: {e}")))?;
     let annex = host_annex(&ck.annex).map_err(|e| err(format!("cannot load {path}: {e}")))?;
     let handle = host.adopt(&annex.name, ck.model);

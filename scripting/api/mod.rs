@@ -92,7 +92,8 @@ impl Host {
     /// Reads a file the script asks for by name (a checkpoint for `load_model`, a trained
     /// material): the run's output folder first, then the script's own folder or package.
     /// The only place such reads are resolved; returns where it was found and the bytes.
-    pub fn read_input(&self, name: &str) -> RhaiResult<(String, Vec<u8>)> {
+    /// `missing` says what a file that is in neither place is and how to make it.
+    pub fn read_input(&self, name: &str, missing: &str) -> RhaiResult<(String, Vec<u8>)> {
         let in_out = output_path(&self.out_dir, name).map_err(err)?;
         if in_out.is_file() {
             let bytes = std::fs::read(&in_out).map_err(|e| err(format!("cannot read {}: {e}", in_out.display())))?;
@@ -101,8 +102,7 @@ impl Host {
         match self.read_root.read(name) {
             Ok(bytes) => Ok((name.to_string(), bytes)),
             Err(e) => Err(err(format!(
-                "no file `{name}`: looked for it in the run's output folder {} and beside the script ({e}); save it \
-                 first (d.save) or put it beside the script",
+                "{missing}: looked for `{name}` in the run's output folder {} and beside the script ({e})",
                 self.out_dir.display()
             ))),
         }

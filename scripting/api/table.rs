@@ -34,13 +34,7 @@ impl TableData {
     pub fn column(&self, name: &str) -> RhaiResult<&[f64]> {
         self.columns.iter().find(|(c, _)| c == name).map(|(_, v)| v.as_slice()).ok_or_else(|| {
             let known: Vec<&str> = self.columns.iter().map(|(c, _)| c.as_str()).collect();
-            let hint = known
-                .iter()
-                .map(|k| (matdem_engine::error::edit_distance(name, k), *k))
-                .min()
-                .filter(|(d, _)| *d <= 3)
-                .map(|(_, k)| format!(" (did you mean `{k}`?)"))
-                .unwrap_or_default();
+            let hint = matdem_engine::error::did_you_mean(name, &known);
             err(format!("no column `{name}`{hint}; columns: {}", known.join(", ")))
         })
     }

@@ -295,16 +295,11 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
 /// `.ron`) from the run's output folder, else from the script's folder.
 fn load_trained(host: &Host, name: &str) -> RhaiResult<TrainedMaterial> {
     let rel = if name.ends_with(".ron") { name.to_string() } else { format!("materials/{name}.ron") };
-    let (path, bytes) = host.read_input(&rel).map_err(|e| {
-        if e.to_string().contains("no file") {
-            err(format!(
-                "no trained material `{name}`: looked for {rel} in the run's output folder and beside the script; \
-                 train it first (train(#{{ name: \"{name}\", ... }}, #{{}})) or copy its .ron file there"
-            ))
-        } else {
-            e
-        }
-    })?;
+    let missing = format!(
+        "no trained material `{name}`; train it first (train(#{{ name: \"{name}\", ... }}, #{{}})) or copy its .ron \
+         file beside the script as {rel}"
+    );
+    let (path, bytes) = host.read_input(&rel, &missing)?;
     let text = String::from_utf8(bytes).map_err(|e| err(format!("{path} is not text ({e})")))?;
     ron::from_str(&text)
         .map_err(|e| err(format!("{path} is not a trained material file ({e}); train it again with train(...)")))
