@@ -50,6 +50,9 @@ pub struct Parameter {
     /// Inclusive bounds, for `int` and `float`.
     #[serde(default)]
     pub range: Option<(f64, f64)>,
+    /// The values a `string` may take (empty: any string).
+    #[serde(default)]
+    pub choices: Vec<String>,
     #[serde(default)]
     pub help: String,
 }
@@ -116,7 +119,14 @@ impl Parameter {
                     _ => Err(bad(format!("`{text}` is not a bool"))),
                 }
             }
-            ParamType::String => return Ok(Dynamic::from(text.to_string())),
+            ParamType::String => {
+                if !self.choices.is_empty() && !self.choices.iter().any(|c| c == text) {
+                    let known: Vec<&str> = self.choices.iter().map(String::as_str).collect();
+                    let hint = matdem_engine::error::did_you_mean(text, &known);
+                    return Err(bad(format!("`{text}` is not one of the choices{hint}")));
+                }
+                return Ok(Dynamic::from(text.to_string()));
+            }
             ParamType::Int => {
                 text.parse::<i64>().map(|i| i as f64).map_err(|_| bad(format!("`{text}` is not an integer")))?
             }
@@ -141,9 +151,15 @@ impl Parameter {
         let article = if self.kind == ParamType::Int { "an" } else { "a" };
         match (self.kind, self.range) {
             (ParamType::Bool, _) => "a bool: true or false".to_string(),
+            (ParamType::String, _) if !self.choices.is_empty() => format!("one of {}", self.choice_list()),
             (k, Some((lo, hi))) => format!("{article} {k} within {lo} … {hi}"),
             (k, None) => format!("{article} {k}"),
         }
+    }
+
+    /// "`fast`, `exact`", for messages and `info`.
+    fn choice_list(&self) -> String {
+        self.choices.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(", ")
     }
 
     /// The default as the script sees it; `None` when the manifest gives none.
@@ -172,6 +188,15 @@ impl Parameter {
                 || hi.is_nan()
             {
                 return Err(format!("parameter `{}`: a range needs an int or float type and low <= high", self.name));
+            }
+        }
+        if !self.choices.is_empty() {
+            let mut seen = std::collections::BTreeSet::new();
+            if self.kind != ParamType::String || self.choices.iter().any(|c| c.is_empty() || !seen.insert(c)) {
+                return Err(format!(
+                    "parameter `{}`: choices need a string type and distinct, non-empty values",
+                    self.name
+                ));
             }
         }
         let Some(d) = &self.default else { return Ok(()) };
@@ -317,7 +342,11 @@ impl Package {
                     p.kind.to_string(),
                     p.default.as_ref().map_or("(unset)".to_string(), |d| d.to_string()),
                     p.unit.clone().unwrap_or_else(|| "-".to_string()),
-                    p.range.map_or("-".to_string(), |(lo, hi)| format!("{lo} … {hi}")),
+                    match p.range {
+                        Some((lo, hi)) => format!("{lo} … {hi}"),
+                        None if !p.choices.is_empty() => p.choices.join(" | "),
+                        None => "-".to_string(),
+                    },
                     p.help.clone(),
                 ]
             })

@@ -101,6 +101,46 @@ fn defaults_and_set_values_reach_the_script_typed_with_its_imports_and_data() {
 }
 
 #[test]
+fn a_string_parameter_with_choices_takes_only_those_and_says_which() {
+    let dir = temp_dir("pkg_choices");
+    let pkg = dir.join("choices");
+    std::fs::create_dir_all(&pkg).unwrap();
+    let manifest = |choices: &str, default: &str| {
+        format!(
+            r#"(name: "c", version: "1", description: "d", entry: "m.rhai",
+                parameters: [(name: "law", type: string, default: {default}, choices: {choices}, help: "contact law")])"#
+        )
+    };
+    std::fs::write(pkg.join("m.rhai"), "print(params.law);").unwrap();
+    std::fs::write(pkg.join("simulator.ron"), manifest(r#"["hertz", "linear"]"#, r#""hertz""#)).unwrap();
+    let run = |set: &[&str]| bin().arg("run").arg(&pkg).args(set).arg("--out").arg(dir.join("out")).output().unwrap();
+
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), "hertz");
+    let o = run(&["--set", "law=linear"]);
+    assert_eq!(stdout(&o).trim(), "linear", "{}", stderr(&o));
+    let o = run(&["--set", "law=hertzz"]);
+    assert_eq!(o.status.code(), Some(2));
+    let expected = "--set law=hertzz: `hertzz` is not one of the choices (did you mean `hertz`?); \
+                    `law` is one of `hertz`, `linear` (contact law)";
+    assert!(stderr(&o).contains(expected), "expected `{expected}` in:\n{}", stderr(&o));
+    let info = bin().arg("info").arg(&pkg).output().unwrap();
+    assert!(stdout(&info).contains("hertz | linear"), "{}", stdout(&info));
+
+    // The manifest itself is checked: a default outside the choices, a repeated choice.
+    for (choices, default, why) in [
+        (r#"["hertz"]"#, r#""linear""#, "`linear` is not one of the choices"),
+        (r#"["a", "a"]"#, r#""a""#, "choices need a string type and distinct, non-empty values"),
+    ] {
+        std::fs::write(pkg.join("simulator.ron"), manifest(choices, default)).unwrap();
+        let o = run(&[]);
+        assert_eq!(o.status.code(), Some(2), "{choices}");
+        assert!(stderr(&o).contains(why), "{choices}: expected `{why}` in:\n{}", stderr(&o));
+    }
+}
+
+#[test]
 fn a_packed_archive_runs_as_is_and_packing_is_reproducible() {
     let dir = temp_dir("pkg_tiny_archive");
     let pkg = tiny_package(&dir);
