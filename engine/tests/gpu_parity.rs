@@ -495,3 +495,47 @@ fn rows_split_into_slabs_run_bitwise_like_one_binding() {
     assert!(one.3.iter().any(|&l| f64::from_bits(l) > 0.0), "the grains reach the floor");
     assert!(one == split, "the split run differs from the unsplit one");
 }
+
+// A row that outgrows its slots goes through the host: forty grains converge on a fixed
+// sphere five times their size, whose row (empty at the upload, so 16 slots) grows to forty.
+// The device's counting pass sees it, writes nothing, and the host rebuilds the rows and
+// widens the slots; the run goes on to the CPU's result (each grain's distance from the
+// centre within 1e-4 relative) and later builds fit on the device again.
+#[test]
+fn rows_that_outgrow_their_slots_are_rebuilt_through_the_host() {
+    let Some(ctx) = gpu("rows_outgrow_slots") else { return };
+    let (big, small) = (0.01, 0.002);
+    let mut m = Model::new();
+    let k = m.add_material(material("glass", 2500.0, 1e5, 5e7, 0.25)).unwrap();
+    let centre = Vec3::repeat(0.05);
+    let hub = m.add_particle(centre, big, k).unwrap();
+    m.fix(&[hub as u32], dof::ALL, true).unwrap();
+    // A Fibonacci sphere of grains just beyond the hub's search reach, falling inwards.
+    let count = 40;
+    let shell = big + small + 1.5e-3;
+    for q in 0..count {
+        let z = 1.0 - (2.0 * q as f64 + 1.0) / count as f64;
+        let phi = q as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let dir = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+        let id = m.add_particle(centre + dir * shell, small, k).unwrap();
+        m.particles.vel[id] = -dir * 0.5;
+    }
+    m.set_standard_dt().unwrap();
+    // 3 ms to arrive, 1 ms of bounce.
+    let steps = (4e-3 / m.clock.dt) as u64;
+    let mut cpu = Simulation::new(m.clone());
+    run(&mut cpu, steps).unwrap();
+    let stats = run_backend(&ctx, &mut m, steps, None);
+    eprintln!("{steps} steps: {stats:?}");
+    assert!(stats.host_builds >= 1, "{stats:?}");
+    assert!(stats.host_reason.as_deref().is_some_and(|r| r.contains("outgrew its 16 slots")), "{stats:?}");
+    assert!(stats.device_builds >= 1, "{stats:?}");
+    assert!(m.contacts.row(hub).len() >= count, "the hub's row holds every grain");
+    for i in 1..m.len() {
+        let (a, b) = ((m.particles.pos[i] - centre).norm(), (cpu.model.particles.pos[i] - centre).norm());
+        assert!(rel(a, b) < 1e-4, "grain {i}: {a} vs {b} from the centre");
+        let out = m.particles.vel[i].dot(&(m.particles.pos[i] - centre));
+        assert!(out > 0.0, "grain {i} has bounced off the hub");
+    }
+    device_rows_match_cpu(&ctx, &m);
+}
