@@ -539,3 +539,27 @@ fn rows_that_outgrow_their_slots_are_rebuilt_through_the_host() {
     }
     device_rows_match_cpu(&ctx, &m);
 }
+
+// A device build of 40,000 jittered grains of radii 0.9–1.0·r on a 2r lattice, bonded where
+// they nearly touch: the cell list's scan takes three levels (65,537 bucket counts), and the
+// rows equal the CPU's rebuild, bonds and all.
+#[test]
+fn device_rows_of_forty_thousand_grains_equal_the_cpu_rows() {
+    let Some(ctx) = gpu("device_rows_40k") else { return };
+    let r = 0.001;
+    let mut m = Model::new();
+    let k = m.add_material(bond_material()).unwrap();
+    let mut rng = Rng::new(17);
+    for x in matdem_engine::builder::simple_cubic(40, 40, 25, 2.0 * r, Vec3::repeat(r)) {
+        let jitter = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 0.1 * r;
+        m.add_particle(x + jitter, r * (0.9 + 0.1 * rng.uniform()), k).unwrap();
+    }
+    // The usual skin (connect alone would search only as far as its tolerance).
+    m.contacts.skin = 0.4 * r;
+    let bonds = m.connect(None, 0.05 * r).unwrap();
+    rebuild(&mut m);
+    let (entries, set, _) = device_rows_match_cpu(&ctx, &m);
+    eprintln!("{bonds} bonds; {entries} entries, {set} set");
+    assert!(bonds > 10_000 && set == 2 * bonds, "every bond carried: {set} set entries, {bonds} bonds");
+    assert!(entries > 5 * m.len(), "most of the six face neighbours are within the skin: {entries}");
+}
