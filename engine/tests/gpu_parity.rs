@@ -456,6 +456,8 @@ fn device_rows_keep_stretched_bonds_like_the_cpu() {
     for x in matdem_engine::builder::simple_cubic(2, 2, 4, 2.0 * r, Vec3::repeat(r)) {
         m.add_particle(x, r, k).unwrap();
     }
+    // The usual skin (connect alone would search only as far as its tolerance).
+    m.contacts.skin = 0.4 * r;
     let bonds = m.connect(None, 1e-9).unwrap();
     let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
     let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
@@ -470,7 +472,8 @@ fn device_rows_keep_stretched_bonds_like_the_cpu() {
     let stats = run_backend(&ctx, &mut m, 3000, None);
     eprintln!("{stats:?}");
     assert_eq!(m.bond_count(), bonds, "no bond breaks");
-    assert!(stats.device_builds >= 5 && stats.host_builds == 0, "{stats:?}");
+    // A rebuild each time the top has risen half the skin (2 mm): about 15.
+    assert!((5..=60).contains(&stats.device_builds) && stats.host_builds == 0, "{stats:?}");
     let (_, _, far) = device_rows_match_cpu(&ctx, &m);
     assert!(far >= 2 * 4, "the stretched vertical bonds (both rows of each) stay: {far}");
 }
