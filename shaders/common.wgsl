@@ -23,6 +23,8 @@ const C_EVENTS: u32 = 1u;
 const C_DRIFT: u32 = 2u;
 const C_SPEED: u32 = 3u;
 const C_GUARD: u32 = 4u; // four slots: non-finite, too fast, overlap, through a wall
+const C_LONGEST: u32 = 8u; // the longest row a device build found
+const C_CROWDED: u32 = 9u; // rows with more set states than a device build carries
 
 struct Params {
     n: u32,
@@ -34,6 +36,41 @@ struct Params {
     max_overlap_ratio: f32,
     wall_groups: u32,
     gravity: vec4<f32>,
+    // Entries each row has room for: entry k of particle i (in its slab) is at i·cap + k.
+    cap: u32,
+    // Buckets of the cell list's hash table (a power of two).
+    buckets: u32,
+    // Search distance beyond touching, and the cell list's cell size (at least 2·r_max + skin).
+    skin: f32,
+    cell: f32,
+}
+
+// The particles a dispatch of a per-entry kernel covers: the per-entry lanes (rows, pair
+// and wall contact states) are bound one slab at a time (memory.rs).
+struct Slab {
+    first: u32,
+    count: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+// The cell of the device's cell list holding position `x` (cells of `size`, which is at
+// least the longest reach, so a row's neighbours are in the 27 cells around its own).
+fn cell_of(x: vec3<f32>, size: f32) -> vec3<i32> {
+    return vec3<i32>(floor(x / size));
+}
+
+// The bucket of a cell in a table of `buckets` (a power of two): cells are unbounded, the
+// table is not, so distant cells share buckets (harmless: a row tests every candidate's
+// distance).
+fn bucket_of(c: vec3<i32>, buckets: u32) -> u32 {
+    let u = bitcast<vec3<u32>>(c);
+    return ((u.x * 73856093u) ^ (u.y * 19349663u) ^ (u.z * 83492791u)) & (buckets - 1u);
+}
+
+// The invocation's index within its dispatch (a 2-D grid of workgroups of 64).
+fn invocation(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
 }
 
 // Pair constants (PairParams in physics/contact_law.rs), 48 bytes.

@@ -1,7 +1,7 @@
 // Stage 3 on the GPU: particle–particle contact forces. One invocation per particle walks
 // its own neighbour row, evaluates every contact from its side, updates the row's pair state
 // and writes its summed force (and torque): no atomics on floats, so the sums are
-// deterministic. CPU twin: backend/cpu/contact_forces.rs.
+// deterministic. Runs once per slab of rows. CPU twin: backend/cpu/contact_forces.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
@@ -9,7 +9,7 @@
 @group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> body: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> kind: array<u32>;
-@group(0) @binding(6) var<storage, read> row_start: array<u32>;
+@group(0) @binding(6) var<storage, read> row_len: array<u32>;
 @group(0) @binding(7) var<storage, read> other: array<u32>;
 @group(0) @binding(8) var<storage, read_write> state: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> pairs: array<Pair>;
@@ -18,14 +18,16 @@
 @group(0) @binding(12) var<storage, read_write> torque: array<vec4<f32>>;
 @group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read_write> events: array<vec4<u32>>;
+@group(0) @binding(15) var<uniform> slab: Slab;
 
 @compute @workgroup_size(64)
 fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                           @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * 64u;
-    if i >= params.n {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
         return;
     }
+    let i = slab.first + local;
     let oi = origin[i].xyz;
     let ri = origin[i].w;
     let ui = disp[i].xyz;
@@ -39,8 +41,9 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     let dt = params.dt;
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
-    let end = row_start[i + 1u];
-    for (var e = row_start[i]; e < end; e++) {
+    let start = local * params.cap;
+    let end = start + row_len[i];
+    for (var e = start; e < end; e++) {
         let j = other[e];
         let st = state[e];
         let bonded = st.w != 0.0;

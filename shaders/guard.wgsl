@@ -1,17 +1,18 @@
 // Stage 7 on the GPU: the stability guard's checks (non-finite state, a particle moving more
 // than half its radius per step, deep overlaps, a particle pushed through a wall). Each kind
 // keeps the lowest particle id that fails it; the host then words the same message as the
-// CPU guard. CPU twin: guard.rs.
+// CPU guard. Runs once per slab of rows. CPU twin: guard.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> force: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> row_start: array<u32>;
+@group(0) @binding(5) var<storage, read> row_len: array<u32>;
 @group(0) @binding(6) var<storage, read> other: array<u32>;
 @group(0) @binding(7) var<storage, read> walls: array<Wall>;
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(9) var<uniform> slab: Slab;
 
 // Infinity or NaN: all exponent bits set (WGSL has no isnan, and fast-math may fold x != x).
 fn non_finite(v: vec3<f32>) -> bool {
@@ -21,10 +22,11 @@ fn non_finite(v: vec3<f32>) -> bool {
 
 @compute @workgroup_size(64)
 fn check_state(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * 64u;
-    if i >= params.n {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
         return;
     }
+    let i = slab.first + local;
     let oi = origin[i].xyz;
     let ri = origin[i].w;
     let ui = disp[i].xyz;
@@ -37,8 +39,9 @@ fn check_state(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         atomicMin(&counters[C_GUARD + 1u], i);
     }
     let ratio = params.max_overlap_ratio;
-    let end = row_start[i + 1u];
-    for (var e = row_start[i]; e < end; e++) {
+    let start = local * params.cap;
+    let end = start + row_len[i];
+    for (var e = start; e < end; e++) {
         let j = other[e];
         let rj = origin[j].w;
         let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);

@@ -1,7 +1,8 @@
 // Stage 3b on the GPU: particle–wall contacts. Each particle tests every wall (a scene has at
 // most eight) and adds the contact forces to its own force; each workgroup sums its
 // particles' loads on each wall in a fixed tree order and leaves one partial per wall, which
-// the walls stage of the next step adds up (walls.wgsl). CPU twin: backend/cpu/wall_forces.rs.
+// the walls stage of the next step adds up (walls.wgsl). Runs once per slab; a slab starts on a workgroup boundary, so the partials
+// are the same however the particles are split. CPU twin: backend/cpu/wall_forces.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
@@ -16,6 +17,7 @@
 @group(0) @binding(10) var<storage, read> ang_vel: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> torque: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read_write> partials: array<vec4<f32>>;
+@group(0) @binding(13) var<uniform> slab: Slab;
 
 var<workgroup> red_force: array<vec4<f32>, 64>;
 var<workgroup> red_stiffness: array<vec4<f32>, 64>;
@@ -25,10 +27,11 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                        @builtin(num_workgroups) groups: vec3<u32>,
                        @builtin(workgroup_id) wg: vec3<u32>,
                        @builtin(local_invocation_index) li: u32) {
-    let i = gid.x + gid.y * groups.x * 64u;
+    let local = invocation(gid, groups);
     let nw = params.nw;
-    let inside = i < params.n;
-    let k = min(i, params.n - 1u);
+    let inside = local < slab.count;
+    let kl = min(local, slab.count - 1u);
+    let k = slab.first + kl;
     let oi = origin[k].xyz;
     let ri = origin[k].w;
     let ui = disp[k].xyz;
@@ -42,7 +45,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         t = torque[k].xyz;
     }
     var f = force[k].xyz;
-    let group = wg.x + wg.y * groups.x;
+    let group = slab.first / 64u + wg.x + wg.y * groups.x;
     // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
     // the workgroup's loads on the wall, summed in a fixed tree order.
     for (var w = 0u; w < nw; w++) {
@@ -53,7 +56,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let ng = wall_normal_and_gap(wall, oi, ui);
         let inward = ng.xyz;
         let overlap = ri - ng.w;
-        let e = k * nw + w;
+        let e = kl * nw + w;
         if inside {
             let st = wall_state[e];
             if overlap <= 0.0 {
@@ -88,16 +91,16 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             }
             workgroupBarrier();
         }
-        if li == 0u {
+        if li == 0u && group < params.wall_groups {
             partials[(group * nw + w) * 2u] = red_force[0];
             partials[(group * nw + w) * 2u + 1u] = red_stiffness[0];
         }
         workgroupBarrier();
     }
     if inside {
-        force[i] = vec4<f32>(f, 0.0);
+        force[k] = vec4<f32>(f, 0.0);
         if ROTATION {
-            torque[i] = vec4<f32>(t, 0.0);
+            torque[k] = vec4<f32>(t, 0.0);
         }
     }
 }

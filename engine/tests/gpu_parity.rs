@@ -1,6 +1,7 @@
 //! The GPU backend (WGSL, f32) against the CPU reference (f64) on the same small scenes:
 //! impacts, deposition, bonded breakage, an oedometer stage with a servo platen, and the
-//! stability guard; and two GPU runs against each other (bitwise).
+//! stability guard; rows built on the device against the CPU's rebuild; and two GPU runs
+//! against each other (bitwise), also with the lanes split into slabs.
 //!
 //! Without a GPU adapter each test prints a note and passes, unless MATDEM_REQUIRE_GPU=1 (CI,
 //! which installs Mesa's software Vulkan driver), when it fails. Tolerances are stated per
@@ -11,7 +12,10 @@
 mod common;
 
 use common::{material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres, HertzImpact};
+use matdem_engine::backend::cpu::neighbours::{is_stale, rebuild};
 use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
+use matdem_engine::backend::gpu::{GpuBackend, RowStats};
+use matdem_engine::backend::RunControl;
 use matdem_engine::builder::Rng;
 use matdem_engine::physics::contact_law::BreakKind;
 use matdem_engine::state::particles::dof;
@@ -362,4 +366,203 @@ fn gpu_guard_stops_with_the_cpu_message() {
     let b = run(&mut gpu, 1).unwrap_err().to_string();
     assert!(a.contains("overlaps particle 1"), "{a}");
     assert_eq!(a, b);
+}
+
+/// Runs `m` for `steps` on a GPU backend of its own, so the test can read its row statistics.
+fn run_backend(ctx: &Arc<GpuContext>, m: &mut Model, steps: u64, binding_limit: Option<u64>) -> RowStats {
+    let mut backend = GpuBackend::prepare(ctx.clone(), m).unwrap();
+    if let Some(b) = binding_limit {
+        backend.limit_bindings(b);
+    }
+    backend.run(m, steps, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
+    backend.row_stats().clone()
+}
+
+/// Rebuilds the rows of `m` on the GPU and on the CPU from the same positions and old rows,
+/// and checks they agree: the same j's in the same (ascending) order with the same pair
+/// state to f32, except pairs whose distance is within 1e-5 of the cutoff (f32 against f64).
+/// Returns (entries, entries with a set state, bonded entries beyond the cutoff).
+fn device_rows_match_cpu(ctx: &Arc<GpuContext>, m: &Model) -> (usize, usize, usize) {
+    let mut gpu = m.clone();
+    let mut backend = GpuBackend::prepare(ctx.clone(), &gpu).unwrap();
+    backend.build_rows_once(&mut gpu).unwrap().expect("the rows fit their slots");
+    let mut cpu = m.clone();
+    rebuild(&mut cpu);
+    let (a, b) = (&gpu.contacts, &cpu.contacts);
+    assert!(a.has_pair_ids() && !is_stale(a, &gpu.particles.pos), "the downloaded rows are current");
+    let p = &cpu.particles;
+    let skin = b.skin;
+    let (mut entries, mut set, mut far_bonds, mut borderline) = (0, 0, 0, 0);
+    for i in 0..m.len() {
+        let (ra, rb) = (&a.other[a.row(i)], &b.other[b.row(i)]);
+        assert!(ra.is_sorted(), "row {i} is sorted");
+        let cut = |j: u32| p.radius[i] + p.radius[j as usize] + skin;
+        let dist = |j: u32| (p.pos[j as usize] - p.pos[i]).norm();
+        for &j in ra.iter().filter(|j| !rb.contains(j)).chain(rb.iter().filter(|j| !ra.contains(j))) {
+            assert!(
+                (dist(j) - cut(j)).abs() < 1e-5 * cut(j),
+                "pair ({i}, {j}) in one build only, {} from the cutoff",
+                dist(j) - cut(j)
+            );
+            borderline += 1;
+        }
+        for (k, &j) in ra.iter().enumerate() {
+            let Some(e) = b.find(i, j) else { continue };
+            let (sa, sb) = (a.state[a.row(i).start + k], b.state[e]);
+            let f32s = |s: &matdem_engine::physics::contact_law::PairState| {
+                [s.shear.x as f32, s.shear.y as f32, s.shear.z as f32, f32::from(u8::from(s.bonded))]
+            };
+            assert_eq!(f32s(&sa), f32s(&sb), "state of ({i}, {j})");
+            entries += 1;
+            set += usize::from(sa.bonded || sa.shear != Vec3::zeros());
+            far_bonds += usize::from(sa.bonded && dist(j) > cut(j));
+        }
+    }
+    assert!(borderline <= 2, "{borderline} pairs differ at the cutoff");
+    (entries, set, far_bonds)
+}
+
+// Rows built on the device: grains deposited for 2,000 steps rebuild their rows on the device
+// several times with no trip through the host (one upload), and a device build from the
+// deposit's rows equals the CPU's rebuild: same neighbours in the same order, the contacts'
+// shear springs carried to f32.
+#[test]
+fn device_rows_equal_the_cpu_rows_after_a_deposition() {
+    let Some(ctx) = gpu("device_rows_deposition") else { return };
+    let mut m = deposition(4, 4, 5, 1000.0, 3);
+    let stats = run_backend(&ctx, &mut m, 3000, None);
+    eprintln!("dt {:e}: {stats:?}", m.clock.dt);
+    assert!(stats.device_builds >= 3, "the grains fall through several rebuilds: {stats:?}");
+    assert_eq!((stats.uploads, stats.host_builds), (1, 0), "{stats:?}");
+    let (entries, set, _) = device_rows_match_cpu(&ctx, &m);
+    eprintln!("{entries} entries, {set} with a set state");
+    assert!(entries > 2 * m.len() && set > m.len(), "a deposit has contacts: {entries} entries, {set} set");
+}
+
+// Bonded pairs stay in the rows however far apart: a bonded column of soft, unbreakable bonds
+// stretched to twice its height rebuilds its rows on the device, keeps every bond (each
+// stretched beyond the search cutoff), and a device build equals the CPU's.
+#[test]
+fn device_rows_keep_stretched_bonds_like_the_cpu() {
+    let Some(ctx) = gpu("device_rows_bonds") else { return };
+    let mut m = Model::new();
+    let mut mat = bond_material();
+    mat.kn = 1e3;
+    mat.ks = 1e3;
+    mat.xb = 1.0;
+    mat.fs0 = 1e6;
+    let k = m.add_material(mat).unwrap();
+    let r = 0.01;
+    for x in matdem_engine::builder::simple_cubic(2, 2, 4, 2.0 * r, Vec3::repeat(r)) {
+        m.add_particle(x, r, k).unwrap();
+    }
+    // The usual skin (connect alone would search only as far as its tolerance).
+    m.contacts.skin = 0.4 * r;
+    let bonds = m.connect(None, 1e-9).unwrap();
+    let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
+    let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
+    m.fix(&bottom, dof::ALL, true).unwrap();
+    m.fix(&top, dof::ALL, true).unwrap();
+    for &i in &top {
+        m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, 1.0);
+    }
+    m.set_dt(1e-5).unwrap();
+    // The top layer rises 3 cm: each of the three gaps opens by about a radius, beyond the
+    // 0.4-radius skin.
+    let stats = run_backend(&ctx, &mut m, 3000, None);
+    eprintln!("{stats:?}");
+    assert_eq!(m.bond_count(), bonds, "no bond breaks");
+    // A rebuild each time the top has risen half the skin (2 mm): about 15.
+    assert!((5..=60).contains(&stats.device_builds) && stats.host_builds == 0, "{stats:?}");
+    let (_, _, far) = device_rows_match_cpu(&ctx, &m);
+    assert!(far >= 2 * 4, "the stretched vertical bonds (both rows of each) stay: {far}");
+}
+
+// Split lanes: a deposition of 180 grains whose rows and wall states are split into slabs of
+// 64 particles (a 16 KiB binding limit) runs bitwise like the unsplit run.
+#[test]
+fn rows_split_into_slabs_run_bitwise_like_one_binding() {
+    let Some(ctx) = gpu("split_slabs") else { return };
+    let go = |limit: Option<u64>| {
+        let mut m = deposition(6, 6, 5, 1000.0, 5);
+        let stats = run_backend(&ctx, &mut m, 1000, limit);
+        assert!(stats.device_builds >= 2 && stats.host_builds == 0, "{stats:?}");
+        assert_eq!(stats.slabs, if limit.is_some() { 3 } else { 1 });
+        let w = m.particles.rotation.as_ref().unwrap().ang_vel.clone();
+        let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
+        let loads: Vec<u64> = m.walls.iter().map(|w| w.normal_force.to_bits()).collect();
+        (bits(&m.particles.pos), bits(&m.particles.vel), bits(&w), loads, m.contacts.other.clone())
+    };
+    let one = go(None);
+    let split = go(Some(16 << 10));
+    assert!(one.3.iter().any(|&l| f64::from_bits(l) > 0.0), "the grains reach the floor");
+    assert!(one == split, "the split run differs from the unsplit one");
+}
+
+// A row that outgrows its slots goes through the host: forty grains converge on a fixed
+// sphere five times their size, whose row (empty at the upload, so 16 slots) grows to forty.
+// The device's counting pass sees it, writes nothing, and the host rebuilds the rows and
+// widens the slots; the run goes on to the CPU's result (each grain's distance from the
+// centre within 1e-4 relative) and later builds fit on the device again.
+#[test]
+fn rows_that_outgrow_their_slots_are_rebuilt_through_the_host() {
+    let Some(ctx) = gpu("rows_outgrow_slots") else { return };
+    let (big, small) = (0.01, 0.002);
+    let mut m = Model::new();
+    let k = m.add_material(material("glass", 2500.0, 1e5, 5e7, 0.25)).unwrap();
+    let centre = Vec3::repeat(0.05);
+    let hub = m.add_particle(centre, big, k).unwrap();
+    m.fix(&[hub as u32], dof::ALL, true).unwrap();
+    // A Fibonacci sphere of grains just beyond the hub's search reach, falling inwards.
+    let count = 40;
+    let shell = big + small + 1.5e-3;
+    for q in 0..count {
+        let z = 1.0 - (2.0 * q as f64 + 1.0) / count as f64;
+        let phi = q as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let dir = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+        let id = m.add_particle(centre + dir * shell, small, k).unwrap();
+        m.particles.vel[id] = -dir * 0.5;
+    }
+    m.set_standard_dt().unwrap();
+    // 3 ms to arrive, 1 ms of bounce.
+    let steps = (4e-3 / m.clock.dt) as u64;
+    let mut cpu = Simulation::new(m.clone());
+    run(&mut cpu, steps).unwrap();
+    let stats = run_backend(&ctx, &mut m, steps, None);
+    eprintln!("{steps} steps: {stats:?}");
+    assert!(stats.host_builds >= 1, "{stats:?}");
+    assert!(stats.host_reason.as_deref().is_some_and(|r| r.contains("outgrew its 16 slots")), "{stats:?}");
+    assert!(stats.device_builds >= 1, "{stats:?}");
+    assert!(m.contacts.row(hub).len() >= count, "the hub's row holds every grain");
+    for i in 1..m.len() {
+        let (a, b) = ((m.particles.pos[i] - centre).norm(), (cpu.model.particles.pos[i] - centre).norm());
+        assert!(rel(a, b) < 1e-4, "grain {i}: {a} vs {b} from the centre");
+        let out = m.particles.vel[i].dot(&(m.particles.pos[i] - centre));
+        assert!(out > 0.0, "grain {i} has bounced off the hub");
+    }
+    device_rows_match_cpu(&ctx, &m);
+}
+
+// A device build of 40,000 jittered grains of radii 0.9–1.0·r on a 2r lattice, bonded where
+// they nearly touch: the cell list's scan takes three levels (65,537 bucket counts), and the
+// rows equal the CPU's rebuild, bonds and all.
+#[test]
+fn device_rows_of_forty_thousand_grains_equal_the_cpu_rows() {
+    let Some(ctx) = gpu("device_rows_40k") else { return };
+    let r = 0.001;
+    let mut m = Model::new();
+    let k = m.add_material(bond_material()).unwrap();
+    let mut rng = Rng::new(17);
+    for x in matdem_engine::builder::simple_cubic(40, 40, 25, 2.0 * r, Vec3::repeat(r)) {
+        let jitter = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 0.1 * r;
+        m.add_particle(x + jitter, r * (0.9 + 0.1 * rng.uniform()), k).unwrap();
+    }
+    // The usual skin (connect alone would search only as far as its tolerance).
+    m.contacts.skin = 0.4 * r;
+    let bonds = m.connect(None, 0.05 * r).unwrap();
+    rebuild(&mut m);
+    let (entries, set, _) = device_rows_match_cpu(&ctx, &m);
+    eprintln!("{bonds} bonds; {entries} entries, {set} set");
+    assert!(bonds > 10_000 && set == 2 * bonds, "every bond carried: {set} set entries, {bonds} bonds");
+    assert!(entries > 5 * m.len(), "most of the six face neighbours are within the skin: {entries}");
 }

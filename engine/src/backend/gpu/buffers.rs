@@ -1,11 +1,14 @@
 //! The device's copy of a model: one buffer per lane, in the layout common.wgsl declares,
-//! and the conversions between the model's f64 lanes and the device's f32 ones.
+//! and the conversions between the model's f64 lanes and the device's f32 ones. Per-entry
+//! lanes (rows, pair and wall contact states) are split into slabs ([`super::memory`]).
 //!
 //! Positions go up as an f32 origin (the f64 position rounded) plus the f32 remainder, and
 //! the kernels move only the remainder: a step's displacement of 1e-9 m is then kept
 //! instead of being rounded away against a coordinate of 0.05 m.
 
 use super::device::GpuContext;
+use super::memory::{self, MemoryPlan};
+use super::rows;
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
@@ -28,6 +31,10 @@ pub struct Params {
     pub max_overlap_ratio: f32,
     pub wall_groups: u32,
     pub gravity: [f32; 4],
+    pub cap: u32,
+    pub buckets: u32,
+    pub skin: f32,
+    pub cell: f32,
 }
 
 /// A wall (`Wall` in common.wgsl).
@@ -50,7 +57,9 @@ pub const C_EVENTS: usize = 1;
 pub const C_DRIFT: usize = 2;
 pub const C_SPEED: usize = 3;
 pub const C_GUARD: usize = 4;
-pub const COUNTERS: usize = 8;
+pub const C_LONGEST: usize = 8;
+pub const C_CROWDED: usize = 9;
+pub const COUNTERS: usize = 10;
 
 fn v4(v: &Vec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
@@ -74,7 +83,8 @@ fn pair_lane(p: &PairParams) -> [f32; 12] {
     ]
 }
 
-/// The model's particles, rows and walls as f32 lanes, ready to upload.
+/// The model's particles, rows and walls as f32 lanes, ready to upload. Rows are in slots:
+/// entry k of particle i at i·cap + k, `row_len[i]` of them in use.
 pub struct HostLanes {
     pub origin: Vec<[f32; 4]>,
     pub disp: Vec<[f32; 4]>,
@@ -85,21 +95,19 @@ pub struct HostLanes {
     pub ang_vel: Vec<[f32; 4]>,
     pub torque: Vec<[f32; 4]>,
     pub built: Vec<[f32; 4]>,
-    pub row_start: Vec<u32>,
+    pub row_len: Vec<u32>,
     pub other: Vec<u32>,
     pub state: Vec<[f32; 4]>,
     pub wall_state: Vec<[f32; 4]>,
     pub walls: Vec<WallLane>,
     pub pairs: Vec<[f32; 12]>,
     pub wall_pairs: Vec<[f32; 12]>,
-    /// Bonds that may still break: room for their events.
-    pub bonds: usize,
 }
 
 impl HostLanes {
-    /// Converts the model (rows must be current) for a device run with `plan`.
-    /// `damping_rate[i]` is c_i/m_i of the viscous damping (empty when off).
-    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64]) -> Self {
+    /// Converts the model (rows must be current) for a device run with `plan`, its rows in
+    /// slots of `cap`. `damping_rate[i]` is c_i/m_i of the viscous damping (empty when off).
+    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64], cap: usize) -> Self {
         let p = &m.particles;
         let n = p.len();
         let mut origin = Vec::with_capacity(n);
@@ -121,9 +129,7 @@ impl HostLanes {
             }
             _ => (Vec::new(), Vec::new()),
         };
-        let c = &m.contacts;
-        let state: Vec<[f32; 4]> = c.state.iter().map(|s| v4(&s.shear, if s.bonded { 1.0 } else { 0.0 })).collect();
-        let bonds = c.state.iter().filter(|s| s.bonded).count() / 2;
+        let slots = rows::to_slots(&m.contacts, n, cap);
         let walls = m
             .walls
             .iter()
@@ -159,22 +165,39 @@ impl HostLanes {
             ang_vel,
             torque,
             built,
-            row_start: c.row_start.clone(),
-            other: c.other.clone(),
-            state,
+            row_len: slots.row_len,
+            other: slots.other,
+            state: slots.state,
             wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, 0.0)).collect(),
             walls,
             pairs: plan.pair.iter().map(pair_lane).collect(),
             wall_pairs: plan.wall.iter().map(pair_lane).collect(),
-            bonds,
         }
     }
+}
+
+/// One slab's per-entry lanes: the rows and contact states of particles `first..first + count`.
+pub struct SlabLanes {
+    pub first: usize,
+    pub count: usize,
+    /// `Slab` in common.wgsl.
+    pub uniform: wgpu::Buffer,
+    pub other: wgpu::Buffer,
+    pub state: wgpu::Buffer,
+    pub wall_state: wgpu::Buffer,
+}
+
+/// One level of the cell list's prefix scan (`ScanLevel` in scan.wgsl) and its workgroups.
+pub struct ScanLevel {
+    pub uniform: wgpu::Buffer,
+    pub workgroups: usize,
 }
 
 /// The device buffers. Lanes a plan does not use (rotation off, no walls) are 128-byte
 /// placeholders, so every kernel binds the same layout.
 pub struct DeviceLanes {
     pub n: usize,
+    pub plan: MemoryPlan,
     pub params: wgpu::Buffer,
     pub origin: wgpu::Buffer,
     pub disp: wgpu::Buffer,
@@ -185,17 +208,20 @@ pub struct DeviceLanes {
     pub ang_vel: wgpu::Buffer,
     pub torque: wgpu::Buffer,
     pub built: wgpu::Buffer,
-    pub row_start: wgpu::Buffer,
-    pub other: wgpu::Buffer,
-    pub state: wgpu::Buffer,
-    pub wall_state: wgpu::Buffer,
+    pub row_len: wgpu::Buffer,
+    pub slabs: Vec<SlabLanes>,
+    /// The cell list: bucket counts (zero between builds), the scan (bucket starts first,
+    /// then the levels above), and the particles in bucket order.
+    pub bucket_count: wgpu::Buffer,
+    pub scan: wgpu::Buffer,
+    pub scan_levels: Vec<ScanLevel>,
+    pub cell_items: wgpu::Buffer,
     pub walls: wgpu::Buffer,
     pub pairs: wgpu::Buffer,
     pub wall_pairs: wgpu::Buffer,
     pub partials: wgpu::Buffer,
     pub counters: wgpu::Buffer,
     pub events: wgpu::Buffer,
-    pub max_events: usize,
     /// Bytes of all device buffers.
     pub bytes: u64,
 }
@@ -203,10 +229,13 @@ pub struct DeviceLanes {
 const STORAGE: wgpu::BufferUsages =
     wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
 
+/// A scan level's `ScanLevel` (scan.wgsl): where it starts, its length, where its sums go.
+const NO_SUMS: u32 = u32::MAX;
+
 impl DeviceLanes {
-    /// Uploads `h`. Refuses a lane larger than the device's storage binding limit.
-    pub fn upload(ctx: &GpuContext, h: &HostLanes, params: Params, wall_groups: usize) -> Result<Self> {
-        let limit = ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size);
+    /// Uploads `h` as `plan` lays it out. Refuses a lane larger than `limit` bytes (the
+    /// plan has already split what can be split).
+    pub fn upload(ctx: &GpuContext, h: &HostLanes, params: Params, plan: &MemoryPlan, limit: u64) -> Result<Self> {
         let mut bytes = 0u64;
         let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
             // An empty lane still needs a buffer to bind, as large as the largest element a
@@ -223,11 +252,40 @@ impl DeviceLanes {
                 usage: STORAGE,
             }))
         };
-        let max_events = h.bonds.max(1);
+        let n = h.origin.len();
+        let (cap, nw) = (plan.cap, h.walls.len());
         let mut counters = [0u32; COUNTERS];
         counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
+        let mut slabs = Vec::new();
+        for r in plan.slabs() {
+            slabs.push(SlabLanes {
+                first: r.start,
+                count: r.len(),
+                uniform: uniform(ctx, "slab", &[r.start as u32, r.len() as u32, 0, 0]),
+                other: make("neighbour ids", bytes_of(&h.other[r.start * cap..r.end * cap]))?,
+                state: make("pair state", bytes_of(&h.state[r.start * cap..r.end * cap]))?,
+                wall_state: make("wall contact state", bytes_of(&h.wall_state[r.start * nw..r.end * nw]))?,
+            });
+        }
+        let levels = memory::scan_levels(n);
+        let mut offsets = vec![0usize];
+        for len in &levels {
+            offsets.push(offsets.last().expect("starts at 0") + len);
+        }
+        let scan_levels = levels
+            .iter()
+            .enumerate()
+            .map(|(l, &len)| {
+                let sums = if l + 1 < levels.len() { offsets[l + 1] as u32 } else { NO_SUMS };
+                ScanLevel {
+                    uniform: uniform(ctx, "scan level", &[offsets[l] as u32, len as u32, sums, 0]),
+                    workgroups: len.div_ceil(memory::SCAN_BLOCK),
+                }
+            })
+            .collect();
         let lanes = DeviceLanes {
-            n: h.origin.len(),
+            n,
+            plan: plan.clone(),
             origin: make("origin", bytes_of(&h.origin))?,
             disp: make("displacement", bytes_of(&h.disp))?,
             vel: make("velocity", bytes_of(&h.vel))?,
@@ -237,26 +295,35 @@ impl DeviceLanes {
             ang_vel: make("angular velocity", bytes_of(&h.ang_vel))?,
             torque: make("torque", bytes_of(&h.torque))?,
             built: make("row build positions", bytes_of(&h.built))?,
-            row_start: make("row starts", bytes_of(&h.row_start))?,
-            other: make("neighbour ids", bytes_of(&h.other))?,
-            state: make("pair state", bytes_of(&h.state))?,
-            wall_state: make("wall contact state", bytes_of(&h.wall_state))?,
+            row_len: make("row lengths", bytes_of(&h.row_len))?,
+            slabs,
+            bucket_count: make("cell list", &vec![0u8; 4 * (memory::buckets(n) + 1)])?,
+            scan: make("cell list", &vec![0u8; 4 * offsets.last().expect("one level at least")])?,
+            scan_levels,
+            cell_items: make("cell list", &vec![0u8; 4 * n])?,
             walls: make("walls", bytes_of(&h.walls))?,
             pairs: make("pair constants", bytes_of(&h.pairs))?,
             wall_pairs: make("wall constants", bytes_of(&h.wall_pairs))?,
-            partials: make("wall load partials", bytes_of(&initial_partials(h, wall_groups)))?,
+            partials: make("wall load partials", bytes_of(&initial_partials(h, params.wall_groups as usize)))?,
             counters: make("counters", bytes_of(&counters))?,
-            events: make("breakage events", &vec![0u8; max_events * 16])?,
+            events: make("breakage events", &vec![0u8; plan.max_events * 16])?,
             params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("params"),
                 contents: bytemuck::bytes_of(&params),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             }),
-            max_events,
             bytes: 0,
         };
         Ok(DeviceLanes { bytes: bytes + std::mem::size_of::<Params>() as u64, ..lanes })
     }
+}
+
+fn uniform(ctx: &GpuContext, label: &str, words: &[u32; 4]) -> wgpu::Buffer {
+    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(words),
+        usage: wgpu::BufferUsages::UNIFORM,
+    })
 }
 
 /// The wall-load partials before the first step: the first workgroup's hold the model's last
@@ -309,7 +376,8 @@ pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Re
 }
 
 /// Writes the device's state back into the model: positions (origin + displacement, in f64),
-/// velocities, forces, angular lanes, pair and wall-contact states, walls and their loads.
+/// velocities, forces, angular lanes, the rows with their pair states (as the device last
+/// built them), wall-contact states, walls and their loads.
 pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model, rotation: bool) -> Result<()> {
     let n = d.n;
     let disp: Vec<[f32; 4]> = read(ctx, &d.disp, n)?;
@@ -332,11 +400,20 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
             }
         }
     }
-    let state: Vec<[f32; 4]> = read(ctx, &d.state, h.state.len())?;
-    for (s, g) in m.contacts.state.iter_mut().zip(&state) {
-        *s = PairState { shear: to64(g), bonded: g[3] != 0.0, dashpot: 0.0 };
+    let cap = d.plan.cap;
+    let nw = h.walls.len();
+    let mut other = Vec::with_capacity(n * cap);
+    let mut state = Vec::with_capacity(n * cap);
+    let mut wall_state = Vec::with_capacity(n * nw);
+    for s in &d.slabs {
+        other.extend(read::<u32>(ctx, &s.other, s.count * cap)?);
+        state.extend(read::<[f32; 4]>(ctx, &s.state, s.count * cap)?);
+        wall_state.extend(read::<[f32; 4]>(ctx, &s.wall_state, s.count * nw)?);
     }
-    let wall_state: Vec<[f32; 4]> = read(ctx, &d.wall_state, h.wall_state.len())?;
+    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state };
+    let built: Vec<[f32; 4]> = read(ctx, &d.built, n)?;
+    let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
+    rows::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
         *s = PairState { shear: to64(g), bonded: false, dashpot: 0.0 };
     }

@@ -1,6 +1,6 @@
 //! Stage 3 on the GPU: particle–particle contact forces (shaders/contact_forces.wgsl). Each
 //! invocation walks its own row, so there are no float atomics and the sums are the same in
-//! every run. CPU twin: [`crate::backend::cpu::contact_forces`].
+//! every run. One kernel per slab of rows. CPU twin: [`crate::backend::cpu::contact_forces`].
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, groups_for, Kernel};
@@ -9,23 +9,29 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
     shaders::pipeline(device, "contact_forces", shaders::CONTACT_FORCES, "compute_contact_forces", constants)
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    let buffers = [
-        &d.params,
-        &d.origin,
-        &d.disp,
-        &d.vel,
-        &d.body,
-        &d.kind,
-        &d.row_start,
-        &d.other,
-        &d.state,
-        &d.pairs,
-        &d.force,
-        &d.ang_vel,
-        &d.torque,
-        &d.counters,
-        &d.events,
-    ];
-    Kernel::bind(device, p, &buffers, groups_for(d.n))
+pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
+    d.slabs
+        .iter()
+        .map(|s| {
+            let buffers = [
+                &d.params,
+                &d.origin,
+                &d.disp,
+                &d.vel,
+                &d.body,
+                &d.kind,
+                &d.row_len,
+                &s.other,
+                &s.state,
+                &d.pairs,
+                &d.force,
+                &d.ang_vel,
+                &d.torque,
+                &d.counters,
+                &d.events,
+                &s.uniform,
+            ];
+            Kernel::bind(device, p, &buffers, groups_for(s.count))
+        })
+        .collect()
 }

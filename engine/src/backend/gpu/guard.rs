@@ -9,9 +9,26 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
     shaders::pipeline(device, "guard", shaders::GUARD, "check_state", constants)
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    let buffers = [&d.params, &d.origin, &d.disp, &d.vel, &d.force, &d.row_start, &d.other, &d.walls, &d.counters];
-    Kernel::bind(device, p, &buffers, groups_for(d.n))
+/// One kernel per slab of rows.
+pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
+    d.slabs
+        .iter()
+        .map(|s| {
+            let buffers = [
+                &d.params,
+                &d.origin,
+                &d.disp,
+                &d.vel,
+                &d.force,
+                &d.row_len,
+                &s.other,
+                &d.walls,
+                &d.counters,
+                &s.uniform,
+            ];
+            Kernel::bind(device, p, &buffers, groups_for(s.count))
+        })
+        .collect()
 }
 
 /// What each guard slot means, worded as the CPU guard words it.

@@ -4,35 +4,45 @@
 //! brings back only what the host needs: between batches a few counters (the largest drift
 //! and speed, the guard's findings), at the end of the run the state a script reads. One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → integration. Pipelines are built once per plan, with the plan's laws as pipeline
+//! wall forces → integration; when the drift reaches half the skin the rows are rebuilt on
+//! the device ([`rows`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
-//! lanes it does not need (rotation) are 128-byte placeholders.
+//! lanes it does not need (rotation) are 128-byte placeholders. Rows live in fixed-width
+//! slots, and the per-entry lanes are split into slabs that each fit one storage binding
+//! ([`memory`]), so a model is refused only when a single lane truly cannot fit.
 //!
 //! Deterministic: each particle sums its own row and writes only its own lanes; wall loads
-//! are reduced in a fixed tree order; the only atomics count integers (breakage events,
-//! sorted on the host; drift maxima; guard minima). Two runs give the same bits.
+//! are reduced in a fixed tree order; rows are sorted after they are collected; the only
+//! atomics count integers (breakage events, sorted on the host; drift maxima; guard minima;
+//! cell list counts). Two runs give the same bits, however the lanes are split.
 //!
-//! Not done on the device (the host keeps them): building neighbour rows (see
-//! [`neighbours`]), heat bookkeeping (no heat ledger on this backend), and energy samples
-//! (the state comes back to the host for each sample).
+//! Not done on the device (the host keeps them): the first rows of a run (built at upload,
+//! when the model is on the host anyway), a row build whose rows outgrow their slots or carry
+//! more than [`memory::MAX_CARRY`] contacts and bonds (the host builds those and lays the
+//! slots out wider; [`RowStats`] counts them), heat bookkeeping (no heat ledger on this
+//! backend), and energy samples (the state comes back to the host for each sample).
 
 pub mod buffers;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
 pub mod integrate;
+pub mod memory;
 pub mod neighbours;
+pub mod rows;
 pub mod shaders;
 pub mod wall_forces;
 pub mod walls;
 
-use crate::backend::cpu::neighbours::{is_stale, rebuild};
+use crate::backend::cpu::neighbours::{is_stale, rebuild, rebuild_wall_mask};
 use crate::backend::RunControl;
 use crate::error::{Error, GpuError, Result};
 use crate::model::{Breakage, Model};
 use crate::physics::contact_law::BreakKind;
 use crate::plan::StepPlan;
-use buffers::{download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_DRIFT, C_EVENTS, C_GUARD, C_SPEED};
+use buffers::{
+    download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST, C_SPEED,
+};
 use device::GpuContext;
 use shaders::Kernel;
 use std::sync::{Arc, Mutex};
@@ -44,6 +54,7 @@ const MAX_BATCH: u64 = 64;
 
 struct Pipelines {
     drift: wgpu::ComputePipeline,
+    rows: rows::Pipelines,
     contact: wgpu::ComputePipeline,
     /// Walls (loads summed, then moved), wall forces, loads summed alone: only with walls.
     walls: Option<[wgpu::ComputePipeline; 3]>,
@@ -51,12 +62,15 @@ struct Pipelines {
     guard: wgpu::ComputePipeline,
 }
 
+/// Kernels bound to one upload; those that read per-entry lanes, one per slab.
 struct Kernels {
     drift: Kernel,
-    contact: Kernel,
-    walls: Option<[Kernel; 3]>,
+    rows: rows::Kernels,
+    contact: Vec<Kernel>,
+    /// Walls (loads summed, then moved), wall forces, loads summed alone.
+    walls: Option<(Kernel, Vec<Kernel>, Kernel)>,
     integrate: Kernel,
-    guard: Kernel,
+    guard: Vec<Kernel>,
 }
 
 /// The model on the device, from an upload to the next download.
@@ -66,6 +80,20 @@ struct Session {
     kernels: Kernels,
     /// Steps run since the upload.
     steps: u64,
+}
+
+/// How the rows of a backend's runs were built, for tests and benchmarks: a rebuild on the
+/// device costs no transfer of the model, one through the host costs a download and an upload.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RowStats {
+    /// Models put on the device (each run's first, plus one after each host build or sample).
+    pub uploads: u64,
+    pub device_builds: u64,
+    /// Rebuilds that went through the host, and why the last one did.
+    pub host_builds: u64,
+    pub host_reason: Option<String>,
+    /// Slabs the per-entry lanes of the last upload were split into.
+    pub slabs: usize,
 }
 
 /// A plan's pipelines on one device.
@@ -79,6 +107,9 @@ pub struct GpuBackend {
     device_bytes: u64,
     /// The first error the device reported outside a call (wgpu's uncaptured errors).
     errors: Arc<Mutex<Option<String>>>,
+    /// A storage binding limit below the device's (tests of the split into slabs).
+    binding_limit: Option<u64>,
+    rows: RowStats,
 }
 
 impl GpuBackend {
@@ -98,6 +129,7 @@ impl GpuBackend {
         let constants = shaders::constants(&plan);
         let pipelines = Pipelines {
             drift: neighbours::pipeline(device, &constants),
+            rows: rows::pipelines(device, &constants),
             contact: contact_forces::pipeline(device, &constants),
             walls: (plan.walls > 0).then(|| {
                 [
@@ -119,7 +151,16 @@ impl GpuBackend {
         } else {
             Vec::new()
         };
-        let backend = GpuBackend { ctx, plan, pipelines, damping_rate, device_bytes: 0, errors };
+        let backend = GpuBackend {
+            ctx,
+            plan,
+            pipelines,
+            damping_rate,
+            device_bytes: 0,
+            errors,
+            binding_limit: None,
+            rows: RowStats::default(),
+        };
         backend.check_device()?;
         Ok(backend)
     }
@@ -132,6 +173,26 @@ impl GpuBackend {
     /// Bytes of device memory the last run used.
     pub fn device_bytes(&self) -> u64 {
         self.device_bytes
+    }
+
+    /// How the rows were built so far.
+    pub fn row_stats(&self) -> &RowStats {
+        &self.rows
+    }
+
+    /// Lets one storage binding span at most `bytes` (if below the device's limit), so a
+    /// small model splits into slabs as a large one would on a real device. Results do not
+    /// change: a split run is bitwise the unsplit one.
+    pub fn limit_bindings(&mut self, bytes: u64) {
+        self.binding_limit = Some(bytes);
+    }
+
+    fn limits(&self) -> memory::Limits {
+        let mut l = memory::Limits::of(&self.ctx.limits);
+        if let Some(b) = self.binding_limit {
+            l.binding = l.binding.min(b);
+        }
+        l
     }
 
     fn check_device(&self) -> Result<()> {
@@ -196,9 +257,14 @@ impl GpuBackend {
             match neighbours::steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
                 Some(k) => batch = k,
                 None => {
-                    self.download(m, session)?;
-                    rebuild(m);
-                    session = self.upload(m)?;
+                    if let Err(why) = self.build_rows(&session)? {
+                        // The rows did not fit: the host builds them and widens the slots.
+                        self.download(m, session)?;
+                        rebuild(m);
+                        self.rows.host_builds += 1;
+                        self.rows.host_reason = Some(why);
+                        session = self.upload(m)?;
+                    }
                     batch = 1;
                 }
             }
@@ -217,45 +283,95 @@ impl GpuBackend {
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
-        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate);
-        let wall_groups = wall_forces::partial_groups(m.len());
+        let n = m.len();
+        let c = &m.contacts;
+        let longest = (0..n).map(|i| c.row(i).len()).max().unwrap_or(0);
+        let bonds = c.state.iter().filter(|s| s.bonded).count() / 2;
+        let scene = memory::Scene {
+            particles: n,
+            longest_row: longest,
+            walls: m.walls.len(),
+            rotation: self.plan.rotation,
+            bonds,
+        };
+        let limits = self.limits();
+        let layout = memory::MemoryPlan::new(scene, limits)?;
+        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate, layout.cap);
+        let wall_groups = wall_forces::partial_groups(n);
+        let r_max = m.particles.radius.iter().copied().fold(0.0, f64::max);
+        let skin = m.contacts.skin;
         let params = Params {
-            n: m.len() as u32,
+            n: n as u32,
             nw: m.walls.len() as u32,
             nmat: self.plan.materials as u32,
-            max_events: host.bonds.max(1) as u32,
+            max_events: layout.max_events as u32,
             dt: m.clock.dt as f32,
             local_damping: m.settings.local_damping as f32,
             max_overlap_ratio: m.settings.max_overlap_ratio as f32,
             wall_groups: wall_groups as u32,
             gravity: [m.settings.gravity.x as f32, m.settings.gravity.y as f32, m.settings.gravity.z as f32, 0.0],
+            cap: layout.cap as u32,
+            buckets: memory::buckets(n) as u32,
+            skin: skin as f32,
+            // The longest reach, padded so f32 round-off never puts a neighbour two cells away.
+            cell: ((2.0 * r_max + skin) * 1.001) as f32,
         };
-        let lanes = DeviceLanes::upload(&self.ctx, &host, params, wall_groups)?;
+        let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limits.binding.min(limits.buffer))?;
         let device = &self.ctx.device;
         let p = &self.pipelines;
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
-            contact: contact_forces::kernel(device, &p.contact, &lanes),
+            rows: rows::kernels(device, &p.rows, &lanes),
+            contact: contact_forces::kernels(device, &p.contact, &lanes),
             walls: p.walls.as_ref().map(|[a, f, l]| {
-                [
+                (
                     walls::kernel(device, a, &lanes),
-                    wall_forces::kernel(device, f, &lanes),
+                    wall_forces::kernels(device, f, &lanes),
                     walls::kernel(device, l, &lanes),
-                ]
+                )
             }),
             integrate: integrate::kernel(device, &p.integrate, &lanes),
-            guard: guard::kernel(device, &p.guard, &lanes),
+            guard: guard::kernels(device, &p.guard, &lanes),
         };
         self.device_bytes = lanes.bytes;
+        self.rows.uploads += 1;
+        self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
         Ok(Session { host, lanes, kernels, steps: 0 })
+    }
+
+    /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
+    /// rows are then untouched and the host must build them).
+    fn build_rows(&mut self, s: &Session) -> Result<std::result::Result<(), String>> {
+        let ctx = &self.ctx;
+        ctx.queue.write_buffer(&s.lanes.counters, (C_LONGEST * 4) as u64, bytemuck::cast_slice(&[0u32; 2]));
+        debug_assert_eq!(C_CROWDED, C_LONGEST + 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        s.kernels.rows.encode(&mut enc, &s.lanes);
+        ctx.queue.submit([enc.finish()]);
+        let counters = read::<u32>(ctx, &s.lanes.counters, COUNTERS)?;
+        self.check_device()?;
+        let verdict = rows::verdict(&counters, s.lanes.plan.cap);
+        if verdict.is_ok() {
+            self.rows.device_builds += 1;
+        }
+        Ok(verdict)
+    }
+
+    /// Uploads the model, rebuilds its rows once on the device, and brings them back (for
+    /// tests that compare them with the host's build). `Err(why)` inside when they did not fit.
+    pub fn build_rows_once(&mut self, m: &mut Model) -> Result<std::result::Result<(), String>> {
+        let session = self.upload(m)?;
+        let verdict = self.build_rows(&session)?;
+        self.download(m, session)?;
+        Ok(verdict)
     }
 
     /// Encodes `k` steps, the drift measure and (when `guard`) the guard's checks, submits
     /// them and reads the counters back.
     fn step_batch(&self, s: &Session, k: u64, guard: bool) -> Result<Vec<u32>> {
         let ctx = &self.ctx;
-        let mut reset = [0u32; COUNTERS - C_DRIFT];
+        let mut reset = [0u32; C_GUARD + 4 - C_DRIFT];
         reset[C_GUARD - C_DRIFT..].fill(u32::MAX);
         ctx.queue.write_buffer(&s.lanes.counters, (C_DRIFT * 4) as u64, bytemuck::cast_slice(&reset));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -263,18 +379,24 @@ impl GpuBackend {
             let mut pass = enc.begin_compute_pass(&Default::default());
             let kr = &s.kernels;
             for _ in 0..k {
-                if let Some([advance, _, _]) = &kr.walls {
+                if let Some((advance, _, _)) = &kr.walls {
                     advance.dispatch(&mut pass);
                 }
-                kr.contact.dispatch(&mut pass);
-                if let Some([_, forces, _]) = &kr.walls {
-                    forces.dispatch(&mut pass);
+                for slab in &kr.contact {
+                    slab.dispatch(&mut pass);
+                }
+                if let Some((_, forces, _)) = &kr.walls {
+                    for slab in forces {
+                        slab.dispatch(&mut pass);
+                    }
                 }
                 kr.integrate.dispatch(&mut pass);
             }
             kr.drift.dispatch(&mut pass);
             if guard {
-                kr.guard.dispatch(&mut pass);
+                for slab in &kr.guard {
+                    slab.dispatch(&mut pass);
+                }
             }
         }
         ctx.queue.submit([enc.finish()]);
@@ -286,7 +408,7 @@ impl GpuBackend {
     /// Brings the device's state into the model, appends the bonds that broke (in step and
     /// particle order, as the CPU backend records them) and advances the clock.
     fn download(&self, m: &mut Model, s: Session) -> Result<()> {
-        if let (Some([_, _, loads]), true) = (&s.kernels.walls, s.steps > 0) {
+        if let (Some((_, _, loads)), true) = (&s.kernels.walls, s.steps > 0) {
             // The walls hold the loads of the step before the last: sum the last step's.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
             loads.dispatch(&mut enc.begin_compute_pass(&Default::default()));
@@ -294,7 +416,14 @@ impl GpuBackend {
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
-        let count = (counters[C_EVENTS] as usize).min(s.lanes.max_events);
+        let count = counters[C_EVENTS] as usize;
+        if count > s.lanes.plan.max_events {
+            return Err(GpuError::Device(format!(
+                "{count} bonds broke in one run, more than the {} the event lane holds; run fewer steps at a time",
+                s.lanes.plan.max_events
+            ))
+            .into());
+        }
         let mut events: Vec<[u32; 4]> = read(&self.ctx, &s.lanes.events, count)?;
         events.sort_unstable();
         let (step0, time0, dt) = (m.clock.step, m.clock.time, m.clock.dt);
@@ -307,6 +436,8 @@ impl GpuBackend {
             m.clock.step += 1;
             m.clock.time += dt;
         }
+        // The rows came back as the device last built them; the host's wall mask goes with them.
+        rebuild_wall_mask(m);
         self.check_device()
     }
 }

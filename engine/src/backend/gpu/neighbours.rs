@@ -1,8 +1,5 @@
 //! Stage 2 on the GPU: the drift measure that decides when neighbour rows are rebuilt
-//! (shaders/neighbours.wgsl). The rows themselves are built by the CPU's cell list
-//! ([`crate::backend::cpu::neighbours::rebuild`]) and uploaded: in a DEM run they are rebuilt
-//! rarely (once a particle drifts half a skin), and building them on the host keeps one
-//! implementation of bond carrying and row order.
+//! (shaders/neighbours.wgsl). The rows themselves are built on the device ([`super::rows`]).
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, groups_for, Kernel};

@@ -12,10 +12,16 @@ pub const WALL_FORCES: &str = include_str!("../../../../shaders/wall_forces.wgsl
 pub const WALLS: &str = include_str!("../../../../shaders/walls.wgsl");
 pub const INTEGRATE: &str = include_str!("../../../../shaders/integrate.wgsl");
 pub const GUARD: &str = include_str!("../../../../shaders/guard.wgsl");
+pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
+pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
+pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 6] = [
+pub const STAGES: [(&str, &str); 9] = [
     ("neighbours", NEIGHBOURS),
+    ("cell_list", CELL_LIST),
+    ("scan", SCAN),
+    ("rows", ROWS),
     ("contact_forces", CONTACT_FORCES),
     ("wall_forces", WALL_FORCES),
     ("walls", WALLS),
@@ -78,11 +84,22 @@ impl Kernel {
         buffers: &[&wgpu::Buffer],
         groups: (u32, u32),
     ) -> Self {
+        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(k, b)| (k as u32, *b)).collect();
+        Self::bind_at(device, pipeline, &numbered, groups)
+    }
+
+    /// Binds each buffer to its binding of group 0 (for an entry point that uses only some of
+    /// its file's bindings).
+    pub fn bind_at(
+        device: &wgpu::Device,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[(u32, &wgpu::Buffer)],
+        groups: (u32, u32),
+    ) -> Self {
         let layout = pipeline.get_bind_group_layout(0);
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
-            .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+            .map(|&(k, b)| wgpu::BindGroupEntry { binding: k, resource: b.as_entire_binding() })
             .collect();
         let bind_group =
             device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
@@ -98,7 +115,12 @@ impl Kernel {
 
 /// Workgroups of 64 covering `n` items, as a 2-D grid when one row of 65,535 is not enough.
 pub fn groups_for(n: usize) -> (u32, u32) {
-    let total = n.div_ceil(64).max(1);
+    grid(n.div_ceil(64))
+}
+
+/// `total` workgroups (at least one) as a 2-D grid when one row of 65,535 is not enough.
+pub fn grid(total: usize) -> (u32, u32) {
+    let total = total.max(1);
     if total <= 65_535 {
         (total as u32, 1)
     } else {

@@ -1,5 +1,5 @@
 //! Stage 3b on the GPU: particle–wall contacts and per-workgroup wall loads
-//! (shaders/wall_forces.wgsl). Built only when the scene has walls.
+//! (shaders/wall_forces.wgsl), one kernel per slab. Built only when the scene has walls.
 //! CPU twin: [`crate::backend::cpu::wall_forces`].
 
 use super::buffers::DeviceLanes;
@@ -9,27 +9,33 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
     shaders::pipeline(device, "wall_forces", shaders::WALL_FORCES, "compute_wall_forces", constants)
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    let buffers = [
-        &d.params,
-        &d.origin,
-        &d.disp,
-        &d.vel,
-        &d.body,
-        &d.kind,
-        &d.walls,
-        &d.wall_pairs,
-        &d.wall_state,
-        &d.force,
-        &d.ang_vel,
-        &d.torque,
-        &d.partials,
-    ];
-    Kernel::bind(device, p, &buffers, groups_for(d.n))
+pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
+    d.slabs
+        .iter()
+        .map(|s| {
+            let buffers = [
+                &d.params,
+                &d.origin,
+                &d.disp,
+                &d.vel,
+                &d.body,
+                &d.kind,
+                &d.walls,
+                &d.wall_pairs,
+                &s.wall_state,
+                &d.force,
+                &d.ang_vel,
+                &d.torque,
+                &d.partials,
+                &s.uniform,
+            ];
+            Kernel::bind(device, p, &buffers, groups_for(s.count))
+        })
+        .collect()
 }
 
-/// Workgroups of the wall pass: one load partial per workgroup and wall.
+/// Workgroups of the wall pass over all slabs (slabs start on a workgroup boundary): one
+/// load partial per workgroup and wall.
 pub fn partial_groups(n: usize) -> usize {
-    let (x, y) = groups_for(n);
-    x as usize * y as usize
+    n.div_ceil(super::memory::WORKGROUP).max(1)
 }

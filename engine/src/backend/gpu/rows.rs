@@ -1,0 +1,250 @@
+//! Stage 2 on the GPU: neighbour rows built on the device when the drift says so, with the
+//! content and order of the CPU's [`rebuild`](crate::backend::cpu::neighbours::rebuild), so
+//! a rebuild costs no trip through the host. A build is a cell list (shaders/cell_list.wgsl:
+//! cells hashed into a table, counted, scanned into starts by shaders/scan.wgsl, filled)
+//! and one invocation per particle collecting, sorting and carrying its row
+//! (shaders/rows.wgsl), in a counting pass and a writing pass. When a new row would not fit
+//! its slots, or carries more set states than the kernel holds, nothing is written and the
+//! host builds the rows instead (and lays the slots out wider).
+//!
+//! Also the conversions between the host's CSR rows and the device's fixed-width slots.
+
+use super::buffers::{DeviceLanes, C_CROWDED, C_LONGEST};
+use super::shaders::{self, grid, groups_for, Kernel};
+use crate::physics::contact_law::PairState;
+use crate::physics::Vec3;
+use crate::state::contacts::Contacts;
+
+/// Rows in fixed-width slots: entry k of particle i at `i * cap + k`, `row_len[i]` in use.
+pub struct Slots {
+    pub cap: usize,
+    pub row_len: Vec<u32>,
+    pub other: Vec<u32>,
+    pub state: Vec<[f32; 4]>,
+}
+
+/// The host's rows (`n` of them, each at most `cap` long) in slots; states in f32.
+pub fn to_slots(c: &Contacts, n: usize, cap: usize) -> Slots {
+    let mut s = Slots { cap, row_len: vec![0; n], other: vec![0; n * cap], state: vec![[0.0; 4]; n * cap] };
+    for i in 0..n.min(c.row_start.len().saturating_sub(1)) {
+        let row = c.row(i);
+        s.row_len[i] = row.len() as u32;
+        for (k, e) in row.enumerate() {
+            let st = &c.state[e];
+            s.other[i * cap + k] = c.other[e];
+            s.state[i * cap + k] =
+                [st.shear.x as f32, st.shear.y as f32, st.shear.z as f32, if st.bonded { 1.0 } else { 0.0 }];
+        }
+    }
+    s
+}
+
+/// Replaces the rows of `c` by the slots' (built at `built_at`), with the pair ids the host's
+/// rebuild would give them: pairs numbered by (lower id, higher id). The wall mask is left
+/// to the caller, which knows the walls.
+pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
+    let n = s.row_len.len();
+    let mut row_start = Vec::with_capacity(n + 1);
+    row_start.push(0u32);
+    let mut other = Vec::new();
+    let mut state = Vec::new();
+    for i in 0..n {
+        let slots = i * s.cap..i * s.cap + s.row_len[i] as usize;
+        other.extend_from_slice(&s.other[slots.clone()]);
+        state.extend(s.state[slots].iter().map(|g| PairState {
+            shear: Vec3::new(f64::from(g[0]), f64::from(g[1]), f64::from(g[2])),
+            bonded: g[3] != 0.0,
+            dashpot: 0.0,
+        }));
+        row_start.push(other.len() as u32);
+    }
+    let mut pair = vec![0u32; other.len()];
+    let mut pair_start = vec![0u32; n + 1];
+    let mut next = 0u32;
+    for i in 0..n {
+        pair_start[i] = next;
+        for e in row_start[i] as usize..row_start[i + 1] as usize {
+            let j = other[e] as usize;
+            if j > i {
+                pair[e] = next;
+                // Rows are sorted and mirrored: the twin entry is i in row j.
+                let r = row_start[j] as usize..row_start[j + 1] as usize;
+                if let Ok(k) = other[r.clone()].binary_search(&(i as u32)) {
+                    pair[r.start + k] = next;
+                }
+                next += 1;
+            }
+        }
+    }
+    pair_start[n] = next;
+    *c = Contacts {
+        row_start,
+        other,
+        state,
+        pair,
+        pair_start,
+        wall_near: Vec::new(),
+        walls_at_build: Vec::new(),
+        built_at,
+        skin: c.skin,
+        stale: false,
+    };
+}
+
+/// The device build's pipelines.
+pub struct Pipelines {
+    bin: wgpu::ComputePipeline,
+    fill: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    add_sums: wgpu::ComputePipeline,
+    count: wgpu::ComputePipeline,
+    write: wgpu::ComputePipeline,
+}
+
+pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines {
+    let with_write = |on: f64| {
+        let mut c = constants.to_vec();
+        c.push(("WRITE_ROWS", on));
+        c
+    };
+    Pipelines {
+        bin: shaders::pipeline(device, "bin_particles", shaders::CELL_LIST, "bin_particles", constants),
+        fill: shaders::pipeline(device, "fill_cells", shaders::CELL_LIST, "fill_cells", constants),
+        scan: shaders::pipeline(device, "scan_blocks", shaders::SCAN, "scan_blocks", constants),
+        add_sums: shaders::pipeline(device, "add_block_sums", shaders::SCAN, "add_block_sums", constants),
+        count: shaders::pipeline(device, "count_rows", shaders::ROWS, "build_rows", &with_write(0.0)),
+        write: shaders::pipeline(device, "write_rows", shaders::ROWS, "build_rows", &with_write(1.0)),
+    }
+}
+
+/// The device build bound to one upload's buffers.
+pub struct Kernels {
+    bin: Kernel,
+    fill: Kernel,
+    /// Per scan level, bottom up.
+    scan: Vec<Kernel>,
+    add_sums: Vec<Kernel>,
+    /// Per slab.
+    count: Vec<Kernel>,
+    write: Vec<Kernel>,
+}
+
+pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels {
+    let cells = [(0, &d.params), (1, &d.origin), (2, &d.disp), (3, &d.bucket_count)];
+    let fill = [(4, &d.scan), (5, &d.cell_items)];
+    let level = |pipeline: &wgpu::ComputePipeline, l: &super::buffers::ScanLevel| {
+        Kernel::bind_at(device, pipeline, &[(0, &d.scan), (1, &l.uniform)], grid(l.workgroups))
+    };
+    let rows = |pipeline: &wgpu::ComputePipeline| -> Vec<Kernel> {
+        d.slabs
+            .iter()
+            .map(|s| {
+                let buffers = [
+                    &d.params,
+                    &d.origin,
+                    &d.disp,
+                    &d.scan,
+                    &d.cell_items,
+                    &d.row_len,
+                    &s.other,
+                    &s.state,
+                    &d.built,
+                    &d.counters,
+                    &s.uniform,
+                ];
+                Kernel::bind(device, pipeline, &buffers, groups_for(s.count))
+            })
+            .collect()
+    };
+    Kernels {
+        bin: Kernel::bind_at(device, &p.bin, &cells, groups_for(d.n)),
+        fill: Kernel::bind_at(device, &p.fill, &[&cells[..], &fill[..]].concat(), groups_for(d.n)),
+        scan: d.scan_levels.iter().map(|l| level(&p.scan, l)).collect(),
+        add_sums: d.scan_levels.iter().map(|l| level(&p.add_sums, l)).collect(),
+        count: rows(&p.count),
+        write: rows(&p.write),
+    }
+}
+
+impl Kernels {
+    /// Encodes one build. The counters C_LONGEST and C_CROWDED must be zero before it.
+    pub fn encode(&self, enc: &mut wgpu::CommandEncoder, d: &DeviceLanes) {
+        self.bin.dispatch(&mut enc.begin_compute_pass(&Default::default()));
+        // The scan runs in place on a copy of the counts, which fill_cells counts back down.
+        enc.copy_buffer_to_buffer(&d.bucket_count, 0, &d.scan, 0, d.bucket_count.size());
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        for k in &self.scan {
+            k.dispatch(&mut pass);
+        }
+        // Down again: each level but the top gets the scanned sums of the level above.
+        for k in self.add_sums.iter().rev().skip(1) {
+            k.dispatch(&mut pass);
+        }
+        self.fill.dispatch(&mut pass);
+        for k in self.count.iter().chain(&self.write) {
+            k.dispatch(&mut pass);
+        }
+    }
+}
+
+/// What a device build found: whether it wrote the rows, and if not, why.
+pub fn verdict(counters: &[u32], cap: usize) -> std::result::Result<(), String> {
+    let (longest, crowded) = (counters[C_LONGEST] as usize, counters[C_CROWDED]);
+    if crowded > 0 {
+        return Err(format!(
+            "{crowded} rows carry more than {} contacts and bonds, more than a device build holds",
+            super::memory::MAX_CARRY
+        ));
+    }
+    if longest > cap {
+        return Err(format!("a row of {longest} neighbours outgrew its {cap} slots"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn contacts(rows: &[&[u32]]) -> Contacts {
+        let mut c = Contacts::default();
+        c.row_start.push(0);
+        for (i, r) in rows.iter().enumerate() {
+            for &j in *r {
+                c.other.push(j);
+                let bonded = (i as u32).min(j) == 0;
+                c.state.push(PairState { shear: Vec3::new(i as f64, j as f64, 0.5), bonded, dashpot: 0.0 });
+            }
+            c.row_start.push(c.other.len() as u32);
+        }
+        c
+    }
+
+    #[test]
+    fn rows_go_to_slots_and_back_with_the_host_pair_ids() {
+        let mut c = contacts(&[&[1, 3], &[0, 2, 3], &[1], &[0, 1]]);
+        c.skin = 1e-4;
+        let s = to_slots(&c, 4, 5);
+        assert_eq!(s.row_len, [2, 3, 1, 2]);
+        assert_eq!(&s.other[5..8], [0, 2, 3]);
+        assert_eq!(s.state[5], [1.0, 0.0, 0.5, 1.0]);
+        let before = c.clone();
+        into_contacts(&s, vec![Vec3::zeros(); 4], &mut c);
+        assert_eq!((c.row_start.clone(), c.other.clone()), (before.row_start, before.other));
+        assert_eq!(c.state, before.state);
+        // Pairs by (lower, higher): (0,1) (0,3) (1,2) (1,3); each pair's two entries share its id.
+        assert_eq!(c.pair, [0, 1, 0, 2, 3, 2, 1, 3]);
+        assert_eq!(c.pair_start, [0, 2, 4, 4, 4]);
+        assert!(c.has_pair_ids() && c.skin == 1e-4 && !c.stale);
+    }
+
+    #[test]
+    fn a_build_that_did_not_fit_says_why() {
+        let mut counters = vec![0u32; super::super::buffers::COUNTERS];
+        assert!(verdict(&counters, 8).is_ok());
+        counters[C_LONGEST] = 9;
+        assert!(verdict(&counters, 8).unwrap_err().contains("row of 9 neighbours outgrew its 8 slots"));
+        counters[C_CROWDED] = 2;
+        assert!(verdict(&counters, 8).unwrap_err().contains("2 rows carry more than 64"));
+    }
+}

@@ -1,0 +1,147 @@
+// Stage 2 on the GPU, second half: each particle builds its own neighbour row from the cell
+// list, with the content and order of the CPU's rebuild: every j != i closer than
+// r_i + r_j + skin, plus every pair bonded in the old row however far, sorted by j, each
+// with the state the old row held for it (zero when new). Runs once per slab of rows.
+//
+// Rows are written in place, so the build runs twice: a counting pass (WRITE_ROWS off) finds
+// the longest new row and the rows with more set states than MAX_CARRY, and the writing pass
+// does nothing unless every row fits its slots; the host then builds the rows instead.
+// CPU twin: rebuild in backend/cpu/neighbours.rs.
+
+override WRITE_ROWS: bool = false;
+
+// Set states (contacts, bonds) a row may carry across a build.
+const MAX_CARRY: u32 = 64u;
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> cell_start: array<u32>;
+@group(0) @binding(4) var<storage, read> cell_items: array<u32>;
+@group(0) @binding(5) var<storage, read_write> row_len: array<u32>;
+@group(0) @binding(6) var<storage, read_write> other: array<u32>;
+@group(0) @binding(7) var<storage, read_write> state: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> built: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(10) var<uniform> slab: Slab;
+
+@compute @workgroup_size(64)
+fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
+        return;
+    }
+    if WRITE_ROWS && (atomicLoad(&counters[C_LONGEST]) > params.cap || atomicLoad(&counters[C_CROWDED]) != 0u) {
+        return;
+    }
+    let i = slab.first + local;
+    let base = local * params.cap;
+    let cap = params.cap;
+    // The old row's set states, in j order (the old row is sorted).
+    var carry_j: array<u32, MAX_CARRY>;
+    var carry_s: array<vec4<f32>, MAX_CARRY>;
+    var carried = 0u;
+    var crowded = false;
+    let old_len = row_len[i];
+    for (var k = 0u; k < old_len; k++) {
+        let s = state[base + k];
+        if any(s != vec4<f32>(0.0)) {
+            if carried < MAX_CARRY {
+                carry_j[carried] = other[base + k];
+                carry_s[carried] = s;
+                carried++;
+            } else {
+                crowded = true;
+            }
+        }
+    }
+    // Bonded pairs stay, however far apart.
+    var len = 0u;
+    for (var m = 0u; m < carried; m++) {
+        if carry_s[m].w != 0.0 {
+            if WRITE_ROWS {
+                other[base + len] = carry_j[m];
+            }
+            len++;
+        }
+    }
+    let oi = origin[i].xyz;
+    let ui = disp[i].xyz;
+    let ri = origin[i].w;
+    let c = cell_of(oi + ui, params.cell);
+    // Cells that hash to one bucket are visited once, so no j is seen twice.
+    var seen: array<u32, 27>;
+    var buckets = 0u;
+    for (var z = -1; z <= 1; z++) {
+        for (var y = -1; y <= 1; y++) {
+            for (var x = -1; x <= 1; x++) {
+                let b = bucket_of(c + vec3<i32>(x, y, z), params.buckets);
+                var again = false;
+                for (var q = 0u; q < buckets; q++) {
+                    again = again || seen[q] == b;
+                }
+                if again {
+                    continue;
+                }
+                seen[buckets] = b;
+                buckets++;
+                let end = cell_start[b + 1u];
+                for (var s = cell_start[b]; s < end; s++) {
+                    let j = cell_items[s];
+                    if j == i {
+                        continue;
+                    }
+                    // Both parts of the position differ little between neighbours: subtract each first.
+                    let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+                    let cut = ri + origin[j].w + params.skin;
+                    if dot(d, d) >= cut * cut {
+                        continue;
+                    }
+                    var kept = false;
+                    for (var m = 0u; m < carried; m++) {
+                        kept = kept || (carry_j[m] == j && carry_s[m].w != 0.0);
+                    }
+                    if kept {
+                        continue;
+                    }
+                    if WRITE_ROWS && len < cap {
+                        other[base + len] = j;
+                    }
+                    len++;
+                }
+            }
+        }
+    }
+    if !WRITE_ROWS {
+        atomicMax(&counters[C_LONGEST], len);
+        if crowded {
+            atomicAdd(&counters[C_CROWDED], 1u);
+        }
+        return;
+    }
+    // Sort by j (insertion: rows are short), then give each entry its old state.
+    for (var k = 1u; k < len; k++) {
+        let j = other[base + k];
+        var h = k;
+        while h > 0u && other[base + h - 1u] > j {
+            other[base + h] = other[base + h - 1u];
+            h--;
+        }
+        other[base + h] = j;
+    }
+    var m = 0u;
+    for (var k = 0u; k < len; k++) {
+        let j = other[base + k];
+        // Both lists are sorted by j: walk them together.
+        while m < carried && carry_j[m] < j {
+            m++;
+        }
+        var s = vec4<f32>(0.0);
+        if m < carried && carry_j[m] == j {
+            s = carry_s[m];
+        }
+        state[base + k] = s;
+    }
+    row_len[i] = len;
+    built[i] = vec4<f32>(ui, 0.0);
+}
