@@ -316,6 +316,11 @@ impl Model {
     pub fn connect(&mut self, ids: Option<&[u32]>, tolerance: f64) -> Result<usize> {
         check_positive("tolerance", tolerance, true)?;
         let member = self.membership(ids)?;
+        if self.contacts.skin <= 0.0 {
+            // Not built yet: the usual skin, or a tiny bonding tolerance would become the skin
+            // and the rows would be rebuilt every step.
+            self.contacts.skin = self.settings.skin_ratio * self.mean_radius();
+        }
         let skin_needed = tolerance;
         if self.contacts.skin < skin_needed || self.contacts.stale {
             self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);

@@ -354,6 +354,17 @@ fn prescribed_pair(mat: Material, bonded: bool, overlap: f64, v0: Vec3, v1: Vec3
     Simulation::new(model)
 }
 
+// Bonding a model whose rows were never built keeps the usual skin (skin_ratio × mean radius):
+// a skin of the bonding tolerance (1e-9 m) would rebuild the rows at every step.
+#[test]
+fn connecting_a_fresh_model_keeps_the_usual_skin() {
+    let mut model = two_spheres(bond_material(), BOND_R, -1e-6, 0.0, NormalKind::Linear);
+    assert_eq!(model.contacts.skin, 0.0, "a fresh model has no rows yet");
+    model.connect(None, 1e-9).unwrap();
+    let usual = model.settings.skin_ratio * model.mean_radius();
+    assert!(usual > 1e-6 && model.contacts.skin == usual, "skin {} instead of {usual}", model.contacts.skin);
+}
+
 // Tension (paper 003 §2; physics.md §3 uses Kn·Xb as the bond strength): two bonded spheres
 // pulled apart at 5 mm/s each (relative 1e-8 m per step = 1e-3·Xb). The largest tensile
 // force equals Kn·Xb within 1%; a Tension breakage of pair (0, 1) is recorded at
