@@ -52,7 +52,7 @@ struct PairOut {
 pub struct PairScratch(Vec<PairOut>);
 
 impl PairScratch {
-    fn fit(&mut self, pairs: usize) {
+    pub(super) fn fit(&mut self, pairs: usize) {
         // Every entry is overwritten by the pair pass: only the length matters.
         if self.0.len() != pairs {
             self.0.resize(pairs, PairOut::default());
@@ -104,7 +104,7 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
 }
 
 /// Pass 1: every pair once, from its lower id.
-fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
     m: &Model,
     plan: &StepPlan,
     scratch: &mut PairScratch,
@@ -185,7 +185,6 @@ fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
     let lanes =
         (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.breakage[..]);
     let (row_start, pair_start, pair) = (&c.row_start[..], &c.pair_start[..], &c.pair[..]);
-    let sc = &scratch.0[..];
     for_blocks(
         0..radius.len(),
         Rows::Csr(row_start),
@@ -195,42 +194,76 @@ fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
             let base = row_start[range.start] as usize;
             for i in range.clone() {
                 let li = i - range.start;
-                let ri = radius[i];
-                let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
-                let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
-                // The row is the pairs of lower-id neighbours, then the particle's own.
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
-                for e in start..end {
-                    let k = pair[e] as usize;
-                    let out = &sc[k];
-                    let st = out.state;
-                    if e >= own {
-                        f += out.force;
-                        state[e - base] = st;
-                    } else {
-                        // Seen from the higher id: opposite force and shear (0 − s keeps +0).
-                        f -= out.force;
-                        state[e - base] = PairState { shear: Vec3::zeros() - st.shear, ..st };
-                    }
-                    if ROT {
-                        // (n·r_i) × s is the same product from both ends: n and s both flip.
-                        t += (out.normal * ri).cross(&st.shear);
-                    }
-                    let [d, fr, b] = out.heat;
-                    hd += d;
-                    hf += fr;
-                    hb += b;
-                }
-                force[li] = f;
+                let row = gather_row::<ROT>(
+                    scratch,
+                    &pair[start..end],
+                    own - start,
+                    radius[i],
+                    &mut state[start - base..end - base],
+                );
+                force[li] = row.force;
                 if let Some(tq) = torque.as_deref_mut() {
-                    tq[li] = t;
+                    tq[li] = row.torque;
                 }
-                // Each row books half of every pair's heat.
-                h_damp[li] += 0.5 * hd;
-                h_fric[li] += 0.5 * hf;
-                h_break[li] += 0.5 * hb;
+                book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
             }
         },
     )
+}
+
+/// One particle's row summed: the force and torque (rotation only) of its contacts and
+/// the heat of its pairs, whole.
+pub(super) struct RowSum {
+    pub force: Vec3,
+    pub torque: Vec3,
+    /// (dashpot, friction, breakage).
+    pub heat: [f64; 3],
+}
+
+/// Sums one particle's row in row order and mirrors the new pair states into it. `pairs`
+/// are the row's pair ids, the pairs the particle owns start at `own`, `radius` is its
+/// radius and `state` the row's pair states.
+#[inline(always)]
+pub(super) fn gather_row<const ROT: bool>(
+    scratch: &PairScratch,
+    pairs: &[u32],
+    own: usize,
+    radius: f64,
+    state: &mut [PairState],
+) -> RowSum {
+    let sc = &scratch.0[..];
+    let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
+    let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
+    // The row is the pairs of lower-id neighbours, then the particle's own.
+    for (e, (&k, slot)) in pairs.iter().zip(state.iter_mut()).enumerate() {
+        let out = &sc[k as usize];
+        let st = out.state;
+        if e >= own {
+            f += out.force;
+            *slot = st;
+        } else {
+            // Seen from the higher id: opposite force and shear (0 − s keeps +0).
+            f -= out.force;
+            *slot = PairState { shear: Vec3::zeros() - st.shear, ..st };
+        }
+        if ROT {
+            // (n·r_i) × s is the same product from both ends: n and s both flip.
+            t += (out.normal * radius).cross(&st.shear);
+        }
+        let [d, fr, b] = out.heat;
+        hd += d;
+        hf += fr;
+        hb += b;
+    }
+    RowSum { force: f, torque: t, heat: [hd, hf, hb] }
+}
+
+/// Books a particle's half of its pairs' heat.
+#[inline(always)]
+pub(super) fn book_heat(row: &RowSum, damping: &mut f64, friction: &mut f64, breakage: &mut f64) {
+    *damping += 0.5 * row.heat[0];
+    *friction += 0.5 * row.heat[1];
+    *breakage += 0.5 * row.heat[2];
 }
