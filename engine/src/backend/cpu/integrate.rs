@@ -158,7 +158,6 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
 /// Advances one particle's angular velocity by a step under `torque`, with the same damping
 /// form as the translation; books its damping heat.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     dt: f64,
     mass: f64,

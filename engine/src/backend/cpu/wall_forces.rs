@@ -138,7 +138,6 @@ pub(super) fn check_mask(walls: &[Wall], i: usize, near: u8, x: &Vec3, r: f64, s
 /// One particle's contacts with the walls its mask `near` lets through, in wall order;
 /// `state` holds its contact state with every wall.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn particle_walls<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     walls: &[Wall],
     plan: &StepPlan,
@@ -189,7 +188,6 @@ pub(super) struct ParticleOut<'a> {
 /// line, so that a contact's set-up (square roots of the radius) stays with the contacts
 /// instead of being hoisted into every particle the mask lets through.
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     body: &Body,
     wall: &Wall,
@@ -224,8 +222,11 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     }
     *out.h_damp += r.heat_damping;
     *out.h_fric += r.heat_friction;
-    // Work the moving wall does on the particle this step.
-    *out.work += r.force.dot(&v_wall) * dt;
+    // Work the moving wall does on the particle this step (none by a wall at rest: skipping
+    // the zero keeps the lane, which most steps would otherwise fetch from memory for nothing).
+    if v_wall != Vec3::zeros() {
+        *out.work += r.force.dot(&v_wall) * dt;
+    }
     loads.force[w] += r.force;
     loads.normal[w] += r.force.dot(&inward).max(0.0);
     loads.stiffness[w] += r.stiffness;
