@@ -599,6 +599,62 @@ fn run_is_deterministic_across_thread_counts() {
     assert!(one.2 == two.2, "angular velocities differ between 1 and 2 threads");
 }
 
+// The fused step (backend/cpu/fused.rs): an unobserved step gathers, meets the walls and
+// integrates each particle in one pass; an observed step runs the same stages as separate
+// passes. Both must give the same bits (tolerance: none) for every lane a step writes: the
+// shaken box as above, and again with global and local damping, bonds (some break: heat of
+// breakage) and a moving wall (wall work).
+#[test]
+fn fused_step_matches_separate_passes_bit_for_bit() {
+    use matdem_engine::backend::cpu::CpuBackend;
+    use matdem_engine::WallMotion;
+    let scenes = |variant: usize| {
+        let mut m = shaken_box(12, 8, 7, 7);
+        if variant == 1 {
+            m.settings.damping = 0.2;
+            m.settings.local_damping = 0.1;
+            m.materials[0].xb = 2e-4;
+            m.materials[0].fs0 = 1.0;
+            assert!(m.connect(None, 1e-3).unwrap() > 100, "the scene must hold bonds");
+            m.walls[0].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, 0.05));
+        }
+        m
+    };
+    for variant in 0..2 {
+        let mut lanes = Vec::new();
+        for observe in [false, true] {
+            let mut m = scenes(variant);
+            let mut cpu = CpuBackend::prepare(&m);
+            for _ in 0..300 {
+                cpu.step(&mut m, observe);
+            }
+            let p = &m.particles;
+            let rot = p.rotation.as_ref().unwrap();
+            let h = &p.heat;
+            let heat: Vec<u64> = [&h.damping, &h.contact_damping, &h.friction, &h.breakage, &h.wall_work]
+                .iter()
+                .flat_map(|lane| lane.iter().map(|x| x.to_bits()))
+                .collect();
+            let states: Vec<_> = m.contacts.state.iter().chain(&m.wall_contacts).map(|s| format!("{s:?}")).collect();
+            let walls: Vec<_> = m.walls.iter().map(|w| bits(&[w.force])).collect();
+            let lane = (bits(&p.pos), bits(&p.vel), bits(&rot.ang_vel), bits(&p.force), bits(&rot.torque));
+            lanes.push((lane, heat, states, walls, m.breakages.len()));
+        }
+        let (fused, separate) = (&lanes[0], &lanes[1]);
+        let touching = separate.3.iter().filter(|f| f[0] != [0; 3]).count();
+        eprintln!("fused vs separate, variant {variant}: {} breakages, {touching} walls loaded", separate.4);
+        assert!(touching >= 3, "walls must carry load");
+        if variant == 1 {
+            assert!(separate.4 > 0, "some bonds must break");
+        }
+        assert!(fused.0 == separate.0, "variant {variant}: particle lanes differ");
+        assert!(fused.1 == separate.1, "variant {variant}: heat ledger differs");
+        assert!(fused.2 == separate.2, "variant {variant}: contact states differ");
+        assert!(fused.3 == separate.3, "variant {variant}: wall loads differ");
+        assert_eq!(fused.4, separate.4, "variant {variant}: breakages differ");
+    }
+}
+
 // The stability guard (guard.rs; timestep.rs: the explicit step is stable up to
 // dt = T/(√2·π) = √2·√(m/k) for an element of mass m on its stiffest spring k = 2·kn).
 // Three spheres, the smallest (id 2) has the shortest critical step; at dt = 10× that step

@@ -69,8 +69,11 @@ pub struct ContactGeometry {
 /// What one contact does to this element in one step.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ContactResult {
-    /// Total force on this element (N).
+    /// Total force on this element (N): `shear − n·normal_force`.
     pub force: Vec3,
+    /// Normal force, elastic and dashpot, positive in compression (N); 0 once the bond broke
+    /// in tension.
+    pub normal_force: f64,
     /// Shear force on this element (N), for torque.
     pub shear: Vec3,
     pub broke: Option<BreakKind>,
@@ -263,6 +266,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     state.shear = s;
     out.shear = s;
     out.force = s - g.n * fn_total;
+    out.normal_force = fn_total;
     out
 }
 

@@ -21,6 +21,19 @@ impl<T: Send> Split for &mut [T] {
     }
 }
 
+/// A particle lane with `stride` entries per particle (e.g. one contact state per wall).
+pub struct Strided<'a, T> {
+    pub items: &'a mut [T],
+    pub stride: usize,
+}
+
+impl<T: Send> Split for Strided<'_, T> {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let (l, r) = self.items.split_at_mut(mid * self.stride);
+        (Strided { items: l, stride: self.stride }, Strided { items: r, stride: self.stride })
+    }
+}
+
 impl Split for () {
     fn split_at(self, _: usize) -> (Self, Self) {
         ((), ())

@@ -32,15 +32,18 @@ impl Reduce for Breaks {
 }
 
 /// What the pair pass leaves for the gather pass about one pair, as seen from its lower id.
-/// One record per pair, so the gather pass meets each pair in one place.
+/// One record per pair, so the gather pass meets each pair in one place. The force on the
+/// lower id is `state.shear − normal·normal_force`, the very expression the contact law
+/// evaluates, so the gather pass recomputes it bit for bit from 8 bytes instead of 24
+/// (this record is written and read back every step: its size is memory traffic).
 #[derive(Clone, Copy, Default)]
 struct PairOut {
     /// New state.
     state: PairState,
-    /// Force on the lower id.
-    force: Vec3,
-    /// Unit normal from the lower id towards the higher (zero while apart); rotation only.
+    /// Unit normal from the lower id towards the higher (zero while apart).
     normal: Vec3,
+    /// Normal force on the lower id, positive in compression (zero while apart).
+    normal_force: f64,
     /// Heat of the whole pair this step: (dashpot, friction, breakage).
     heat: [f64; 3],
 }
@@ -52,7 +55,7 @@ struct PairOut {
 pub struct PairScratch(Vec<PairOut>);
 
 impl PairScratch {
-    fn fit(&mut self, pairs: usize) {
+    pub(super) fn fit(&mut self, pairs: usize) {
         // Every entry is overwritten by the pair pass: only the length matters.
         if self.0.len() != pairs {
             self.0.resize(pairs, PairOut::default());
@@ -104,7 +107,7 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
 }
 
 /// Pass 1: every pair once, from its lower id.
-fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
     m: &Model,
     plan: &StepPlan,
     scratch: &mut PairScratch,
@@ -131,7 +134,7 @@ fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                 let rj = radius[j];
                 let touch = ri + rj;
                 let dist2 = d.norm_squared();
-                let (mut force, mut nrm, mut heat) = (Vec3::zeros(), Vec3::zeros(), [0.0; 3]);
+                let (mut normal_force, mut nrm, mut heat) = (0.0, Vec3::zeros(), [0.0; 3]);
                 if !st.bonded && dist2 >= touch * touch {
                     if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
                         // The contact has just opened.
@@ -160,13 +163,13 @@ fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                         m_star: mi * mj / (mi + mj),
                     };
                     let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), &mut st, dt);
-                    force = r.force;
+                    normal_force = r.normal_force;
                     heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
                     if let Some(kind) = r.broke {
                         breaks.0.push((i as u32, j as u32, kind));
                     }
                 }
-                out[k] = PairOut { state: st, force, normal: nrm, heat };
+                out[k] = PairOut { state: st, normal: nrm, normal_force, heat };
             }
         }
         breaks
@@ -185,7 +188,6 @@ fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
     let lanes =
         (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.breakage[..]);
     let (row_start, pair_start, pair) = (&c.row_start[..], &c.pair_start[..], &c.pair[..]);
-    let sc = &scratch.0[..];
     for_blocks(
         0..radius.len(),
         Rows::Csr(row_start),
@@ -195,42 +197,77 @@ fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
             let base = row_start[range.start] as usize;
             for i in range.clone() {
                 let li = i - range.start;
-                let ri = radius[i];
-                let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
-                let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
-                // The row is the pairs of lower-id neighbours, then the particle's own.
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
-                for e in start..end {
-                    let k = pair[e] as usize;
-                    let out = &sc[k];
-                    let st = out.state;
-                    if e >= own {
-                        f += out.force;
-                        state[e - base] = st;
-                    } else {
-                        // Seen from the higher id: opposite force and shear (0 − s keeps +0).
-                        f -= out.force;
-                        state[e - base] = PairState { shear: Vec3::zeros() - st.shear, ..st };
-                    }
-                    if ROT {
-                        // (n·r_i) × s is the same product from both ends: n and s both flip.
-                        t += (out.normal * ri).cross(&st.shear);
-                    }
-                    let [d, fr, b] = out.heat;
-                    hd += d;
-                    hf += fr;
-                    hb += b;
-                }
-                force[li] = f;
+                let row = gather_row::<ROT>(
+                    scratch,
+                    &pair[start..end],
+                    own - start,
+                    radius[i],
+                    &mut state[start - base..end - base],
+                );
+                force[li] = row.force;
                 if let Some(tq) = torque.as_deref_mut() {
-                    tq[li] = t;
+                    tq[li] = row.torque;
                 }
-                // Each row books half of every pair's heat.
-                h_damp[li] += 0.5 * hd;
-                h_fric[li] += 0.5 * hf;
-                h_break[li] += 0.5 * hb;
+                book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
             }
         },
     )
+}
+
+/// One particle's row summed: the force and torque (rotation only) of its contacts and
+/// the heat of its pairs, whole.
+pub(super) struct RowSum {
+    pub force: Vec3,
+    pub torque: Vec3,
+    /// (dashpot, friction, breakage).
+    pub heat: [f64; 3],
+}
+
+/// Sums one particle's row in row order and mirrors the new pair states into it. `pairs`
+/// are the row's pair ids, the pairs the particle owns start at `own`, `radius` is its
+/// radius and `state` the row's pair states.
+#[inline(always)]
+pub(super) fn gather_row<const ROT: bool>(
+    scratch: &PairScratch,
+    pairs: &[u32],
+    own: usize,
+    radius: f64,
+    state: &mut [PairState],
+) -> RowSum {
+    let sc = &scratch.0[..];
+    let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
+    let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
+    // The row is the pairs of lower-id neighbours, then the particle's own.
+    for (e, (&k, slot)) in pairs.iter().zip(state.iter_mut()).enumerate() {
+        let out = &sc[k as usize];
+        let st = out.state;
+        let force = st.shear - out.normal * out.normal_force;
+        if e >= own {
+            f += force;
+            *slot = st;
+        } else {
+            // Seen from the higher id: opposite force and shear (0 − s keeps +0).
+            f -= force;
+            *slot = PairState { shear: Vec3::zeros() - st.shear, ..st };
+        }
+        if ROT {
+            // (n·r_i) × s is the same product from both ends: n and s both flip.
+            t += (out.normal * radius).cross(&st.shear);
+        }
+        let [d, fr, b] = out.heat;
+        hd += d;
+        hf += fr;
+        hb += b;
+    }
+    RowSum { force: f, torque: t, heat: [hd, hf, hb] }
+}
+
+/// Books a particle's half of its pairs' heat.
+#[inline(always)]
+pub(super) fn book_heat(row: &RowSum, damping: &mut f64, friction: &mut f64, breakage: &mut f64) {
+    *damping += 0.5 * row.heat[0];
+    *friction += 0.5 * row.heat[1];
+    *breakage += 0.5 * row.heat[2];
 }

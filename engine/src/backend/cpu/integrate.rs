@@ -23,32 +23,37 @@ impl Reduce for Observed {
     }
 }
 
-/// Advances velocities and positions by one step; when `observe`, returns the kinetic energy
-/// at the integer step (mean of the two half-step velocities) and this step's damping heat,
-/// which spans the half steps either side of the integer time. Angular velocities
-/// advance only when the plan simulates `rotation` (the lanes may outlive it, holding the
-/// torques of the last step that computed them).
-pub fn integrate(m: &mut Model, damping_c: &[f64], rotation: bool, observe: bool) -> Observed {
-    let local = m.settings.local_damping > 0.0;
-    macro_rules! go {
-        ($($d:literal, $l:literal, $o:literal);+) => {
-            match (!damping_c.is_empty(), local, observe) {
-                $(($d, $l, $o) => integrate_loop::<$d, $l, $o>(m, damping_c, rotation),)+
-            }
-        };
+/// Advances velocities and positions by one step, in a pass of its own, and returns the
+/// kinetic energy at the integer step (mean of the two half-step velocities) and this step's
+/// damping heat, which spans the half steps either side of the integer time. This is the
+/// observed step's integration; unobserved steps integrate in the fused pass (fused.rs), with
+/// the same per-particle code. Angular velocities advance only when the plan simulates
+/// `rotation` (the lanes may outlive it, holding the torques of the last step that computed them).
+pub fn integrate(m: &mut Model, damping_c: &[f64], rotation: bool) -> Observed {
+    match (!damping_c.is_empty(), m.settings.local_damping > 0.0) {
+        (false, false) => integrate_loop::<false, false>(m, damping_c, rotation),
+        (false, true) => integrate_loop::<false, true>(m, damping_c, rotation),
+        (true, false) => integrate_loop::<true, false>(m, damping_c, rotation),
+        (true, true) => integrate_loop::<true, true>(m, damping_c, rotation),
     }
-    go!(false, false, false; false, false, true; false, true, false; false, true, true;
-        true, false, false; true, false, true; true, true, false; true, true, true)
 }
 
-fn integrate_loop<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
-    m: &mut Model,
-    damping_c: &[f64],
-    rotation: bool,
-) -> Observed {
-    let dt = m.clock.dt;
-    let alpha = m.settings.local_damping;
-    let g = m.settings.gravity;
+/// Per-step constants of the integration.
+pub(super) struct Motion {
+    pub dt: f64,
+    /// Local damping coefficient α.
+    pub alpha: f64,
+    pub gravity: Vec3,
+}
+
+impl Motion {
+    pub fn of(m: &Model) -> Self {
+        Motion { dt: m.clock.dt, alpha: m.settings.local_damping, gravity: m.settings.gravity }
+    }
+}
+
+fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, damping_c: &[f64], rotation: bool) -> Observed {
+    let k = Motion::of(m);
     let p = &mut m.particles;
     let n = p.len();
     let (mass, force, fixed, radius) = (&p.mass, &p.force, &p.fixed, &p.radius);
@@ -62,81 +67,125 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
             let mut obs = Observed::default();
             for i in range.clone() {
                 let li = i - range.start;
-                let mi = mass[i];
-                let v0 = vel[li];
-                let mut f_total = force[i] + g * mi;
-                let mut local_heat = 0.0;
-                if LOCAL {
-                    // Cundall's local damping: −α·|F|·sign(v) per component. It damps
-                    // accelerations, not steady motion, so settling grains are not held back.
-                    for k in 0..3 {
-                        let fd = -alpha * f_total[k].abs() * v0[k].signum() * f64::from(u8::from(v0[k] != 0.0));
-                        f_total[k] += fd;
-                        local_heat -= fd * v0[k] * dt;
-                    }
-                }
-                let accel = f_total / mi;
-                let mut v1 = if DAMP {
-                    let a = 0.5 * damping_c[i] * dt / mi;
-                    (v0 * (1.0 - a) + accel * dt) / (1.0 + a)
-                } else {
-                    v0 + accel * dt
-                };
-                let f = fixed[i];
-                if f != 0 {
-                    for (k, bit) in [dof::X, dof::Y, dof::Z].into_iter().enumerate() {
-                        if f & bit != 0 {
-                            v1[k] = v0[k];
-                        }
-                    }
-                }
-                let v_mean = (v0 + v1) * 0.5;
-                if LOCAL {
-                    heat[li] += local_heat;
-                    if OBSERVE {
-                        obs.damping_heat += local_heat;
-                    }
-                }
-                if DAMP {
-                    let h = damping_c[i] * v_mean.norm_squared() * dt;
-                    heat[li] += h;
-                    if OBSERVE {
-                        obs.damping_heat += h;
-                    }
-                }
-                if OBSERVE {
-                    obs.kinetic += 0.5 * mi * v_mean.norm_squared();
-                }
-                vel[li] = v1;
-                pos[li] += v1 * dt;
+                let c = if DAMP { damping_c[i] } else { 0.0 };
+                let body = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: force[i] };
+                advance::<DAMP, LOCAL, true>(&k, &body, &mut pos[li], &mut vel[li], &mut heat[li], &mut obs);
             }
             obs
         },
     );
     if let Some((ang_vel, torque)) = rot {
-        // Rotation is rare and cheap next to contacts: a plain loop, same damping form.
+        // A plain loop after the translations, so the energies an observed step sums come
+        // out in the same order as ever; unobserved steps spin in the fused pass (fused.rs).
         for i in 0..n {
-            let inertia = 0.4 * mass[i] * radius[i] * radius[i];
-            let w0 = ang_vel[i];
-            let w1 = if DAMP {
-                let a = 0.5 * damping_c[i] * dt / mass[i];
-                (w0 * (1.0 - a) + torque[i] / inertia * dt) / (1.0 + a)
-            } else {
-                w0 + torque[i] / inertia * dt
-            };
-            let w_mean: Vec3 = (w0 + w1) * 0.5;
-            if DAMP {
-                let h = damping_c[i] * w_mean.norm_squared() * dt * inertia / mass[i];
-                p.heat.damping[i] += h;
-                if OBSERVE {
-                    obs.damping_heat += h;
-                }
-            }
-            if OBSERVE {
-                obs.kinetic += 0.5 * inertia * w_mean.norm_squared();
-            }
-            ang_vel[i] = w1;
+            let c = if DAMP { damping_c[i] } else { 0.0 };
+            let heat = &mut p.heat.damping[i];
+            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, torque[i], &mut ang_vel[i], heat, &mut obs);
         }
     }
     obs
+}
+
+/// What the translation of one particle reads.
+pub(super) struct Translation {
+    pub mass: f64,
+    /// Viscous damping coefficient c (0 when damping is off).
+    pub damping_c: f64,
+    pub fixed: u8,
+    /// Contact and wall force of this step.
+    pub force: Vec3,
+}
+
+/// Advances one particle's velocity and position by a step; books its damping heat.
+#[inline(always)]
+pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
+    k: &Motion,
+    b: &Translation,
+    pos: &mut Vec3,
+    vel: &mut Vec3,
+    heat: &mut f64,
+    obs: &mut Observed,
+) {
+    let (dt, mi) = (k.dt, b.mass);
+    let v0 = *vel;
+    let mut f_total = b.force + k.gravity * mi;
+    let mut local_heat = 0.0;
+    if LOCAL {
+        // Cundall's local damping: −α·|F|·sign(v) per component. It damps
+        // accelerations, not steady motion, so settling grains are not held back.
+        for c in 0..3 {
+            let fd = -k.alpha * f_total[c].abs() * v0[c].signum() * f64::from(u8::from(v0[c] != 0.0));
+            f_total[c] += fd;
+            local_heat -= fd * v0[c] * dt;
+        }
+    }
+    let accel = f_total / mi;
+    let mut v1 = if DAMP {
+        let a = 0.5 * b.damping_c * dt / mi;
+        (v0 * (1.0 - a) + accel * dt) / (1.0 + a)
+    } else {
+        v0 + accel * dt
+    };
+    let f = b.fixed;
+    if f != 0 {
+        for (c, bit) in [dof::X, dof::Y, dof::Z].into_iter().enumerate() {
+            if f & bit != 0 {
+                v1[c] = v0[c];
+            }
+        }
+    }
+    let v_mean = (v0 + v1) * 0.5;
+    if LOCAL {
+        *heat += local_heat;
+        if OBSERVE {
+            obs.damping_heat += local_heat;
+        }
+    }
+    if DAMP {
+        let h = b.damping_c * v_mean.norm_squared() * dt;
+        *heat += h;
+        if OBSERVE {
+            obs.damping_heat += h;
+        }
+    }
+    if OBSERVE {
+        obs.kinetic += 0.5 * mi * v_mean.norm_squared();
+    }
+    *vel = v1;
+    *pos += v1 * dt;
+}
+
+/// Advances one particle's angular velocity by a step under `torque`, with the same damping
+/// form as the translation; books its damping heat.
+#[inline(always)]
+pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
+    dt: f64,
+    mass: f64,
+    radius: f64,
+    damping_c: f64,
+    torque: Vec3,
+    ang_vel: &mut Vec3,
+    heat: &mut f64,
+    obs: &mut Observed,
+) {
+    let inertia = 0.4 * mass * radius * radius;
+    let w0 = *ang_vel;
+    let w1 = if DAMP {
+        let a = 0.5 * damping_c * dt / mass;
+        (w0 * (1.0 - a) + torque / inertia * dt) / (1.0 + a)
+    } else {
+        w0 + torque / inertia * dt
+    };
+    let w_mean: Vec3 = (w0 + w1) * 0.5;
+    if DAMP {
+        let h = damping_c * w_mean.norm_squared() * dt * inertia / mass;
+        *heat += h;
+        if OBSERVE {
+            obs.damping_heat += h;
+        }
+    }
+    if OBSERVE {
+        obs.kinetic += 0.5 * inertia * w_mean.norm_squared();
+    }
+    *ang_vel = w1;
 }

@@ -3,6 +3,7 @@
 
 pub mod blocks;
 pub mod contact_forces;
+pub mod fused;
 pub mod integrate;
 pub mod neighbours;
 pub mod wall_forces;
@@ -10,7 +11,7 @@ pub mod wall_forces;
 use crate::model::{Breakage, Model};
 use crate::plan::StepPlan;
 use crate::status::{potential_energies, Energies};
-use contact_forces::{compute_contact_forces, PairScratch};
+use contact_forces::{compute_contact_forces, Breaks, PairScratch};
 use integrate::integrate;
 use wall_forces::compute_wall_forces;
 
@@ -59,30 +60,37 @@ impl CpuBackend {
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
         }
+        if !observe {
+            // Nothing is read between the forces and the move: finish each particle in one pass.
+            let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
+            record_breaks(m, breaks);
+            m.clock.step += 1;
+            m.clock.time += dt;
+            return None;
+        }
         let breaks = compute_contact_forces(m, &self.plan, &mut self.pairs);
-        let work_before: f64 = if observe { m.particles.heat.wall_work.iter().sum() } else { 0.0 };
+        let work_before: f64 = m.particles.heat.wall_work.iter().sum();
         compute_wall_forces(m, &self.plan);
-        for (i, j, kind) in breaks.0 {
-            m.breakages.push(Breakage { step: m.clock.step, time: m.clock.time, i, j, kind });
-        }
-        let mut energies = observe.then(|| {
-            let mut e = potential_energies(m, &self.plan);
-            // This step's wall work, F·Δp over the wall's move to its position now, was booked
-            // with the force at the end of the move; count half of it (the trapezoid rule), or
-            // while a platen loads the sample the account runs ahead by F·v·dt/2.
-            e.wall_work -= 0.5 * (e.wall_work - work_before);
-            e
-        });
-        let obs = integrate(m, &self.damping_c, self.plan.rotation, observe);
-        if let Some(e) = &mut energies {
-            e.kinetic = obs.kinetic;
-            // The kinetic energy is that of the integer time, half way through this step's
-            // damping: book half of it, or the account runs half a step behind (an offset of
-            // ζ·ω·dt of the kinetic energy, frozen in when the motion starts or stops).
-            e.heat_damping += 0.5 * obs.damping_heat;
-        }
+        record_breaks(m, breaks);
+        let mut e = potential_energies(m, &self.plan);
+        // This step's wall work, F·Δp over the wall's move to its position now, was booked
+        // with the force at the end of the move; count half of it (the trapezoid rule), or
+        // while a platen loads the sample the account runs ahead by F·v·dt/2.
+        e.wall_work -= 0.5 * (e.wall_work - work_before);
+        let obs = integrate(m, &self.damping_c, self.plan.rotation);
+        e.kinetic = obs.kinetic;
+        // The kinetic energy is that of the integer time, half way through this step's
+        // damping: book half of it, or the account runs half a step behind (an offset of
+        // ζ·ω·dt of the kinetic energy, frozen in when the motion starts or stops).
+        e.heat_damping += 0.5 * obs.damping_heat;
         m.clock.step += 1;
         m.clock.time += dt;
-        energies
+        Some(e)
+    }
+}
+
+fn record_breaks(m: &mut Model, breaks: Breaks) {
+    for (i, j, kind) in breaks.0 {
+        m.breakages.push(Breakage { step: m.clock.step, time: m.clock.time, i, j, kind });
     }
 }

@@ -55,7 +55,12 @@ pub fn compute_wall_forces(m: &mut Model, plan: &StepPlan) {
         (NormalKind::Hertz, TangentialKind::Linear) => go!(Hertz, LinearShear),
         (NormalKind::Hertz, TangentialKind::Mindlin) => go!(Hertz, MindlinShear),
     };
-    for (w, wall) in m.walls.iter_mut().enumerate() {
+    store_loads(&mut m.walls, &loads);
+}
+
+/// Stores each wall's load of this step.
+pub(super) fn store_loads(walls: &mut [Wall], loads: &WallLoads) {
+    for (w, wall) in walls.iter_mut().enumerate() {
         // Loads on the wall are the reactions of the forces on the particles.
         wall.force = -loads.force[w];
         wall.normal_force = loads.normal[w];
@@ -76,8 +81,8 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
         Some(r) if ROT => (Some(&r.ang_vel[..]), Some(&mut r.torque[..])),
         _ => (None, None),
     };
-    let k = Kinematics { vel: &p.vel, mass: &p.mass, ang_vel, dt: clock.dt };
-    let (pos, radius, material, walls) = (&p.pos, &p.radius, &p.material, &walls[..]);
+    let (pos, radius, vel, mass, material) = (&p.pos, &p.radius, &p.vel, &p.mass, &p.material);
+    let (walls, dt) = (&walls[..], clock.dt);
     let heat = &mut p.heat;
     let lanes =
         (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.wall_work[..]);
@@ -90,60 +95,93 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
             let mut loads = WallLoads::default();
             for i in range.clone() {
                 let li = i - range.start;
-                let (xi, ri) = (pos[i], radius[i]);
+                let st = &mut state[li * nw..(li + 1) * nw];
                 #[cfg(debug_assertions)]
-                for (w, wall) in walls.iter().enumerate() {
-                    let st = &state[li * nw + w];
-                    debug_assert!(
-                        near[i] & (1 << w) != 0
-                            || (wall.normal_and_distance(&xi).1 >= ri && *st == PairState::default()),
-                        "particle {i} touches wall {w} outside its wall mask"
-                    );
+                check_mask(walls, i, near[i], &pos[i], radius[i], st);
+                // Most particles have no wall in reach.
+                if near[i] == 0 {
+                    continue;
                 }
-                // Only the walls in reach (most particles have none), in wall order.
-                let mut bits = near[i];
-                while bits != 0 {
-                    let w = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let wall = &walls[w];
-                    let st = &mut state[li * nw + w];
-                    let (inward, gap) = wall.normal_and_distance(&xi);
-                    let overlap = ri - gap;
-                    if overlap <= 0.0 && st.shear == Vec3::zeros() && st.dashpot == 0.0 {
-                        // Apart now and the step before.
-                        continue;
-                    }
-                    let params = &plan.wall[w * plan.materials + material[i] as usize];
-                    let out = ParticleOut {
-                        force: &mut force[li],
-                        torque: torque.as_deref_mut().map(|t| &mut t[li]),
-                        h_damp: &mut h_damp[li],
-                        h_fric: &mut h_fric[li],
-                        work: &mut work[li],
-                    };
-                    wall_contact::<N, T, DASHPOT>(&k, i, ri, wall, w, inward, overlap, params, st, out, &mut loads);
-                }
+                let body = Body {
+                    pos: pos[i],
+                    radius: radius[i],
+                    vel: vel[i],
+                    mass: mass[i],
+                    ang_vel: ang_vel.map(|a| a[i]),
+                    material: material[i],
+                };
+                let mut out = ParticleOut {
+                    force: &mut force[li],
+                    torque: torque.as_deref_mut().map(|t| &mut t[li]),
+                    h_damp: &mut h_damp[li],
+                    h_fric: &mut h_fric[li],
+                    work: &mut work[li],
+                };
+                particle_walls::<N, T, DASHPOT>(walls, plan, dt, near[i], &body, st, &mut out, &mut loads);
             }
             loads
         },
     )
 }
 
-/// What a wall contact reads of the particles.
-struct Kinematics<'a> {
-    vel: &'a [Vec3],
-    mass: &'a [f64],
-    ang_vel: Option<&'a [Vec3]>,
+/// Checks that a particle outside its wall mask neither touches the wall nor holds state.
+#[cfg(debug_assertions)]
+pub(super) fn check_mask(walls: &[Wall], i: usize, near: u8, x: &Vec3, r: f64, state: &[PairState]) {
+    for (w, wall) in walls.iter().enumerate() {
+        debug_assert!(
+            near & (1 << w) != 0 || (wall.normal_and_distance(x).1 >= r && state[w] == PairState::default()),
+            "particle {i} touches wall {w} outside its wall mask"
+        );
+    }
+}
+
+/// One particle's contacts with the walls its mask `near` lets through, in wall order;
+/// `state` holds its contact state with every wall.
+#[inline(always)]
+pub(super) fn particle_walls<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
+    walls: &[Wall],
+    plan: &StepPlan,
     dt: f64,
+    near: u8,
+    body: &Body,
+    state: &mut [PairState],
+    out: &mut ParticleOut<'_>,
+    loads: &mut WallLoads,
+) {
+    let mut bits = near;
+    while bits != 0 {
+        let w = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let wall = &walls[w];
+        let st = &mut state[w];
+        let (inward, gap) = wall.normal_and_distance(&body.pos);
+        let overlap = body.radius - gap;
+        if overlap <= 0.0 && st.shear == Vec3::zeros() && st.dashpot == 0.0 {
+            // Apart now and the step before.
+            continue;
+        }
+        let params = &plan.wall[w * plan.materials + body.material as usize];
+        wall_contact::<N, T, DASHPOT>(body, wall, w, inward, overlap, params, st, dt, out, loads);
+    }
+}
+
+/// What a wall contact reads of its particle (ang_vel: rotation only).
+pub(super) struct Body {
+    pub pos: Vec3,
+    pub radius: f64,
+    pub vel: Vec3,
+    pub mass: f64,
+    pub ang_vel: Option<Vec3>,
+    pub material: u32,
 }
 
 /// One particle's lanes a wall contact adds to.
-struct ParticleOut<'a> {
-    force: &'a mut Vec3,
-    torque: Option<&'a mut Vec3>,
-    h_damp: &'a mut f64,
-    h_fric: &'a mut f64,
-    work: &'a mut f64,
+pub(super) struct ParticleOut<'a> {
+    pub force: &'a mut Vec3,
+    pub torque: Option<&'a mut Vec3>,
+    pub h_damp: &'a mut f64,
+    pub h_fric: &'a mut f64,
+    pub work: &'a mut f64,
 }
 
 /// One particle against one wall, touching (`overlap` > 0) or just come apart. Kept out of
@@ -151,24 +189,23 @@ struct ParticleOut<'a> {
 /// instead of being hoisted into every particle the mask lets through.
 #[inline(never)]
 fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
-    k: &Kinematics<'_>,
-    i: usize,
-    ri: f64,
+    body: &Body,
     wall: &Wall,
     w: usize,
     inward: Vec3,
     overlap: f64,
     params: &PairParams,
     st: &mut PairState,
-    out: ParticleOut<'_>,
+    dt: f64,
+    out: &mut ParticleOut<'_>,
     loads: &mut WallLoads,
 ) {
-    let dt = k.dt;
+    let ri = body.radius;
     let nrm = -inward; // from the particle towards the wall
     let v_wall = wall.surface_velocity(&inward);
-    let mut v_rel = k.vel[i] - v_wall;
-    if let Some(a) = k.ang_vel {
-        v_rel += a[i].cross(&(nrm * ri));
+    let mut v_rel = body.vel - v_wall;
+    if let Some(a) = body.ang_vel {
+        v_rel += a.cross(&(nrm * ri));
     }
     if overlap <= 0.0 {
         // The contact has just opened.
@@ -177,16 +214,19 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         *out.h_damp += damping;
         return;
     }
-    let g = ContactGeometry { n: nrm, overlap, v_rel, r_star: ri, m_star: k.mass[i] };
+    let g = ContactGeometry { n: nrm, overlap, v_rel, r_star: ri, m_star: body.mass };
     let r = contact::<N, T, DASHPOT>(&g, params, st, dt);
     *out.force += r.force;
-    if let Some(t) = out.torque {
+    if let Some(t) = out.torque.as_deref_mut() {
         *t += (nrm * ri).cross(&r.shear);
     }
     *out.h_damp += r.heat_damping;
     *out.h_fric += r.heat_friction;
-    // Work the moving wall does on the particle this step.
-    *out.work += r.force.dot(&v_wall) * dt;
+    // Work the moving wall does on the particle this step (none by a wall at rest: skipping
+    // the zero keeps the lane, which most steps would otherwise fetch from memory for nothing).
+    if v_wall != Vec3::zeros() {
+        *out.work += r.force.dot(&v_wall) * dt;
+    }
     loads.force[w] += r.force;
     loads.normal[w] += r.force.dot(&inward).max(0.0);
     loads.stiffness[w] += r.stiffness;

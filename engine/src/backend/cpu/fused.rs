@@ -1,0 +1,160 @@
+//! Stages 3–5 of an unobserved step in two passes instead of four: the contacts' pair pass
+//! (contact_forces.rs), then one pass in which each particle gathers its row, meets the
+//! walls in its mask and moves (integrate.rs).
+//!
+//! Once the pair pass is done, what is left of the step reads nothing of any other particle
+//! (the pair results are in the scratch), so a particle can finish its step as soon as it has
+//! summed its forces, while its lanes are still in cache. Each of the three stages runs the
+//! same per-particle code, in the same order, as its own pass does, so a fused step gives the
+//! separate passes' numbers bit for bit. Observed steps keep the separate passes, because
+//! their energies are taken between the forces and the move.
+
+use super::blocks::{for_blocks, Rows, Strided};
+use super::contact_forces::{book_heat, gather_row, pair_pass, Breaks, PairScratch};
+use super::integrate::{advance, spin, Motion, Observed, Translation};
+use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
+use crate::model::{Model, NormalKind, TangentialKind};
+use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState, TangentialLaw};
+use crate::plan::StepPlan;
+
+/// Computes this step's contact and wall forces and advances the particles by the step, as
+/// `compute_contact_forces`, `compute_wall_forces` and an unobserved `integrate` do in turn.
+/// The rows must carry pair ids and the rotation lanes must exist when the plan rotates.
+pub fn forces_and_motion(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch, damping_c: &[f64]) -> Breaks {
+    let rot = plan.rotation && m.particles.rotation.is_some();
+    let (damp, local) = (!damping_c.is_empty(), m.settings.local_damping > 0.0);
+    macro_rules! integration {
+        ($n:ty, $t:ty, $d:literal, $r:literal) => {
+            match (damp, local) {
+                (false, false) => run::<$n, $t, $d, $r, false, false>(m, plan, scratch, damping_c),
+                (false, true) => run::<$n, $t, $d, $r, false, true>(m, plan, scratch, damping_c),
+                (true, false) => run::<$n, $t, $d, $r, true, false>(m, plan, scratch, damping_c),
+                (true, true) => run::<$n, $t, $d, $r, true, true>(m, plan, scratch, damping_c),
+            }
+        };
+    }
+    macro_rules! go {
+        ($n:ty, $t:ty) => {
+            match (plan.dashpot, rot) {
+                (false, false) => integration!($n, $t, false, false),
+                (true, false) => integration!($n, $t, true, false),
+                (false, true) => integration!($n, $t, false, true),
+                (true, true) => integration!($n, $t, true, true),
+            }
+        };
+    }
+    match (plan.normal, plan.tangential) {
+        (NormalKind::Linear, TangentialKind::Linear) => go!(Linear, LinearShear),
+        (NormalKind::Linear, TangentialKind::Mindlin) => go!(Linear, MindlinShear),
+        (NormalKind::Hertz, TangentialKind::Linear) => go!(Hertz, LinearShear),
+        (NormalKind::Hertz, TangentialKind::Mindlin) => go!(Hertz, MindlinShear),
+    }
+}
+
+fn run<N, T, const DASHPOT: bool, const ROT: bool, const DAMP: bool, const LOCAL: bool>(
+    m: &mut Model,
+    plan: &StepPlan,
+    scratch: &mut PairScratch,
+    damping_c: &[f64],
+) -> Breaks
+where
+    N: NormalLaw,
+    T: TangentialLaw,
+{
+    debug_assert!(m.contacts.has_pair_ids(), "rows without pair ids: rebuild them first");
+    scratch.fit(m.contacts.pair_count());
+    let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
+    let loads = finish::<N, T, DASHPOT, ROT, DAMP, LOCAL>(m, plan, scratch, damping_c);
+    store_loads(&mut m.walls, &loads);
+    breaks
+}
+
+/// The pass after the pair pass: gather, walls, integration, particle by particle.
+fn finish<N, T, const DASHPOT: bool, const ROT: bool, const DAMP: bool, const LOCAL: bool>(
+    m: &mut Model,
+    plan: &StepPlan,
+    scratch: &PairScratch,
+    damping_c: &[f64],
+) -> WallLoads
+where
+    N: NormalLaw,
+    T: TangentialLaw,
+{
+    let k = Motion::of(m);
+    let nw = m.walls.len();
+    let Model { particles: p, contacts: c, wall_contacts, walls, .. } = m;
+    let (row_start, pair_start, pair, near) = (&c.row_start[..], &c.pair_start[..], &c.pair[..], &c.wall_near[..]);
+    debug_assert_eq!(near.len(), p.pos.len(), "wall mask out of date: rebuild the rows first");
+    let (radius, mass, material, fixed) = (&p.radius[..], &p.mass[..], &p.material[..], &p.fixed[..]);
+    let (ang_vel, torque) = match &mut p.rotation {
+        Some(r) if ROT => (Some(&mut r.ang_vel[..]), Some(&mut r.torque[..])),
+        _ => (None, None),
+    };
+    let h = &mut p.heat;
+    let loads_lanes = (&mut p.force[..], torque, &mut h.contact_damping[..], &mut h.friction[..], &mut h.breakage[..]);
+    let motion_lanes = (
+        &mut h.wall_work[..],
+        &mut h.damping[..],
+        &mut p.pos[..],
+        &mut p.vel[..],
+        ang_vel,
+        Strided { items: &mut wall_contacts[..], stride: nw },
+    );
+    let walls = &walls[..];
+    for_blocks(
+        0..radius.len(),
+        Rows::Csr(row_start),
+        (loads_lanes, motion_lanes),
+        &mut c.state[..],
+        &|range,
+          ((force, mut torque, h_damp, h_fric, h_break), (work, h_visc, pos, vel, mut ang_vel, wall_state)),
+          state: &mut [PairState]| {
+            let base = row_start[range.start] as usize;
+            let mut loads = WallLoads::default();
+            let mut unobserved = Observed::default();
+            for i in range.clone() {
+                let li = i - range.start;
+                let ri = radius[i];
+                // Stage 3: the row's forces.
+                let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
+                let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
+                let rows = &mut state[start - base..end - base];
+                let row = gather_row::<ROT>(scratch, &pair[start..end], own - start, ri, rows);
+                let (mut f, mut t) = (row.force, row.torque);
+                book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
+                // Stage 3b: the walls in reach (most particles have none).
+                let wall_st = &mut wall_state.items[li * nw..(li + 1) * nw];
+                #[cfg(debug_assertions)]
+                super::wall_forces::check_mask(walls, i, near[i], &pos[li], ri, wall_st);
+                if near[i] != 0 {
+                    let body = Body {
+                        pos: pos[li],
+                        radius: ri,
+                        vel: vel[li],
+                        mass: mass[i],
+                        ang_vel: ang_vel.as_deref().map(|a| a[li]),
+                        material: material[i],
+                    };
+                    let mut out = ParticleOut {
+                        force: &mut f,
+                        torque: if ROT { Some(&mut t) } else { None },
+                        h_damp: &mut h_damp[li],
+                        h_fric: &mut h_fric[li],
+                        work: &mut work[li],
+                    };
+                    particle_walls::<N, T, DASHPOT>(walls, plan, k.dt, near[i], &body, wall_st, &mut out, &mut loads);
+                }
+                force[li] = f;
+                // Stages 4–5: body forces, damping and the move.
+                let c = if DAMP { damping_c[i] } else { 0.0 };
+                let b = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: f };
+                advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], &mut h_visc[li], &mut unobserved);
+                if let (Some(tq), Some(w)) = (torque.as_deref_mut(), ang_vel.as_deref_mut()) {
+                    tq[li] = t;
+                    spin::<DAMP, false>(k.dt, mass[i], ri, c, t, &mut w[li], &mut h_visc[li], &mut unobserved);
+                }
+            }
+            loads
+        },
+    )
+}
