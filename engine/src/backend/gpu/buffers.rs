@@ -94,12 +94,16 @@ pub struct HostLanes {
     pub wall_pairs: Vec<[f32; 12]>,
     /// Bonds that may still break: room for their events.
     pub bonds: usize,
+    /// Per row entry: the dashpot force of the last step (empty without a dashpot).
+    pub dashpot: Vec<f32>,
+    /// Heat ledger slots per particle ([`super::heat::Layout`]).
+    pub heat_lanes: usize,
 }
 
 impl HostLanes {
     /// Converts the model (rows must be current) for a device run with `plan`.
     /// `damping_rate[i]` is c_i/m_i of the viscous damping (empty when off).
-    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64]) -> Self {
+    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64], heat_lanes: usize) -> Self {
         let p = &m.particles;
         let n = p.len();
         let mut origin = Vec::with_capacity(n);
@@ -162,11 +166,14 @@ impl HostLanes {
             row_start: c.row_start.clone(),
             other: c.other.clone(),
             state,
-            wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, 0.0)).collect(),
+            // A wall contact is never bonded: w carries its dashpot force.
+            wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, s.dashpot)).collect(),
             walls,
             pairs: plan.pair.iter().map(pair_lane).collect(),
             wall_pairs: plan.wall.iter().map(pair_lane).collect(),
             bonds,
+            dashpot: if plan.dashpot { c.state.iter().map(|s| s.dashpot).collect() } else { Vec::new() },
+            heat_lanes,
         }
     }
 }
@@ -198,6 +205,9 @@ pub struct DeviceLanes {
     pub max_events: usize,
     /// Bytes of all device buffers.
     pub bytes: u64,
+    pub dashpot: wgpu::Buffer,
+    /// The heat ledger, zero at upload.
+    pub heat: wgpu::Buffer,
 }
 
 const STORAGE: wgpu::BufferUsages =
@@ -254,6 +264,8 @@ impl DeviceLanes {
             }),
             max_events,
             bytes: 0,
+            dashpot: make("dashpot forces", bytes_of(&h.dashpot))?,
+            heat: make("heat ledger", &vec![0u8; h.origin.len() * h.heat_lanes * 8])?,
         };
         Ok(DeviceLanes { bytes: bytes + std::mem::size_of::<Params>() as u64, ..lanes })
     }
@@ -333,12 +345,14 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
         }
     }
     let state: Vec<[f32; 4]> = read(ctx, &d.state, h.state.len())?;
-    for (s, g) in m.contacts.state.iter_mut().zip(&state) {
-        *s = PairState { shear: to64(g), bonded: g[3] != 0.0, dashpot: 0.0 };
+    let dashpot: Vec<f32> = read(ctx, &d.dashpot, h.dashpot.len())?;
+    for ((k, s), g) in m.contacts.state.iter_mut().enumerate().zip(&state) {
+        // The dashpot force goes back too, so a CPU run continues the trapezoid.
+        *s = PairState { shear: to64(g), bonded: g[3] != 0.0, dashpot: dashpot.get(k).copied().unwrap_or(0.0) };
     }
     let wall_state: Vec<[f32; 4]> = read(ctx, &d.wall_state, h.wall_state.len())?;
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
-        *s = PairState { shear: to64(g), bonded: false, dashpot: 0.0 };
+        *s = PairState { shear: to64(g), bonded: false, dashpot: g[3] };
     }
     let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
     for (w, g) in m.walls.iter_mut().zip(&walls) {

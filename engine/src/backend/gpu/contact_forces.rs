@@ -26,6 +26,8 @@ pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes)
         &d.torque,
         &d.counters,
         &d.events,
+        &d.dashpot,
+        &d.heat,
     ];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }

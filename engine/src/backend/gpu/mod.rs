@@ -12,14 +12,18 @@
 //! are reduced in a fixed tree order; the only atomics count integers (breakage events,
 //! sorted on the host; drift maxima; guard minima). Two runs give the same bits.
 //!
+//! Heat is booked on the device by cause, as the CPU books it (each row half of every pair's
+//! heat), into compensated f32 sums that each download adds to the model's f64 ledger
+//! ([`heat`]).
+//!
 //! Not done on the device (the host keeps them): building neighbour rows (see
-//! [`neighbours`]), heat bookkeeping (no heat ledger on this backend), and energy samples
-//! (the state comes back to the host for each sample).
+//! [`neighbours`]) and energy samples (the state comes back to the host for each sample).
 
 pub mod buffers;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
+pub mod heat;
 pub mod integrate;
 pub mod neighbours;
 pub mod shaders;
@@ -77,6 +81,8 @@ pub struct GpuBackend {
     damping_rate: Vec<f64>,
     /// Bytes of the device buffers of the last run.
     device_bytes: u64,
+    /// The heat ledger's slots.
+    ledger: heat::Layout,
     /// The first error the device reported outside a call (wgpu's uncaptured errors).
     errors: Arc<Mutex<Option<String>>>,
 }
@@ -95,7 +101,9 @@ impl GpuBackend {
             }
         }));
         let device = &ctx.device;
-        let constants = shaders::constants(&plan);
+        let ledger = heat::Layout::for_plan(&plan);
+        let mut constants = shaders::constants(&plan);
+        constants.extend(ledger.constants());
         let pipelines = Pipelines {
             drift: neighbours::pipeline(device, &constants),
             contact: contact_forces::pipeline(device, &constants),
@@ -119,7 +127,7 @@ impl GpuBackend {
         } else {
             Vec::new()
         };
-        let backend = GpuBackend { ctx, plan, pipelines, damping_rate, device_bytes: 0, errors };
+        let backend = GpuBackend { ctx, plan, pipelines, damping_rate, device_bytes: 0, errors, ledger };
         backend.check_device()?;
         Ok(backend)
     }
@@ -217,7 +225,7 @@ impl GpuBackend {
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
-        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate);
+        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate, self.ledger.lanes());
         let wall_groups = wall_forces::partial_groups(m.len());
         let params = Params {
             n: m.len() as u32,
@@ -293,6 +301,7 @@ impl GpuBackend {
             self.ctx.queue.submit([enc.finish()]);
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
+        self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
         let count = (counters[C_EVENTS] as usize).min(s.lanes.max_events);
         let mut events: Vec<[u32; 4]> = read(&self.ctx, &s.lanes.events, count)?;

@@ -24,6 +24,7 @@ pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes)
         &d.ang_vel,
         &d.torque,
         &d.partials,
+        &d.heat,
     ];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }
