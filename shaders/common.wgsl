@@ -34,6 +34,8 @@ struct Params {
     max_overlap_ratio: f32,
     wall_groups: u32,
     gravity: vec4<f32>,
+    // 1.0, which the shader compiler cannot know (see ledger_add).
+    one: f32,
 }
 
 // Pair constants (PairParams in physics/contact_law.rs), 48 bytes.
@@ -271,13 +273,16 @@ override HEAT_WALL_WORK: u32 = 255u;
 
 // Adds x to a compensated sum: hi carries the total, lo what f32 rounded off it. A step's
 // heat is ~1e-6 of the total over 1e5–1e6 steps, so a plain f32 sum would lose most of it;
-// two-sum (exact in IEEE f32, which WGSL does not reassociate) keeps each step's rounding
-// error in lo, and renormalising keeps lo below half an ulp of hi: the pair holds ~48 bits.
+// two-sum keeps each step's rounding error in lo, and renormalising keeps lo below half an
+// ulp of hi: the pair holds ~48 bits. Two-sum's error terms are zero in real arithmetic, and
+// drivers do simplify them away (Mesa's lavapipe does): each step is multiplied by
+// `params.one`, which no real-arithmetic rewrite can cancel, and is exact in IEEE f32.
 fn ledger_add(acc: vec2<f32>, x: f32) -> vec2<f32> {
-    let s = acc.x + x;
-    let b = s - acc.x;
-    let err = (acc.x - (s - b)) + (x - b);
-    let lo = acc.y + err;
-    let hi = s + lo;
-    return vec2<f32>(hi, lo - (hi - s));
+    let one = params.one;
+    let s = (acc.x + x) * one;
+    let b = (s - acc.x) * one;
+    let err = (acc.x - (s - b) * one) * one + (x - b) * one;
+    let lo = (acc.y + err) * one;
+    let hi = (s + lo) * one;
+    return vec2<f32>(hi, (lo - (hi - s) * one) * one);
 }

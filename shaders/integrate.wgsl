@@ -39,7 +39,10 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let accel = f_total / mi;
     var v1 = v0 + accel * dt;
     if VISCOUS {
-        v1 = (v0 * (1.0 - a) + accel * dt) / (1.0 + a);
+        // (v0·(1 − a) + accel·dt)/(1 + a), written as v0 plus a change that f32 rounds
+        // relative to itself: 1 − a would round a damping rate of a ~ 1e-5 by ~1e-2, and the
+        // heat booked, c·|v̄|²·dt, would no longer be the energy the damping removed.
+        v1 = v0 + (accel * dt - 2.0 * a * v0) / (1.0 + a);
     }
     let fixed = kind[i] >> 24u;
     if (fixed & 1u) != 0u {
@@ -64,7 +67,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let w0 = ang_vel[i].xyz;
         var w1 = w0 + torque[i].xyz / inertia * dt;
         if VISCOUS {
-            w1 = (w0 * (1.0 - a) + torque[i].xyz / inertia * dt) / (1.0 + a);
+            w1 = w0 + (torque[i].xyz / inertia * dt - 2.0 * a * w0) / (1.0 + a);
         }
         ang_vel[i] = vec4<f32>(w1, 0.0);
         if VISCOUS {

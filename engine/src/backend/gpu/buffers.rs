@@ -28,6 +28,9 @@ pub struct Params {
     pub max_overlap_ratio: f32,
     pub wall_groups: u32,
     pub gravity: [f32; 4],
+    /// 1.0, opaque to the shader compiler (`ledger_add` in common.wgsl).
+    pub one: f32,
+    pub pad: [f32; 3],
 }
 
 /// A wall (`Wall` in common.wgsl).

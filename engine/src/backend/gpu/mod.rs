@@ -237,6 +237,8 @@ impl GpuBackend {
             max_overlap_ratio: m.settings.max_overlap_ratio as f32,
             wall_groups: wall_groups as u32,
             gravity: [m.settings.gravity.x as f32, m.settings.gravity.y as f32, m.settings.gravity.z as f32, 0.0],
+            one: 1.0,
+            pad: [0.0; 3],
         };
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, wall_groups)?;
         let device = &self.ctx.device;
