@@ -6,7 +6,8 @@
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
 //! wall forces → integration. Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
-//! lanes it does not need (rotation) are 128-byte placeholders.
+//! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
+//! 128-byte placeholders or absent.
 //!
 //! Deterministic: each particle sums its own row and writes only its own lanes; wall loads
 //! are reduced in a fixed tree order; the only atomics count integers (breakage events,
