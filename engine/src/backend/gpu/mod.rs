@@ -304,6 +304,8 @@ impl GpuBackend {
             walls: m.walls.len(),
             rotation: self.plan.rotation,
             bonds,
+            dashpot: self.plan.dashpot,
+            heat_lanes: self.ledger.lanes(),
         };
         let limits = self.limits();
         let layout = memory::MemoryPlan::new(scene, limits)?;
