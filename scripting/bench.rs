@@ -105,7 +105,7 @@ fn text(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
         "memory per particle: {:.0} bytes ({})",
         r.bytes_per_particle,
         if b.name == "gpu" {
-            "device buffers: particle lanes, neighbour rows in slots, pair and wall contact state, cell list"
+            "device buffers: particle lanes, heat ledger, neighbour rows in slots, pair and wall contact state with dashpot forces, cell list"
         } else {
             "particle lanes, neighbour rows, pair and wall contact state, contact scratch"
         }

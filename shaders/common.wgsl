@@ -43,10 +43,12 @@ struct Params {
     // Search distance beyond touching, and the cell list's cell size (at least 2·r_max + skin).
     skin: f32,
     cell: f32,
+    // 1.0, which the shader compiler cannot know (see ledger_add).
+    one: f32,
 }
 
 // The particles a dispatch of a per-entry kernel covers: the per-entry lanes (rows, pair
-// and wall contact states) are bound one slab at a time (memory.rs).
+// and wall contact states, pair dashpot forces) are bound one slab at a time (memory.rs).
 struct Slab {
     first: u32,
     count: u32,
@@ -117,6 +119,12 @@ struct Contact {
     // 0 none, 1 tension, 2 shear (BreakKind).
     broke: u32,
     stiffness: f32,
+    // Heat of the whole pair this step (J), by cause, as the CPU's ContactResult books it.
+    heat_damping: f32,
+    heat_friction: f32,
+    heat_breakage: f32,
+    // Dashpot force of this step (N), for the next step's trapezoid (0 unless DASHPOT).
+    dashpot: f32,
 }
 
 fn hertz_constant(e_star: f32, r_star: f32) -> f32 {
@@ -167,10 +175,11 @@ fn rotate_into_plane(s: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 
 // MatDEM's linear elastic-brittle bonded contact with the scene's normal law, a shear spring
 // with a Coulomb cap and an optional normal dashpot: `contact` in physics/contact_law.rs,
-// line for line, without its heat bookkeeping. Every operation is odd in (n, v_rel, shear),
-// so the two rows of a pair compute opposite forces. Call only when bonded or overlapping.
+// line for line, heat included. Every operation is odd in (n, v_rel, shear) and the heat is
+// even, so the two rows of a pair compute opposite forces and the same heat. `dashpot_in`
+// is the dashpot force of the last step. Call only when bonded or overlapping.
 fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f32, p: Pair,
-           shear_in: vec3<f32>, bonded_in: bool, dt: f32) -> Contact {
+           shear_in: vec3<f32>, bonded_in: bool, dashpot_in: f32, dt: f32) -> Contact {
     var out: Contact;
     out.bonded = bonded_in;
     out.broke = 0u;
@@ -185,8 +194,11 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
     let vn = dot(v_rel, n);
     let kt = shear_stiffness(p, r_star, overlap);
     let vt = v_rel - n * vn;
-    var s = rotate_into_plane(shear_in, n) - vt * (kt * dt);
+    let s_prev = rotate_into_plane(shear_in, n);
+    var s = s_prev - vt * (kt * dt);
     if bonded_in && fn_el < -p.breaking_force {
+        out.heat_breakage = bond_tension_release(p, overlap, vn, dt) + released(s, vec3<f32>(0.0), s_prev, kt);
+        out.heat_damping = 0.5 * dashpot_in * vn * dt;
         out.broke = 1u;
         out.bonded = false;
         out.shear = vec3<f32>(0.0);
@@ -195,7 +207,13 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
     }
     var fn_total = fn_el;
     if DASHPOT && touching {
-        fn_total += dashpot_coefficient(p, r_star, m_star, overlap) * vn;
+        let f_dash = dashpot_coefficient(p, r_star, m_star, overlap) * vn;
+        fn_total += f_dash;
+        // The trapezoid over the step, as on the CPU.
+        out.heat_damping = 0.5 * (dashpot_in + f_dash) * vn * dt;
+        out.dashpot = f_dash;
+    } else if DASHPOT {
+        out.heat_damping = 0.5 * dashpot_in * vn * dt;
     }
     var limit = p.mu * max(fn_el, 0.0);
     if out.bonded {
@@ -209,11 +227,18 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
             out.broke = 2u;
             limit = p.mu * max(fn_el, 0.0);
             if !touching {
+                out.heat_breakage = bond_tension_release(p, overlap, vn, dt);
                 fn_total = 0.0;
             }
         }
         if s2 > limit * limit {
-            s = s * (limit / sqrt(s2));
+            let capped = s * (limit / sqrt(s2));
+            if out.broke != 0u {
+                out.heat_breakage += released(s, capped, s_prev, kt);
+            } else {
+                out.heat_friction = released(s, capped, s_prev, kt);
+            }
+            s = capped;
         }
     }
     out.shear = s;
@@ -243,4 +268,58 @@ fn wall_surface_velocity(w: Wall, inward: vec3<f32>) -> vec3<f32> {
         return -inward * w.velocity.x;
     }
     return w.velocity.xyz;
+}
+
+// Energy a spring of stiffness k releases when its force drops within a step from `trial` to
+// `kept`, having carried `prev` the step before (`released` in physics/contact_law.rs).
+fn released(trial: vec3<f32>, kept: vec3<f32>, prev: vec3<f32>, k: f32) -> f32 {
+    if k > 0.0 {
+        return max(0.5 * dot(trial - kept, kept + prev) / k, 0.0);
+    }
+    return 0.0;
+}
+
+// Energy a bond stretched in tension releases when it breaks (`bond_tension_release`).
+fn bond_tension_release(p: Pair, overlap: f32, vn: f32, dt: f32) -> f32 {
+    if overlap < 0.0 {
+        return max(0.5 * p.kn * overlap * (overlap - vn * dt), 0.0);
+    }
+    return 0.0;
+}
+
+// Heat of a contact that opened this step (`contact_opened`): the shear spring lets go
+// (friction, x) and the last dashpot force works over this step (damping, y). Whole pair.
+fn contact_opened(p: Pair, r_star: f32, shear_in: vec3<f32>, dashpot_in: f32, n: vec3<f32>, v_rel: vec3<f32>,
+                  dt: f32) -> vec2<f32> {
+    let vn = dot(v_rel, n);
+    let kt = shear_stiffness(p, r_star, 0.0);
+    let s_prev = rotate_into_plane(shear_in, n);
+    let trial = s_prev - (v_rel - n * vn) * (kt * dt);
+    return vec2<f32>(released(trial, vec3<f32>(0.0), s_prev, kt), 0.5 * dashpot_in * vn * dt);
+}
+
+// The heat ledger (engine/src/backend/gpu/heat.rs): per particle, one (hi, lo) pair for each
+// cause the plan needs, at heat[i * HEAT_LANES + slot]; a cause that is off has slot HEAT_OFF.
+const HEAT_OFF: u32 = 255u;
+override HEAT_LANES: u32 = 0u;
+override HEAT_DAMPING: u32 = 255u;
+override HEAT_CONTACT_DAMPING: u32 = 255u;
+override HEAT_FRICTION: u32 = 255u;
+override HEAT_BREAKAGE: u32 = 255u;
+override HEAT_WALL_WORK: u32 = 255u;
+
+// Adds x to a compensated sum: hi carries the total, lo what f32 rounded off it. A step's
+// heat is ~1e-6 of the total over 1e5–1e6 steps, so a plain f32 sum would lose most of it;
+// two-sum keeps each step's rounding error in lo, and renormalising keeps lo below half an
+// ulp of hi: the pair holds ~48 bits. Two-sum's error terms are zero in real arithmetic, and
+// drivers do simplify them away (Mesa's lavapipe does): each step is multiplied by
+// `params.one`, which no real-arithmetic rewrite can cancel, and is exact in IEEE f32. It
+// comes in as `one` because not every stage that includes this file binds `params`.
+fn ledger_add(acc: vec2<f32>, x: f32, one: f32) -> vec2<f32> {
+    let s = (acc.x + x) * one;
+    let b = (s - acc.x) * one;
+    let err = (acc.x - (s - b) * one) * one + (x - b) * one;
+    let lo = (acc.y + err) * one;
+    let hi = (s + lo) * one;
+    return vec2<f32>(hi, (lo - (hi - s) * one) * one);
 }

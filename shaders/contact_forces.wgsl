@@ -19,6 +19,9 @@
 @group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(14) var<storage, read_write> events: array<vec4<u32>>;
 @group(0) @binding(15) var<uniform> slab: Slab;
+// Per row entry, in this slab: the dashpot force of the last step (a placeholder without DASHPOT).
+@group(0) @binding(16) var<storage, read_write> dashpot: array<f32>;
+@group(0) @binding(17) var<storage, read_write> heat: array<vec2<f32>>;
 
 @compute @workgroup_size(64)
 fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -41,6 +44,8 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     let dt = params.dt;
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
+    // The row's heat (damping, friction, breakage), whole pairs.
+    var h = vec3<f32>(0.0);
     let start = local * params.cap;
     let end = start + row_len[i];
     for (var e = start; e < end; e++) {
@@ -54,7 +59,8 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let dist2 = dot(d, d);
         if !bonded && dist2 >= touch * touch {
             // Apart: a contact that has just opened lets its shear spring go.
-            if any(st != vec4<f32>(0.0)) {
+            if any(st != vec4<f32>(0.0)) || dashpot_of(e) != 0.0 {
+                h += opened_heat(i, j, e, d, st.xyz);
                 state[e] = vec4<f32>(0.0);
             }
             continue;
@@ -68,8 +74,13 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         }
         let mj = body[j].x;
         let p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
-        let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, st.xyz, bonded, dt);
+        let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, st.xyz, bonded,
+                        dashpot_of(e), dt);
         f += c.force;
+        h += vec3<f32>(c.heat_damping, c.heat_friction, c.heat_breakage);
+        if DASHPOT {
+            dashpot[e] = c.dashpot;
+        }
         if ROTATION {
             t += cross(n * ri, c.shear);
         }
@@ -85,5 +96,42 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     force[i] = vec4<f32>(f, 0.0);
     if ROTATION {
         torque[i] = vec4<f32>(t, 0.0);
+    }
+    // Each row books half of every pair's heat.
+    book(HEAT_CONTACT_DAMPING, i, 0.5 * h.x);
+    book(HEAT_FRICTION, i, 0.5 * h.y);
+    book(HEAT_BREAKAGE, i, 0.5 * h.z);
+}
+
+fn dashpot_of(e: u32) -> f32 {
+    if DASHPOT {
+        return dashpot[e];
+    }
+    return 0.0;
+}
+
+// Heat of the unbonded contact of row entry e (i with j at offset d) that opened this step;
+// clears its dashpot force.
+fn opened_heat(i: u32, j: u32, e: u32, d: vec3<f32>, shear: vec3<f32>) -> vec3<f32> {
+    let ri = origin[i].w;
+    let rj = origin[j].w;
+    let n = d / length(d);
+    var v_rel = vel[i].xyz - vel[j].xyz;
+    if ROTATION {
+        v_rel = v_rel + (cross(ang_vel[i].xyz, n * ri) - cross(ang_vel[j].xyz, n * -rj));
+    }
+    let p = pairs[(kind[i] & 0xffffu) * params.nmat + (kind[j] & 0xffffu)];
+    let fd = contact_opened(p, ri * rj / (ri + rj), shear, dashpot_of(e), n, v_rel, params.dt);
+    if DASHPOT {
+        dashpot[e] = 0.0;
+    }
+    return vec3<f32>(fd.y, fd.x, 0.0);
+}
+
+// Adds x to particle i's ledger lane `slot` (nothing when the plan has no such lane).
+fn book(slot: u32, i: u32, x: f32) {
+    if slot != HEAT_OFF && x != 0.0 {
+        let k = i * HEAT_LANES + slot;
+        heat[k] = ledger_add(heat[k], x, params.one);
     }
 }

@@ -12,6 +12,7 @@
 @group(0) @binding(7) var<storage, read> torque: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> ang_vel: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(10) var<storage, read_write> heat: array<vec2<f32>>;
 
 @compute @workgroup_size(64)
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -28,14 +29,20 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let a = 0.5 * body[i].y * dt;
     let v0 = vel[i].xyz;
     var f_total = force[i].xyz + params.gravity.xyz * mi;
+    // Heat of the damping this step (booked in the ledger's damping lane).
+    var h = 0.0;
     if LOCAL {
+        h = params.local_damping * dot(abs(f_total), abs(v0)) * dt;
         // Cundall's local damping: −α·|F|·sign(v) per component (sign(0) = 0).
         f_total = f_total - params.local_damping * abs(f_total) * sign(v0);
     }
     let accel = f_total / mi;
     var v1 = v0 + accel * dt;
     if VISCOUS {
-        v1 = (v0 * (1.0 - a) + accel * dt) / (1.0 + a);
+        // (v0·(1 − a) + accel·dt)/(1 + a), written as v0 plus a change that f32 rounds
+        // relative to itself: 1 − a would round a damping rate of a ~ 1e-5 by ~1e-2, and the
+        // heat booked, c·|v̄|²·dt, would no longer be the energy the damping removed.
+        v1 = v0 + (accel * dt - 2.0 * a * v0) / (1.0 + a);
     }
     let fixed = kind[i] >> 24u;
     if (fixed & 1u) != 0u {
@@ -47,6 +54,11 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (fixed & 4u) != 0u {
         v1.z = v0.z;
     }
+    if VISCOUS {
+        // c·|v̄|²·dt: exactly the work the semi-implicit damping removes.
+        let vm = 0.5 * (v0 + v1);
+        h += body[i].y * mi * dot(vm, vm) * dt;
+    }
     vel[i] = vec4<f32>(v1, 0.0);
     disp[i] = vec4<f32>(disp[i].xyz + v1 * dt, 0.0);
     if ROTATION {
@@ -55,8 +67,16 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let w0 = ang_vel[i].xyz;
         var w1 = w0 + torque[i].xyz / inertia * dt;
         if VISCOUS {
-            w1 = (w0 * (1.0 - a) + torque[i].xyz / inertia * dt) / (1.0 + a);
+            w1 = w0 + (torque[i].xyz / inertia * dt - 2.0 * a * w0) / (1.0 + a);
         }
         ang_vel[i] = vec4<f32>(w1, 0.0);
+        if VISCOUS {
+            let wm = 0.5 * (w0 + w1);
+            h += body[i].y * inertia * dot(wm, wm) * dt;
+        }
+    }
+    if HEAT_DAMPING != HEAT_OFF && h != 0.0 {
+        let k = i * HEAT_LANES + HEAT_DAMPING;
+        heat[k] = ledger_add(heat[k], h, params.one);
     }
 }

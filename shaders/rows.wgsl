@@ -1,7 +1,8 @@
 // Stage 2 on the GPU, second half: each particle builds its own neighbour row from the cell
 // list, with the content and order of the CPU's rebuild: every j != i closer than
 // r_i + r_j + skin, plus every pair bonded in the old row however far, sorted by j, each
-// with the state the old row held for it (zero when new). Runs once per slab of rows.
+// with the state and dashpot force the old row held for it (zero when new), as the CPU
+// carries the whole PairState. Runs once per slab of rows.
 //
 // Rows are written in place, so the build runs twice: a counting pass (WRITE_ROWS off) finds
 // the longest new row and the rows with more set states than MAX_CARRY, and the writing pass
@@ -24,6 +25,8 @@ const MAX_CARRY: u32 = 64u;
 @group(0) @binding(8) var<storage, read_write> built: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(10) var<uniform> slab: Slab;
+// Per entry: the dashpot force of the last step (a placeholder without DASHPOT).
+@group(0) @binding(11) var<storage, read_write> dashpot: array<f32>;
 
 @compute @workgroup_size(64)
 fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -37,18 +40,26 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let i = slab.first + local;
     let base = local * params.cap;
     let cap = params.cap;
-    // The old row's set states, in j order (the old row is sorted).
+    // The old row's set states, in j order (the old row is sorted). A state is set when any
+    // of it is non-zero, its dashpot force included: a head-on contact has no shear spring
+    // but its last dashpot force is still owed to the next step's trapezoid.
     var carry_j: array<u32, MAX_CARRY>;
     var carry_s: array<vec4<f32>, MAX_CARRY>;
+    var carry_d: array<f32, MAX_CARRY>;
     var carried = 0u;
     var crowded = false;
     let old_len = row_len[i];
     for (var k = 0u; k < old_len; k++) {
         let s = state[base + k];
-        if any(s != vec4<f32>(0.0)) {
+        var fd = 0.0;
+        if DASHPOT {
+            fd = dashpot[base + k];
+        }
+        if any(s != vec4<f32>(0.0)) || fd != 0.0 {
             if carried < MAX_CARRY {
                 carry_j[carried] = other[base + k];
                 carry_s[carried] = s;
+                carry_d[carried] = fd;
                 carried++;
             } else {
                 crowded = true;
@@ -137,10 +148,15 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             m++;
         }
         var s = vec4<f32>(0.0);
+        var fd = 0.0;
         if m < carried && carry_j[m] == j {
             s = carry_s[m];
+            fd = carry_d[m];
         }
         state[base + k] = s;
+        if DASHPOT {
+            dashpot[base + k] = fd;
+        }
     }
     row_len[i] = len;
     built[i] = vec4<f32>(ui, 0.0);

@@ -18,6 +18,7 @@
 @group(0) @binding(11) var<storage, read_write> torque: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read_write> partials: array<vec4<f32>>;
 @group(0) @binding(13) var<uniform> slab: Slab;
+@group(0) @binding(14) var<storage, read_write> heat: array<vec2<f32>>;
 
 var<workgroup> red_force: array<vec4<f32>, 64>;
 var<workgroup> red_stiffness: array<vec4<f32>, 64>;
@@ -46,6 +47,8 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     var f = force[k].xyz;
     let group = slab.first / 64u + wg.x + wg.y * groups.x;
+    // This particle's heat (damping, friction) and the work the walls did on it.
+    var h = vec3<f32>(0.0);
     // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
     // the workgroup's loads on the wall, summed in a fixed tree order.
     for (var w = 0u; w < nw; w++) {
@@ -61,6 +64,14 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             let st = wall_state[e];
             if overlap <= 0.0 {
                 if any(st != vec4<f32>(0.0)) {
+                    // Just opened (the state's w is the dashpot force of the last step).
+                    var v_rel = vi - wall_surface_velocity(wall, inward);
+                    if ROTATION {
+                        v_rel = v_rel + cross(wi, -inward * ri);
+                    }
+                    let p = wall_pairs[w * params.nmat + mati];
+                    let fd = contact_opened(p, ri, st.xyz, st.w, -inward, v_rel, params.dt);
+                    h += vec3<f32>(fd.y, fd.x, 0.0);
                     wall_state[e] = vec4<f32>(0.0);
                 }
             } else {
@@ -71,9 +82,10 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                     v_rel = v_rel + cross(wi, nrm * ri);
                 }
                 let c = contact(nrm, overlap, v_rel, ri, mi, wall_pairs[w * params.nmat + mati], st.xyz, false,
-                                params.dt);
-                wall_state[e] = vec4<f32>(c.shear, 0.0);
+                                st.w, params.dt);
+                wall_state[e] = vec4<f32>(c.shear, c.dashpot);
                 f += c.force;
+                h += vec3<f32>(c.heat_damping, c.heat_friction, dot(c.force, v_wall) * params.dt);
                 if ROTATION {
                     t += cross(nrm * ri, c.shear);
                 }
@@ -102,5 +114,17 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         if ROTATION {
             torque[k] = vec4<f32>(t, 0.0);
         }
+        // A wall takes no heat: the particle books all of it.
+        book(HEAT_CONTACT_DAMPING, k, h.x);
+        book(HEAT_FRICTION, k, h.y);
+        book(HEAT_WALL_WORK, k, h.z);
+    }
+}
+
+// Adds x to particle i's ledger lane `slot` (nothing when the plan has no such lane).
+fn book(slot: u32, i: u32, x: f32) {
+    if slot != HEAT_OFF && x != 0.0 {
+        let k = i * HEAT_LANES + slot;
+        heat[k] = ledger_add(heat[k], x, params.one);
     }
 }

@@ -132,3 +132,48 @@ fn run_on_gpu_backend_matches_cpu() {
     }
     assert!(((out[1] - out[0]) / out[0]).abs() < 1e-3, "mean height cpu {} gpu {}", out[0], out[1]);
 }
+
+// A script's energy account on the GPU: grains thrown at the floor of a small box (4000
+// steps) release friction heat; `d.energies()` and the `heat` column of `d.record()` show the
+// GPU's heat, equal to the CPU's within 1e-2, and the GPU's total within 1e-3 of its start.
+#[test]
+fn energies_and_record_show_the_heat_of_a_gpu_run() {
+    let script = r#"
+        let b = new_box("throw");
+        b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+        let d = b.build_initial_model();
+        d.gravity = [0.0, 0.0, -9.81];
+        d.set_standard_dt();
+        d.set_velocity("sample", [0.0, 0.0, -0.3]);
+        let e0 = d.energies();
+        d.run(4000);
+        let e = d.energies();
+        d.record();
+        print(`heat=${e.heat_damping + e.heat_contact_damping + e.heat_friction + e.heat_breakage}`);
+        print(`recorded=${d.status.last("heat")}`);
+        print(`total0=${e0.total}`);
+        print(`total=${e.total}`);
+    "#;
+    let mut heat = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        let dir = temp_dir(&format!("gpu_heat_{backend}"));
+        let o = run_script(&dir, "s.rhai", script, &["--backend", backend]);
+        if backend == "gpu" && o.status.code() == Some(2) && !gpu_required() {
+            eprintln!("skipped: no GPU adapter: {}", stderr(&o));
+            return;
+        }
+        assert!(o.status.success(), "{backend}: {}", stderr(&o));
+        let out = stdout(&o);
+        let value = |key: &str| -> f64 {
+            let line = out.lines().find_map(|l| l.strip_prefix(key)).unwrap_or_else(|| panic!("no {key} in {out}"));
+            line.trim().parse().unwrap()
+        };
+        let (h, recorded, total0, total) = (value("heat="), value("recorded="), value("total0="), value("total="));
+        eprintln!("{backend}: heat {h:e}, recorded {recorded:e}, total {total0:e} -> {total:e}");
+        assert!(h > 0.0, "{backend}: the throw must release heat");
+        assert_eq!(recorded, h, "{backend}: record's heat column");
+        assert!((total - total0).abs() < 1e-3 * total0, "{backend}: the account moved from {total0:e} to {total:e}");
+        heat.push(h);
+    }
+    assert!(((heat[1] - heat[0]) / heat[0]).abs() < 1e-2, "heat cpu {:e} gpu {:e}", heat[0], heat[1]);
+}

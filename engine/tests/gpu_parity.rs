@@ -409,12 +409,13 @@ fn device_rows_match_cpu(ctx: &Arc<GpuContext>, m: &Model) -> (usize, usize, usi
         for (k, &j) in ra.iter().enumerate() {
             let Some(e) = b.find(i, j) else { continue };
             let (sa, sb) = (a.state[a.row(i).start + k], b.state[e]);
+            // The whole state, its dashpot force included (f32 on both sides).
             let f32s = |s: &matdem_engine::physics::contact_law::PairState| {
-                [s.shear.x as f32, s.shear.y as f32, s.shear.z as f32, f32::from(u8::from(s.bonded))]
+                [s.shear.x as f32, s.shear.y as f32, s.shear.z as f32, f32::from(u8::from(s.bonded)), s.dashpot]
             };
             assert_eq!(f32s(&sa), f32s(&sb), "state of ({i}, {j})");
             entries += 1;
-            set += usize::from(sa.bonded || sa.shear != Vec3::zeros());
+            set += usize::from(sa.bonded || sa.shear != Vec3::zeros() || sa.dashpot != 0.0);
             far_bonds += usize::from(sa.bonded && dist(j) > cut(j));
         }
     }
@@ -491,12 +492,52 @@ fn rows_split_into_slabs_run_bitwise_like_one_binding() {
         let w = m.particles.rotation.as_ref().unwrap().ang_vel.clone();
         let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
         let loads: Vec<u64> = m.walls.iter().map(|w| w.normal_force.to_bits()).collect();
-        (bits(&m.particles.pos), bits(&m.particles.vel), bits(&w), loads, m.contacts.other.clone())
+        // The per-slab dashpot forces and the heat ledger (local damping, contact damping,
+        // friction) must split without a bit of difference too.
+        let dashpot: Vec<u32> = m.contacts.state.iter().map(|s| s.dashpot.to_bits()).collect();
+        let h = &m.particles.heat;
+        let heat: Vec<u64> = [&h.damping, &h.contact_damping, &h.friction]
+            .iter()
+            .flat_map(|lane| lane.iter().map(|x| x.to_bits()))
+            .collect();
+        (bits(&m.particles.pos), bits(&m.particles.vel), bits(&w), loads, m.contacts.other.clone(), dashpot, heat)
     };
     let one = go(None);
     let split = go(Some(16 << 10));
     assert!(one.3.iter().any(|&l| f64::from_bits(l) > 0.0), "the grains reach the floor");
+    assert!(one.5.iter().any(|&f| f32::from_bits(f) != 0.0), "contacts carry dashpot forces");
+    let h = &one.6;
+    let third = h.len() / 3;
+    for (name, lane) in ["damping", "contact damping", "friction"].iter().zip(h.chunks(third)) {
+        assert!(lane.iter().any(|&x| f64::from_bits(x) > 0.0), "the run books {name} heat");
+    }
     assert!(one == split, "the split run differs from the unsplit one");
+}
+
+// A head-on contact has no shear spring, only a dashpot force: a device row build in mid
+// contact carries that force with the pair, as the CPU's rebuild carries the whole state, so
+// the next step's trapezoid still has it (bitwise: the force is f32 on both sides).
+#[test]
+fn a_head_on_contact_keeps_its_dashpot_force_through_a_device_row_build() {
+    let Some(ctx) = gpu("head_on_dashpot_rows") else { return };
+    let (young, nu, rho, r, v) = (4.8e10, 0.2, 2800.0, 0.01, 1.0);
+    let mut mat = material("glass", rho, 1e6, young, nu);
+    mat.restitution = 0.5;
+    let mut model = two_spheres(mat, r, 1e-6, v, NormalKind::Hertz);
+    model.set_dt(HertzImpact::two_spheres(young, nu, rho, r, v).t_c / 200.0).unwrap();
+    let mut gpu = Simulation::with_gpu(model, ctx.clone());
+    run(&mut gpu, 60).unwrap();
+    let before = gpu.model.contacts.state.clone();
+    assert!(
+        before.len() == 2 && before.iter().all(|s| s.shear == Vec3::zeros() && !s.bonded && s.dashpot != 0.0),
+        "mid contact, head on: a dashpot force and nothing else {before:?}"
+    );
+    let mut m = gpu.model.clone();
+    let mut backend = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+    backend.build_rows_once(&mut m).unwrap().expect("the rows fit their slots");
+    assert_eq!(backend.row_stats().device_builds, 1);
+    assert_eq!(m.contacts.state, before, "the device build kept the pair's state");
+    device_rows_match_cpu(&ctx, &gpu.model);
 }
 
 // A row that outgrows its slots goes through the host: forty grains converge on a fixed

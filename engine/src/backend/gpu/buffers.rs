@@ -35,6 +35,9 @@ pub struct Params {
     pub buckets: u32,
     pub skin: f32,
     pub cell: f32,
+    /// 1.0, opaque to the shader compiler (`ledger_add` in common.wgsl).
+    pub one: f32,
+    pub pad: [f32; 3],
 }
 
 /// A wall (`Wall` in common.wgsl).
@@ -102,12 +105,17 @@ pub struct HostLanes {
     pub walls: Vec<WallLane>,
     pub pairs: Vec<[f32; 12]>,
     pub wall_pairs: Vec<[f32; 12]>,
+    /// Per entry, in the rows' slots: the dashpot force of the last step (empty without a dashpot).
+    pub dashpot: Vec<f32>,
+    /// Heat ledger slots per particle ([`super::heat::Layout`]).
+    pub heat_lanes: usize,
 }
 
 impl HostLanes {
     /// Converts the model (rows must be current) for a device run with `plan`, its rows in
-    /// slots of `cap`. `damping_rate[i]` is c_i/m_i of the viscous damping (empty when off).
-    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64], cap: usize) -> Self {
+    /// slots of `cap` and `heat_lanes` ledger slots a particle. `damping_rate[i]` is c_i/m_i
+    /// of the viscous damping (empty when off).
+    pub fn from_model(m: &Model, plan: &StepPlan, damping_rate: &[f64], cap: usize, heat_lanes: usize) -> Self {
         let p = &m.particles;
         let n = p.len();
         let mut origin = Vec::with_capacity(n);
@@ -129,7 +137,7 @@ impl HostLanes {
             }
             _ => (Vec::new(), Vec::new()),
         };
-        let slots = rows::to_slots(&m.contacts, n, cap);
+        let slots = rows::to_slots(&m.contacts, n, cap, plan.dashpot);
         let walls = m
             .walls
             .iter()
@@ -168,10 +176,13 @@ impl HostLanes {
             row_len: slots.row_len,
             other: slots.other,
             state: slots.state,
-            wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, 0.0)).collect(),
+            dashpot: slots.dashpot,
+            // A wall contact is never bonded: w carries its dashpot force.
+            wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, s.dashpot)).collect(),
             walls,
             pairs: plan.pair.iter().map(pair_lane).collect(),
             wall_pairs: plan.wall.iter().map(pair_lane).collect(),
+            heat_lanes,
         }
     }
 }
@@ -185,6 +196,8 @@ pub struct SlabLanes {
     pub other: wgpu::Buffer,
     pub state: wgpu::Buffer,
     pub wall_state: wgpu::Buffer,
+    /// The pairs' dashpot forces (a placeholder without a dashpot).
+    pub dashpot: wgpu::Buffer,
 }
 
 /// One level of the cell list's prefix scan (`ScanLevel` in scan.wgsl) and its workgroups.
@@ -222,6 +235,8 @@ pub struct DeviceLanes {
     pub partials: wgpu::Buffer,
     pub counters: wgpu::Buffer,
     pub events: wgpu::Buffer,
+    /// The heat ledger ([`super::heat`]), zero at upload.
+    pub heat: wgpu::Buffer,
     /// Bytes of all device buffers.
     pub bytes: u64,
 }
@@ -265,6 +280,11 @@ impl DeviceLanes {
                 other: make("neighbour ids", bytes_of(&h.other[r.start * cap..r.end * cap]))?,
                 state: make("pair state", bytes_of(&h.state[r.start * cap..r.end * cap]))?,
                 wall_state: make("wall contact state", bytes_of(&h.wall_state[r.start * nw..r.end * nw]))?,
+                dashpot: if h.dashpot.is_empty() {
+                    make("dashpot forces", &[])?
+                } else {
+                    make("dashpot forces", bytes_of(&h.dashpot[r.start * cap..r.end * cap]))?
+                },
             });
         }
         let levels = memory::scan_levels(n);
@@ -312,6 +332,7 @@ impl DeviceLanes {
                 contents: bytemuck::bytes_of(&params),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             }),
+            heat: make("heat ledger", &vec![0u8; n * h.heat_lanes * 8])?,
             bytes: 0,
         };
         Ok(DeviceLanes { bytes: bytes + std::mem::size_of::<Params>() as u64, ..lanes })
@@ -404,18 +425,23 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
     let nw = h.walls.len();
     let mut other = Vec::with_capacity(n * cap);
     let mut state = Vec::with_capacity(n * cap);
+    let mut dashpot = Vec::with_capacity(if h.dashpot.is_empty() { 0 } else { n * cap });
     let mut wall_state = Vec::with_capacity(n * nw);
     for s in &d.slabs {
         other.extend(read::<u32>(ctx, &s.other, s.count * cap)?);
         state.extend(read::<[f32; 4]>(ctx, &s.state, s.count * cap)?);
+        if !h.dashpot.is_empty() {
+            // The dashpot forces go back too, so a CPU run continues the trapezoid.
+            dashpot.extend(read::<f32>(ctx, &s.dashpot, s.count * cap)?);
+        }
         wall_state.extend(read::<[f32; 4]>(ctx, &s.wall_state, s.count * nw)?);
     }
-    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state };
+    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state, dashpot };
     let built: Vec<[f32; 4]> = read(ctx, &d.built, n)?;
     let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
     rows::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
-        *s = PairState { shear: to64(g), bonded: false, dashpot: 0.0 };
+        *s = PairState { shear: to64(g), bonded: false, dashpot: g[3] };
     }
     let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
     for (w, g) in m.walls.iter_mut().zip(&walls) {

@@ -30,6 +30,8 @@ pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes
                 &d.counters,
                 &d.events,
                 &s.uniform,
+                &s.dashpot,
+                &d.heat,
             ];
             Kernel::bind(device, p, &buffers, groups_for(s.count))
         })

@@ -9,7 +9,18 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    let buffers =
-        [&d.params, &d.origin, &d.body, &d.kind, &d.force, &d.vel, &d.disp, &d.torque, &d.ang_vel, &d.counters];
+    let buffers = [
+        &d.params,
+        &d.origin,
+        &d.body,
+        &d.kind,
+        &d.force,
+        &d.vel,
+        &d.disp,
+        &d.torque,
+        &d.ang_vel,
+        &d.counters,
+        &d.heat,
+    ];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }

@@ -2,8 +2,9 @@
 //! of the neighbour-row slots, how the per-entry lanes are split into slabs of particles so
 //! each slab fits one storage binding, and what the whole takes.
 //!
-//! Per-particle lanes (16 bytes × N at most) are bound whole: any row may read any
-//! neighbour's position. Per-entry lanes (neighbour ids, pair state, wall contact state) are
+//! Per-particle lanes (16 bytes × N at most, 8 × the heat causes for the heat ledger) are
+//! bound whole: any row may read any neighbour's position. Per-entry lanes (neighbour ids,
+//! pair state, pair dashpot force, wall contact state) are
 //! read only by the particle that owns the entry, so they can live in one buffer per slab
 //! and each kernel that reads them runs once per slab. A slab holds a multiple of 64
 //! particles, the workgroup size, so the workgroups and their wall-load partials are the
@@ -16,6 +17,8 @@ use std::ops::Range;
 pub const WORKGROUP: usize = 64;
 /// Bytes of one pair state or wall contact state (vec4<f32>).
 const STATE_BYTES: u64 = 16;
+/// Bytes of one heat ledger slot: a compensated (hi, lo) f32 pair.
+const HEAT_SLOT_BYTES: u64 = 8;
 /// Rows the device builds carry at most this many entries with a set state (a contact or a
 /// bond); a row with more is built on the host (see `MAX_CARRY` in rows.wgsl).
 pub const MAX_CARRY: usize = 64;
@@ -50,6 +53,10 @@ pub struct Scene {
     pub rotation: bool,
     /// Bonds that may break (each can log one event).
     pub bonds: usize,
+    /// Whether pairs carry a dashpot force (4 bytes a row entry).
+    pub dashpot: bool,
+    /// Heat ledger slots a particle ([`super::heat::Layout::lanes`], 8 bytes each).
+    pub heat_lanes: usize,
 }
 
 /// Slot width for rows whose longest is `longest`: room for a quarter more (at least four),
@@ -122,13 +129,21 @@ impl MemoryPlan {
         if scan > lane {
             return Err(GpuError::BufferTooLarge { lane: "cell list", bytes: scan, limit: lane }.into());
         }
+        // The heat ledger is one lane bound whole: every cause of a particle side by side.
+        let heat = HEAT_SLOT_BYTES * scene.heat_lanes as u64 * n as u64;
+        if heat > lane {
+            return Err(GpuError::BufferTooLarge { lane: "heat ledger", bytes: heat, limit: lane }.into());
+        }
         let table = scan + 4 * (buckets(n) as u64 + 1);
         // One event per bond that may break, as far as one binding holds.
         let max_events = scene.bonds.clamp(1, (lane / 16) as usize);
         let rotation = if scene.rotation { 2 } else { 0 };
         // origin, displacement, velocity, body, force, build position (+ angular velocity, torque).
-        let per_particle = (6 + rotation) as u64 * 16 + 4 * 3; // + kind, row length, cell item
-        let per_entry = (4 + STATE_BYTES) * cap as u64 + STATE_BYTES * scene.walls as u64;
+        // + kind, row length, cell item, and a (hi, lo) f32 pair per heat cause.
+        let per_particle = (6 + rotation) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64;
+        // Neighbour id, pair state (and dashpot force) per slot; a state per wall.
+        let per_slot = 4 + STATE_BYTES + if scene.dashpot { 4 } else { 0 };
+        let per_entry = per_slot * cap as u64 + STATE_BYTES * scene.walls as u64;
         let partials = (n.div_ceil(WORKGROUP) * scene.walls * 32) as u64;
         let bytes = n as u64 * (per_particle + per_entry) + table + partials + 16 * max_events as u64;
         Ok(MemoryPlan { particles: n, cap, walls: scene.walls, slab, bytes, max_events })
@@ -160,9 +175,19 @@ mod tests {
     #[test]
     fn fifty_million_bench_particles_fit_an_h100_under_one_kilobyte_each() {
         // The bench lattice: six face neighbours within the skin, five walls, rotation on,
-        // no bonds; rows up to 14 long once the lattice settles into a denser packing.
+        // no bonds; rows up to 14 long once the lattice settles into a denser packing. Its
+        // restitution of 0.5 gives every pair a dashpot force, and its heat ledger books
+        // contact damping and friction (two slots; its walls are fixed).
         for longest in [6, 14] {
-            let scene = Scene { particles: 50_000_000, longest_row: longest, walls: 5, rotation: true, bonds: 0 };
+            let scene = Scene {
+                particles: 50_000_000,
+                longest_row: longest,
+                walls: 5,
+                rotation: true,
+                bonds: 0,
+                dashpot: true,
+                heat_lanes: 2,
+            };
             let plan = MemoryPlan::new(scene, H100).unwrap();
             let per = plan.bytes_per_particle();
             eprintln!("longest row {longest}: cap {}, {} slabs, {per:.0} B/particle", plan.cap, plan.slabs().len());
@@ -171,12 +196,23 @@ mod tests {
             assert!(plan.slab as u64 * 16 * plan.cap as u64 <= H100.binding);
             assert_eq!(plan.slab % WORKGROUP, 0);
             assert_eq!(plan.slabs().last().unwrap().end, 50_000_000);
+            // The dashpot force (4 B a slot) and two ledger slots (8 B each) are counted.
+            let bare = MemoryPlan::new(Scene { dashpot: false, heat_lanes: 0, ..scene }, H100).unwrap();
+            assert_eq!(plan.bytes - bare.bytes, 50_000_000 * (4 * plan.cap as u64 + 2 * 8));
         }
     }
 
     #[test]
     fn a_small_binding_splits_the_rows_into_workgroup_slabs() {
-        let scene = Scene { particles: 1000, longest_row: 12, walls: 2, rotation: false, bonds: 10 };
+        let scene = Scene {
+            particles: 1000,
+            longest_row: 12,
+            walls: 2,
+            rotation: false,
+            bonds: 10,
+            dashpot: true,
+            heat_lanes: 5,
+        };
         let plan = MemoryPlan::new(scene, Limits { binding: 64 * 16 * 16 * 3 + 5, buffer: 1 << 30 }).unwrap();
         assert_eq!(plan.cap, 16);
         assert_eq!(plan.slab, 192);
@@ -186,8 +222,22 @@ mod tests {
 
     #[test]
     fn a_lane_that_cannot_fit_is_named_with_the_limit() {
-        let scene = Scene { particles: 10_000_000, longest_row: 6, walls: 0, rotation: false, bonds: 0 };
+        let mut scene = Scene {
+            particles: 10_000_000,
+            longest_row: 6,
+            walls: 0,
+            rotation: false,
+            bonds: 0,
+            dashpot: false,
+            heat_lanes: 0,
+        };
         let e = MemoryPlan::new(scene, Limits { binding: 128 << 20, buffer: 1 << 40 }).unwrap_err().to_string();
         assert!(e.contains("`positions`") && e.contains("134217728") && e.contains("fewer particles"), "{e}");
+        // Positions fit 256 MiB (160 MB), a ledger of all five causes (400 MB) does not.
+        let limits = Limits { binding: 256 << 20, buffer: 1 << 40 };
+        assert!(MemoryPlan::new(scene, limits).is_ok());
+        scene.heat_lanes = 5;
+        let e = MemoryPlan::new(scene, limits).unwrap_err().to_string();
+        assert!(e.contains("`heat ledger`") && e.contains("400000000") && e.contains("268435456"), "{e}");
     }
 }

@@ -7,25 +7,31 @@
 //! wall forces → integration; when the drift reaches half the skin the rows are rebuilt on
 //! the device ([`rows`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
-//! lanes it does not need (rotation) are 128-byte placeholders. Rows live in fixed-width
-//! slots, and the per-entry lanes are split into slabs that each fit one storage binding
-//! ([`memory`]), so a model is refused only when a single lane truly cannot fit.
+//! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
+//! 128-byte placeholders or absent. Rows live in fixed-width slots, and the per-entry lanes
+//! are split into slabs that each fit one storage binding ([`memory`]), so a model is
+//! refused only when a single lane truly cannot fit.
 //!
 //! Deterministic: each particle sums its own row and writes only its own lanes; wall loads
 //! are reduced in a fixed tree order; rows are sorted after they are collected; the only
 //! atomics count integers (breakage events, sorted on the host; drift maxima; guard minima;
 //! cell list counts). Two runs give the same bits, however the lanes are split.
 //!
+//! Heat is booked on the device by cause, as the CPU books it (each row half of every pair's
+//! heat), into compensated f32 sums that each download adds to the model's f64 ledger
+//! ([`heat`]).
+//!
 //! Not done on the device (the host keeps them): the first rows of a run (built at upload,
 //! when the model is on the host anyway), a row build whose rows outgrow their slots or carry
 //! more than [`memory::MAX_CARRY`] contacts and bonds (the host builds those and lays the
-//! slots out wider; [`RowStats`] counts them), heat bookkeeping (no heat ledger on this
-//! backend), and energy samples (the state comes back to the host for each sample).
+//! slots out wider; [`RowStats`] counts them), and energy samples (the state comes back to
+//! the host for each sample).
 
 pub mod buffers;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
+pub mod heat;
 pub mod integrate;
 pub mod memory;
 pub mod neighbours;
@@ -105,6 +111,8 @@ pub struct GpuBackend {
     damping_rate: Vec<f64>,
     /// Bytes of the device buffers of the last run.
     device_bytes: u64,
+    /// The heat ledger's slots.
+    ledger: heat::Layout,
     /// The first error the device reported outside a call (wgpu's uncaptured errors).
     errors: Arc<Mutex<Option<String>>>,
     /// A storage binding limit below the device's (tests of the split into slabs).
@@ -126,7 +134,9 @@ impl GpuBackend {
             }
         }));
         let device = &ctx.device;
-        let constants = shaders::constants(&plan);
+        let ledger = heat::Layout::for_plan(&plan);
+        let mut constants = shaders::constants(&plan);
+        constants.extend(ledger.constants());
         let pipelines = Pipelines {
             drift: neighbours::pipeline(device, &constants),
             rows: rows::pipelines(device, &constants),
@@ -158,6 +168,7 @@ impl GpuBackend {
             damping_rate,
             device_bytes: 0,
             errors,
+            ledger,
             binding_limit: None,
             rows: RowStats::default(),
         };
@@ -293,10 +304,12 @@ impl GpuBackend {
             walls: m.walls.len(),
             rotation: self.plan.rotation,
             bonds,
+            dashpot: self.plan.dashpot,
+            heat_lanes: self.ledger.lanes(),
         };
         let limits = self.limits();
         let layout = memory::MemoryPlan::new(scene, limits)?;
-        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate, layout.cap);
+        let host = HostLanes::from_model(m, &self.plan, &self.damping_rate, layout.cap, self.ledger.lanes());
         let wall_groups = wall_forces::partial_groups(n);
         let r_max = m.particles.radius.iter().copied().fold(0.0, f64::max);
         let skin = m.contacts.skin;
@@ -315,6 +328,8 @@ impl GpuBackend {
             skin: skin as f32,
             // The longest reach, padded so f32 round-off never puts a neighbour two cells away.
             cell: ((2.0 * r_max + skin) * 1.001) as f32,
+            one: 1.0,
+            pad: [0.0; 3],
         };
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limits.binding.min(limits.buffer))?;
         let device = &self.ctx.device;
@@ -415,6 +430,7 @@ impl GpuBackend {
             self.ctx.queue.submit([enc.finish()]);
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
+        self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
         let count = counters[C_EVENTS] as usize;
         if count > s.lanes.plan.max_events {

@@ -21,11 +21,20 @@ pub struct Slots {
     pub row_len: Vec<u32>,
     pub other: Vec<u32>,
     pub state: Vec<[f32; 4]>,
+    /// The pairs' dashpot forces of the last step; empty when the plan has no dashpot.
+    pub dashpot: Vec<f32>,
 }
 
-/// The host's rows (`n` of them, each at most `cap` long) in slots; states in f32.
-pub fn to_slots(c: &Contacts, n: usize, cap: usize) -> Slots {
-    let mut s = Slots { cap, row_len: vec![0; n], other: vec![0; n * cap], state: vec![[0.0; 4]; n * cap] };
+/// The host's rows (`n` of them, each at most `cap` long) in slots; states in f32, dashpot
+/// forces only when `dashpot`.
+pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool) -> Slots {
+    let mut s = Slots {
+        cap,
+        row_len: vec![0; n],
+        other: vec![0; n * cap],
+        state: vec![[0.0; 4]; n * cap],
+        dashpot: if dashpot { vec![0.0; n * cap] } else { Vec::new() },
+    };
     for i in 0..n.min(c.row_start.len().saturating_sub(1)) {
         let row = c.row(i);
         s.row_len[i] = row.len() as u32;
@@ -34,6 +43,9 @@ pub fn to_slots(c: &Contacts, n: usize, cap: usize) -> Slots {
             s.other[i * cap + k] = c.other[e];
             s.state[i * cap + k] =
                 [st.shear.x as f32, st.shear.y as f32, st.shear.z as f32, if st.bonded { 1.0 } else { 0.0 }];
+            if dashpot {
+                s.dashpot[i * cap + k] = st.dashpot;
+            }
         }
     }
     s
@@ -51,10 +63,13 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
     for i in 0..n {
         let slots = i * s.cap..i * s.cap + s.row_len[i] as usize;
         other.extend_from_slice(&s.other[slots.clone()]);
-        state.extend(s.state[slots].iter().map(|g| PairState {
-            shear: Vec3::new(f64::from(g[0]), f64::from(g[1]), f64::from(g[2])),
-            bonded: g[3] != 0.0,
-            dashpot: 0.0,
+        state.extend(slots.map(|e| {
+            let g = s.state[e];
+            PairState {
+                shear: Vec3::new(f64::from(g[0]), f64::from(g[1]), f64::from(g[2])),
+                bonded: g[3] != 0.0,
+                dashpot: s.dashpot.get(e).copied().unwrap_or(0.0),
+            }
         }));
         row_start.push(other.len() as u32);
     }
@@ -151,6 +166,7 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels
                     &d.built,
                     &d.counters,
                     &s.uniform,
+                    &s.dashpot,
                 ];
                 Kernel::bind(device, pipeline, &buffers, groups_for(s.count))
             })
@@ -213,7 +229,9 @@ mod tests {
             for &j in *r {
                 c.other.push(j);
                 let bonded = (i as u32).min(j) == 0;
-                c.state.push(PairState { shear: Vec3::new(i as f64, j as f64, 0.5), bonded, dashpot: 0.0 });
+                // Dashpot forces exact in f32, so the round trip is exact.
+                let dashpot = 0.25 * j as f32;
+                c.state.push(PairState { shear: Vec3::new(i as f64, j as f64, 0.5), bonded, dashpot });
             }
             c.row_start.push(c.other.len() as u32);
         }
@@ -221,13 +239,15 @@ mod tests {
     }
 
     #[test]
-    fn rows_go_to_slots_and_back_with_the_host_pair_ids() {
+    fn rows_and_dashpot_forces_go_to_slots_and_back_with_the_host_pair_ids() {
         let mut c = contacts(&[&[1, 3], &[0, 2, 3], &[1], &[0, 1]]);
         c.skin = 1e-4;
-        let s = to_slots(&c, 4, 5);
+        assert!(to_slots(&c, 4, 5, false).dashpot.is_empty(), "no dashpot lane without a dashpot");
+        let s = to_slots(&c, 4, 5, true);
         assert_eq!(s.row_len, [2, 3, 1, 2]);
         assert_eq!(&s.other[5..8], [0, 2, 3]);
         assert_eq!(s.state[5], [1.0, 0.0, 0.5, 1.0]);
+        assert_eq!(&s.dashpot[5..8], [0.0, 0.5, 0.75]);
         let before = c.clone();
         into_contacts(&s, vec![Vec3::zeros(); 4], &mut c);
         assert_eq!((c.row_start.clone(), c.other.clone()), (before.row_start, before.other));

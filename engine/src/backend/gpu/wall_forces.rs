@@ -28,6 +28,7 @@ pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes
                 &d.torque,
                 &d.partials,
                 &s.uniform,
+                &d.heat,
             ];
             Kernel::bind(device, p, &buffers, groups_for(s.count))
         })
