@@ -12,24 +12,11 @@
 
 mod common;
 
-use common::{material, rel, run, two_spheres, HertzImpact};
-use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
+use common::{gpu, material, rel, run, two_spheres, HertzImpact};
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::status::Energies;
 use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall, WallMotion};
 use std::sync::Arc;
-
-/// A GPU device, or `None` (after a note) when there is none and none is required.
-fn gpu(test: &str) -> Option<Arc<GpuContext>> {
-    let required = std::env::var("MATDEM_REQUIRE_GPU").is_ok_and(|v| v == "1");
-    let why = match select(BackendChoice::Gpu) {
-        Ok(Compute::Gpu(ctx)) => return Some(ctx),
-        Ok(Compute::Cpu { reason }) => reason,
-        Err(e) => e.to_string(),
-    };
-    assert!(!required, "{test}: MATDEM_REQUIRE_GPU=1 but no GPU adapter: {why}");
-    eprintln!("{test}: skipped: no GPU adapter ({why})");
-    None
-}
 
 /// The account of a scene at the start and at the end on each backend.
 struct Accounts {

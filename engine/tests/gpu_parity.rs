@@ -11,9 +11,9 @@
 
 mod common;
 
-use common::{material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres, HertzImpact};
+use common::{gpu, material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres, HertzImpact};
 use matdem_engine::backend::cpu::neighbours::{is_stale, rebuild};
-use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
+use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::gpu::{GpuBackend, RowStats};
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::Rng;
@@ -21,19 +21,6 @@ use matdem_engine::physics::contact_law::BreakKind;
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Material, Model, NormalKind, Simulation, TangentialKind, Vec3, Wall, WallMotion};
 use std::sync::Arc;
-
-/// A GPU device, or `None` (after a note) when there is none and none is required.
-fn gpu(test: &str) -> Option<Arc<GpuContext>> {
-    let required = std::env::var("MATDEM_REQUIRE_GPU").is_ok_and(|v| v == "1");
-    let why = match select(BackendChoice::Gpu) {
-        Ok(Compute::Gpu(ctx)) => return Some(ctx),
-        Ok(Compute::Cpu { reason }) => reason,
-        Err(e) => e.to_string(),
-    };
-    assert!(!required, "{test}: MATDEM_REQUIRE_GPU=1 but no GPU adapter: {why}");
-    eprintln!("{test}: skipped: no GPU adapter ({why})");
-    None
-}
 
 /// The same model on both backends.
 fn both(model: Model, ctx: &Arc<GpuContext>) -> (Simulation, Simulation) {

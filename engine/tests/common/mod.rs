@@ -224,3 +224,18 @@ impl LinearImpact {
         LinearImpact { zeta, c, t_c: PI / omega_d, delta_max_undamped: v * (m_star / k).sqrt(), delta_max }
     }
 }
+
+/// A GPU device, or `None` (after a note) when there is none and none is required.
+#[cfg(feature = "gpu")]
+pub fn gpu(test: &str) -> Option<std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>> {
+    use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute};
+    let required = std::env::var("MATDEM_REQUIRE_GPU").is_ok_and(|v| v == "1");
+    let why = match select(BackendChoice::Gpu) {
+        Ok(Compute::Gpu(ctx)) => return Some(ctx),
+        Ok(Compute::Cpu { reason }) => reason,
+        Err(e) => e.to_string(),
+    };
+    assert!(!required, "{test}: MATDEM_REQUIRE_GPU=1 but no GPU adapter: {why}");
+    eprintln!("{test}: skipped: no GPU adapter ({why})");
+    None
+}

@@ -9,6 +9,7 @@
 use super::device::GpuContext;
 use super::memory::{self, MemoryPlan};
 use super::rows;
+use super::shaders::{groups_for, Kernel};
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
@@ -198,6 +199,18 @@ pub struct SlabLanes {
     pub wall_state: wgpu::Buffer,
     /// The pairs' dashpot forces (a placeholder without a dashpot).
     pub dashpot: wgpu::Buffer,
+}
+
+impl DeviceLanes {
+    /// One kernel per slab of rows: `buffers(slab)` lists the bindings 0, 1, 2, … for it.
+    pub fn per_slab<'a>(
+        &'a self,
+        device: &wgpu::Device,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: impl Fn(&'a SlabLanes) -> Vec<&'a wgpu::Buffer>,
+    ) -> Vec<Kernel> {
+        self.slabs.iter().map(|s| Kernel::bind(device, pipeline, &buffers(s), groups_for(s.count))).collect()
+    }
 }
 
 /// One level of the cell list's prefix scan (`ScanLevel` in scan.wgsl) and its workgroups.

@@ -3,37 +3,33 @@
 //! every run. One kernel per slab of rows. CPU twin: [`crate::backend::cpu::contact_forces`].
 
 use super::buffers::DeviceLanes;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, Kernel};
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, "contact_forces", shaders::CONTACT_FORCES, "compute_contact_forces", constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.slabs
-        .iter()
-        .map(|s| {
-            let buffers = [
-                &d.params,
-                &d.origin,
-                &d.disp,
-                &d.vel,
-                &d.body,
-                &d.kind,
-                &d.row_len,
-                &s.other,
-                &s.state,
-                &d.pairs,
-                &d.force,
-                &d.ang_vel,
-                &d.torque,
-                &d.counters,
-                &d.events,
-                &s.uniform,
-                &s.dashpot,
-                &d.heat,
-            ];
-            Kernel::bind(device, p, &buffers, groups_for(s.count))
-        })
-        .collect()
+    d.per_slab(device, p, |s| {
+        vec![
+            &d.params,
+            &d.origin,
+            &d.disp,
+            &d.vel,
+            &d.body,
+            &d.kind,
+            &d.row_len,
+            &s.other,
+            &s.state,
+            &d.pairs,
+            &d.force,
+            &d.ang_vel,
+            &d.torque,
+            &d.counters,
+            &d.events,
+            &s.uniform,
+            &s.dashpot,
+            &d.heat,
+        ]
+    })
 }

@@ -3,7 +3,7 @@
 //! CPU guard's message ([`crate::guard`]), so both backends stop with the same text.
 
 use super::buffers::DeviceLanes;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, Kernel};
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, "guard", shaders::GUARD, "check_state", constants)
@@ -11,24 +11,9 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
 
 /// One kernel per slab of rows.
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.slabs
-        .iter()
-        .map(|s| {
-            let buffers = [
-                &d.params,
-                &d.origin,
-                &d.disp,
-                &d.vel,
-                &d.force,
-                &d.row_len,
-                &s.other,
-                &d.walls,
-                &d.counters,
-                &s.uniform,
-            ];
-            Kernel::bind(device, p, &buffers, groups_for(s.count))
-        })
-        .collect()
+    d.per_slab(device, p, |s| {
+        vec![&d.params, &d.origin, &d.disp, &d.vel, &d.force, &d.row_len, &s.other, &d.walls, &d.counters, &s.uniform]
+    })
 }
 
 /// What each guard slot means, worded as the CPU guard words it.

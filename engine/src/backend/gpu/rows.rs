@@ -151,26 +151,22 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels
         Kernel::bind_at(device, pipeline, &[(0, &d.scan), (1, &l.uniform)], grid(l.workgroups))
     };
     let rows = |pipeline: &wgpu::ComputePipeline| -> Vec<Kernel> {
-        d.slabs
-            .iter()
-            .map(|s| {
-                let buffers = [
-                    &d.params,
-                    &d.origin,
-                    &d.disp,
-                    &d.scan,
-                    &d.cell_items,
-                    &d.row_len,
-                    &s.other,
-                    &s.state,
-                    &d.built,
-                    &d.counters,
-                    &s.uniform,
-                    &s.dashpot,
-                ];
-                Kernel::bind(device, pipeline, &buffers, groups_for(s.count))
-            })
-            .collect()
+        d.per_slab(device, pipeline, |s| {
+            vec![
+                &d.params,
+                &d.origin,
+                &d.disp,
+                &d.scan,
+                &d.cell_items,
+                &d.row_len,
+                &s.other,
+                &s.state,
+                &d.built,
+                &d.counters,
+                &s.uniform,
+                &s.dashpot,
+            ]
+        })
     };
     Kernels {
         bin: Kernel::bind_at(device, &p.bin, &cells, groups_for(d.n)),

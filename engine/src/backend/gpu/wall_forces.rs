@@ -3,36 +3,32 @@
 //! CPU twin: [`crate::backend::cpu::wall_forces`].
 
 use super::buffers::DeviceLanes;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, Kernel};
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, "wall_forces", shaders::WALL_FORCES, "compute_wall_forces", constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.slabs
-        .iter()
-        .map(|s| {
-            let buffers = [
-                &d.params,
-                &d.origin,
-                &d.disp,
-                &d.vel,
-                &d.body,
-                &d.kind,
-                &d.walls,
-                &d.wall_pairs,
-                &s.wall_state,
-                &d.force,
-                &d.ang_vel,
-                &d.torque,
-                &d.partials,
-                &s.uniform,
-                &d.heat,
-            ];
-            Kernel::bind(device, p, &buffers, groups_for(s.count))
-        })
-        .collect()
+    d.per_slab(device, p, |s| {
+        vec![
+            &d.params,
+            &d.origin,
+            &d.disp,
+            &d.vel,
+            &d.body,
+            &d.kind,
+            &d.walls,
+            &d.wall_pairs,
+            &s.wall_state,
+            &d.force,
+            &d.ang_vel,
+            &d.torque,
+            &d.partials,
+            &s.uniform,
+            &d.heat,
+        ]
+    })
 }
 
 /// Workgroups of the wall pass over all slabs (slabs start on a workgroup boundary): one
