@@ -12,6 +12,7 @@
 use super::blocks::{for_blocks, Rows, Strided};
 use super::contact_forces::{book_heat, gather_row, pair_pass, Breaks, PairScratch};
 use super::integrate::{advance, spin, Motion, Observed, Translation};
+use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState, TangentialLaw};
@@ -69,6 +70,9 @@ where
     breaks
 }
 
+/// How many particles ahead the pass asks for wall states.
+const WALL_AHEAD: usize = 8;
+
 /// The pass after the pair pass: gather, walls, integration, particle by particle.
 fn finish<N, T, const DASHPOT: bool, const ROT: bool, const DAMP: bool, const LOCAL: bool>(
     m: &mut Model,
@@ -115,6 +119,13 @@ where
             for i in range.clone() {
                 let li = i - range.start;
                 let ri = radius[i];
+                // The wall states of the particles along a wall are far apart and fall out of
+                // the cache between steps: ask for the next ones while this particle works.
+                let ahead = li + WALL_AHEAD;
+                if ahead < range.len() && near[i + WALL_AHEAD] != 0 {
+                    let w = near[i + WALL_AHEAD].trailing_zeros() as usize;
+                    prefetch(&wall_state.items[ahead * nw + w]);
+                }
                 // Stage 3: the row's forces.
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;

@@ -6,6 +6,7 @@ pub mod contact_forces;
 pub mod fused;
 pub mod integrate;
 pub mod neighbours;
+mod prefetch;
 pub mod wall_forces;
 
 use crate::model::{Breakage, Model};
