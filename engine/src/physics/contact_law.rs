@@ -144,7 +144,8 @@ impl NormalLaw for Hertz {
     }
     #[inline(always)]
     fn dashpot(p: &PairParams, r_star: f64, m_star: f64, overlap: f64) -> f64 {
-        p.alpha * (m_star * hertz_constant(p.e_star, r_star)).sqrt() * overlap.sqrt().sqrt()
+        // α·√(m*·Kh)·δ^¼ as α·√(m*·Kh·√δ): one square root on top of the force's √δ.
+        p.alpha * (m_star * hertz_constant(p.e_star, r_star) * overlap.sqrt()).sqrt()
     }
     #[inline(always)]
     fn energy(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
@@ -178,7 +179,8 @@ impl TangentialLaw for MindlinShear {
     const NAME: &'static str = "mindlin shear spring";
     #[inline(always)]
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
-        8.0 * p.g_star * (r_star * overlap.max(0.0)).sqrt()
+        // √R*·√δ rather than √(R*·δ): Hertz's force has taken both roots already.
+        8.0 * p.g_star * r_star.sqrt() * overlap.max(0.0).sqrt()
     }
 }
 
@@ -196,9 +198,12 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     let mut out = ContactResult::default();
     let overlap = g.overlap;
     let touching = overlap > 0.0;
+    // The laws read the overlap clamped at zero, the very value while touching, so that the
+    // tangential law's √max(δ, 0) is the normal law's √δ, taken once.
+    let compressed = overlap.max(0.0);
     // Elastic normal force: the law in compression, the bond's linear spring in tension.
     let (fn_el, kn) = if touching {
-        (N::force(p, g.r_star, overlap), N::stiffness(p, g.r_star, overlap))
+        (N::force(p, g.r_star, compressed), N::stiffness(p, g.r_star, compressed))
     } else {
         (p.kn * overlap, p.kn)
     };
@@ -206,7 +211,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     // Normal relative velocity, > 0 while the overlap grows.
     let vn = g.v_rel.dot(&g.n);
     // Shear spring: carry the old force into the current tangent plane, then add Ks·Δu_t.
-    let kt = T::stiffness(p, g.r_star, overlap);
+    let kt = T::stiffness(p, g.r_star, compressed);
     let vt = g.v_rel - g.n * vn;
     let s_prev = rotate_into_plane(state.shear, &g.n);
     let mut s = s_prev - vt * (kt * dt);
@@ -221,7 +226,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     }
     let mut fn_total = fn_el;
     if DASHPOT && touching {
-        let c = N::dashpot(p, g.r_star, g.m_star, overlap);
+        let c = N::dashpot(p, g.r_star, g.m_star, compressed);
         let f_dash = c * vn;
         fn_total += f_dash;
         // The dashpot force works over the step at the mean of its last and present values
