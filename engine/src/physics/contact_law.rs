@@ -416,6 +416,29 @@ mod tests {
     }
 
     #[test]
+    fn hertz_dashpot_is_alpha_sqrt_m_kh_times_quarter_power_of_overlap() {
+        // The law takes α·√(m*·Kh·√δ) to save a root: the same as the textbook form.
+        let p = PairParams { alpha: 0.37, ..params() };
+        for &(r, m, d) in &[(0.5e-3_f64, 1e-3_f64, 1e-6_f64), (2e-2, 3.0, 4e-4), (1e-6, 1e-15, 1e-9)] {
+            let kh = hertz_constant(p.e_star, r);
+            let expected = 0.37 * (m * kh).sqrt() * d.powf(0.25);
+            let c = Hertz::dashpot(&p, r, m, d);
+            assert!(((c - expected) / expected).abs() < 1e-14, "{c} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn mindlin_stiffness_is_eight_g_sqrt_r_delta_and_zero_in_tension() {
+        let p = params();
+        for &(r, d) in &[(0.5e-3_f64, 1e-6_f64), (2e-2, 4e-4), (1e-6, 1e-9)] {
+            let expected = 8.0 * p.g_star * (r * d).sqrt();
+            let k = MindlinShear::stiffness(&p, r, d);
+            assert!(((k - expected) / expected).abs() < 1e-14, "{k} vs {expected}");
+        }
+        assert_eq!(MindlinShear::stiffness(&p, 1e-3, -1e-6), 0.0);
+    }
+
+    #[test]
     fn bonded_pair_breaks_in_tension_at_kn_xb() {
         let p = params();
         let mut s = PairState { shear: Vec3::zeros(), bonded: true, ..Default::default() };
