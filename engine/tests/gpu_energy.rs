@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{gpu, material, rel, run, two_spheres, HertzImpact};
+use common::{damped_glass_pair, gpu, material, rel, run, two_spheres, GLASS_R};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::status::Energies;
 use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall, WallMotion};
@@ -65,11 +65,7 @@ impl Accounts {
 #[test]
 fn damped_hertz_impact_books_dashpot_heat_like_cpu() {
     let Some(ctx) = gpu("damped_hertz_impact") else { return };
-    let (young, nu, rho, r, v) = (4.8e10, 0.2, 2800.0, 0.01, 1.0);
-    let mut mat = material("glass", rho, 1e6, young, nu);
-    mat.restitution = 0.5;
-    let mut model = two_spheres(mat, r, 1e-6, v, NormalKind::Hertz);
-    model.set_dt(HertzImpact::two_spheres(young, nu, rho, r, v).t_c / 200.0).unwrap();
+    let model = damped_glass_pair();
     let (a, _, gpu) = run_both(model, &ctx, 3, 300);
     let k0 = a.start.kinetic;
     a.assert_conserved("hertz impact", k0, 1e-3);
@@ -85,14 +81,10 @@ fn damped_hertz_impact_books_dashpot_heat_like_cpu() {
 #[test]
 fn dashpot_force_survives_a_download_mid_contact() {
     let Some(ctx) = gpu("dashpot_mid_contact") else { return };
-    let (young, nu, rho, r, v) = (4.8e10, 0.2, 2800.0, 0.01, 1.0);
-    let mut mat = material("glass", rho, 1e6, young, nu);
-    mat.restitution = 0.5;
-    let mut model = two_spheres(mat, r, 1e-6, v, NormalKind::Hertz);
+    let mut model = damped_glass_pair();
     // A floor the right sphere rests on, so a wall contact is caught mid-contact too.
-    model.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -r - 1e-6), Vec3::z(), 1.0).unwrap()).unwrap();
+    model.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -GLASS_R - 1e-6), Vec3::z(), 1.0).unwrap()).unwrap();
     model.particles.vel[1].z = -1.0;
-    model.set_dt(HertzImpact::two_spheres(young, nu, rho, r, v).t_c / 200.0).unwrap();
     let mut cpu = Simulation::new(model.clone());
     let mut gpu = Simulation::with_gpu(model, ctx);
     run(&mut cpu, 60).unwrap();

@@ -11,7 +11,10 @@
 
 mod common;
 
-use common::{gpu, material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres, HertzImpact};
+use common::{
+    damped_glass_pair, gpu, material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres,
+    HertzImpact,
+};
 use matdem_engine::backend::cpu::neighbours::{is_stale, rebuild};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::gpu::{GpuBackend, RowStats};
@@ -507,11 +510,7 @@ fn rows_split_into_slabs_run_bitwise_like_one_binding() {
 #[test]
 fn a_head_on_contact_keeps_its_dashpot_force_through_a_device_row_build() {
     let Some(ctx) = gpu("head_on_dashpot_rows") else { return };
-    let (young, nu, rho, r, v) = (4.8e10, 0.2, 2800.0, 0.01, 1.0);
-    let mut mat = material("glass", rho, 1e6, young, nu);
-    mat.restitution = 0.5;
-    let mut model = two_spheres(mat, r, 1e-6, v, NormalKind::Hertz);
-    model.set_dt(HertzImpact::two_spheres(young, nu, rho, r, v).t_c / 200.0).unwrap();
+    let model = damped_glass_pair();
     let mut gpu = Simulation::with_gpu(model, ctx.clone());
     run(&mut gpu, 60).unwrap();
     let before = gpu.model.contacts.state.clone();

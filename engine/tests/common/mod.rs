@@ -53,6 +53,20 @@ pub fn two_spheres(mat: Material, r: f64, gap: f64, speed: f64, normal: NormalKi
     m
 }
 
+/// Radius of the spheres of [`damped_glass_pair`] (m).
+pub const GLASS_R: f64 = 0.01;
+
+/// Two glass spheres (r 1 cm, E 48 GPa, ν 0.2) 1 µm apart, meeting head-on at 1 m/s each,
+/// Hertz with a dashpot for restitution 0.5, at a time step of t_c/200 of the elastic impact.
+pub fn damped_glass_pair() -> Model {
+    let (young, nu, rho, v) = (4.8e10, 0.2, 2800.0, 1.0);
+    let mut mat = material("glass", rho, 1e6, young, nu);
+    mat.restitution = 0.5;
+    let mut model = two_spheres(mat, GLASS_R, 1e-6, v, NormalKind::Hertz);
+    model.set_dt(HertzImpact::two_spheres(young, nu, rho, GLASS_R, v).t_c / 200.0).unwrap();
+    model
+}
+
 /// A sphere of radius `r` at height `r + gap` above the rigid plane z = 0, falling at `speed`.
 pub fn sphere_on_plane(mat: Material, r: f64, gap: f64, speed: f64, normal: NormalKind) -> Model {
     let mut m = Model::new();
