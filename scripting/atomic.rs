@@ -21,6 +21,17 @@ pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         _ => PathBuf::from("."),
     };
     fs::create_dir_all(&dir)?;
+    // The rename would replace whatever `path` is: only a plain file (or nothing) may be
+    // replaced, never a device, a pipe, a folder or a link.
+    match fs::symlink_metadata(path) {
+        Ok(meta) if !meta.file_type().is_file() => {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::AlreadyExists,
+                format!("{} exists and is not a regular file; refusing to replace it", path.display()),
+            ))
+        }
+        _ => {}
+    }
     // Unique per process and per call, so two writers of one file never share a temporary.
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(name);
@@ -42,6 +53,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::os::unix::fs::FileTypeExt;
 
     fn scratch(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("matdem-atomic-{}-{name}", std::process::id()));
@@ -79,6 +91,22 @@ mod tests {
         assert!(write(&blocked, b"new").is_err());
         assert_eq!(fs::read(&path).unwrap(), b"old");
         assert_eq!(entries(&dir), ["blocked", "model.mdem"]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_device_a_pipe_a_folder_or_a_link_is_never_replaced() {
+        let dir = scratch("special");
+        fs::create_dir_all(dir.join("folder")).unwrap();
+        std::os::unix::fs::symlink("/dev/null", dir.join("link")).unwrap();
+        assert!(std::process::Command::new("mkfifo").arg(dir.join("fifo")).status().unwrap().success());
+        for target in [dir.join("folder"), dir.join("link"), dir.join("fifo"), PathBuf::from("/dev/full")] {
+            let e = write(&target, b"x").unwrap_err();
+            assert!(e.to_string().contains("is not a regular file"), "{}: {e}", target.display());
+        }
+        assert!(fs::symlink_metadata(dir.join("fifo")).unwrap().file_type().is_fifo());
+        assert!(fs::symlink_metadata("/dev/full").unwrap().file_type().is_char_device());
+        assert_eq!(entries(&dir), ["fifo", "folder", "link"]);
         fs::remove_dir_all(&dir).unwrap();
     }
 

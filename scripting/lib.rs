@@ -7,6 +7,7 @@
 pub mod api;
 pub mod atomic;
 pub mod bench;
+pub mod out_lock;
 pub mod package;
 pub mod plot;
 pub mod repl;
@@ -29,9 +30,11 @@ use std::rc::Rc;
 /// or package (helpers.rhai there), nowhere else.
 pub fn new_engine(host: Rc<Host>) -> Engine {
     let mut engine = Engine::new();
-    host.limits.apply(&mut engine);
     api::register(&mut engine, host.clone());
+    // The stdlib is ours and compiles under the engine's own limits; the script's limits,
+    // however small, apply to what runs after.
     let stdlib = stdlib::install(&mut engine);
+    host.limits.apply(&mut engine);
     engine.set_module_resolver(SandboxModules { root: host.read_root.clone(), stdlib });
     // A resumed run replays the script's start silently: it printed that the first time.
     engine.on_print(move |text| {

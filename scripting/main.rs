@@ -147,24 +147,35 @@ enum Command {
     },
 }
 
-/// The sandbox's limits, as typed.
+/// The sandbox's limits, as typed. Zero is refused: Rhai reads it as "no limit".
 #[derive(Args)]
 struct LimitArgs {
     /// Most Rhai operations a run may take (native calls such as a balance count as one).
-    #[arg(long, default_value_t = Limits::default().max_operations)]
+    #[arg(long, default_value_t = Limits::default().max_operations, value_parser = positive::<u64>)]
     max_operations: u64,
     /// Deepest nesting of function calls.
     #[arg(long, default_value_t = Limits::default().max_call_depth as u64, value_parser = clap::value_parser!(u64).range(1..=512))]
     max_call_depth: u64,
     /// Longest string, in bytes.
-    #[arg(long, default_value_t = Limits::default().max_string_size)]
+    #[arg(long, default_value_t = Limits::default().max_string_size, value_parser = positive::<usize>)]
     max_string_size: usize,
     /// Most items in one array.
-    #[arg(long, default_value_t = Limits::default().max_array_size)]
+    #[arg(long, default_value_t = Limits::default().max_array_size, value_parser = positive::<usize>)]
     max_array_size: usize,
     /// Most entries in one object map.
-    #[arg(long, default_value_t = Limits::default().max_map_size)]
+    #[arg(long, default_value_t = Limits::default().max_map_size, value_parser = positive::<usize>)]
     max_map_size: usize,
+}
+
+/// A limit of at least 1.
+fn positive<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> Result<T, String> {
+    match text.parse::<T>() {
+        Ok(v) if v == T::from(0) => {
+            Err("0 would switch the limit off; give at least 1 (or leave the option out for the default)".into())
+        }
+        Ok(v) => Ok(v),
+        Err(_) => Err(format!("`{text}` is not a whole number")),
+    }
 }
 
 impl LimitArgs {
@@ -197,7 +208,10 @@ fn resolve_source(script: &std::path::Path, set: &[String]) -> Result<(Option<Pa
 fn params(set: &[String]) -> Result<Vec<(String, rhai::Dynamic)>, String> {
     set.iter()
         .map(|s| match s.split_once('=') {
-            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), parse_value(v.trim()))),
+            Some((k, v)) if !k.trim().is_empty() => {
+                matdem_rs::package::check_param_name(k.trim()).map_err(|e| format!("error: --set {s}: {e}"))?;
+                Ok((k.trim().to_string(), parse_value(v.trim())))
+            }
             _ => Err(format!("error: --set expects NAME=VALUE, got `{s}`")),
         })
         .collect()
@@ -248,9 +262,16 @@ fn main() -> ExitCode {
                 None => script.file_stem().unwrap_or_default().to_os_string(),
             };
             let out_dir = match (out, &resume) {
-                (Some(o), _) => o,
+                (Some(o), Some(dir)) => {
+                    if let Err(e) = same_folder(&o, &matdem_rs::resume::run_folder(dir)) {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(2);
+                    }
+                    o
+                }
+                (Some(o), None) => o,
                 (None, Some(dir)) => matdem_rs::resume::run_folder(dir),
-                (None, None) => PathBuf::from("out").join(stem),
+                (None, None) => matdem_rs::run::default_out_dir(&stem),
             };
             let progress = std::io::stderr().is_terminal();
             let control = RunControl::default();
@@ -346,6 +367,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// A resumed run writes where the interrupted one wrote: `--out` may only name that folder.
+fn same_folder(out: &std::path::Path, run_folder: &std::path::Path) -> Result<(), String> {
+    let real = |p: &std::path::Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    if real(out) == real(run_folder) {
+        return Ok(());
+    }
+    Err(format!(
+        "--resume continues the run in {}, and writes its remaining outputs there; drop --out {} (or copy the \
+         folder there first and resume from the copy)",
+        run_folder.display(),
+        out.display()
+    ))
+}
+
 /// Ctrl-C and SIGTERM set the run's cancel flag: the engine finishes its chunk of steps and
 /// the host saves a resume point. A second signal, with the flag already set, exits at once.
 fn stop_on_signals(control: &RunControl) -> std::io::Result<()> {
@@ -434,6 +469,14 @@ fn study(
         metric,
         reference,
         backend,
+    };
+    // Each setting's run locks its own runNN folder; the study holds the folder around them.
+    let _lock = match matdem_rs::out_lock::OutLock::acquire(&cfg.out_dir, &format!("study {}", cfg.script.display())) {
+        Ok(lock) => lock,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
     };
     let result = run_study(&cfg, |line| eprintln!("{line}")).and_then(|s| Ok((write_outputs(&s, &cfg)?, s)));
     match result {

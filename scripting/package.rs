@@ -181,6 +181,7 @@ impl Parameter {
         if !ok_name {
             return Err(format!("parameter name `{}` must be letters, digits and `_`", self.name));
         }
+        check_param_name(&self.name)?;
         if let Some((lo, hi)) = self.range {
             if !matches!(self.kind, ParamType::Int | ParamType::Float)
                 || lo.partial_cmp(&hi) == Some(std::cmp::Ordering::Greater)
@@ -271,6 +272,10 @@ impl Package {
     fn validate(&self) -> Result<(), String> {
         let m = &self.manifest;
         let at = format!("{}/{MANIFEST}", self.location.display());
+        // The name and version become paths (`out/NAME`, `NAME-VERSION.tar`): a received
+        // package must not be able to point them anywhere else.
+        check_path_word("name", &m.name, 64).map_err(|e| format!("{at}: {e}"))?;
+        check_path_word("version", &m.version, 32).map_err(|e| format!("{at}: {e}"))?;
         for (k, p) in m.parameters.iter().enumerate() {
             p.validate().map_err(|e| format!("{at}: {e}"))?;
             if m.parameters[..k].iter().any(|q| q.name == p.name) {
@@ -369,6 +374,36 @@ impl Package {
     }
 }
 
+/// Refuses a parameter name the script could not write as `params.NAME` (a Rhai keyword
+/// or reserved word such as `case`, `fn` or `match`).
+pub fn check_param_name(name: &str) -> Result<(), String> {
+    if rhai::Engine::new_raw().compile_expression(format!("params.{name}")).is_ok() {
+        return Ok(());
+    }
+    Err(format!(
+        "parameter name `{name}` is a word Rhai reserves, so a script cannot read it as `params.{name}`; choose \
+         another name (e.g. `{name}_name`)"
+    ))
+}
+
+/// Refuses a manifest `name` or `version` that is not a plain file name: 1 to `max`
+/// letters, digits, `.`, `_` or `-`, starting with a letter or digit (so never `..`, `/`,
+/// an absolute path or a hidden name).
+fn check_path_word(field: &str, value: &str, max: usize) -> Result<(), String> {
+    let ok = !value.is_empty()
+        && value.len() <= max
+        && value.starts_with(|c: char| c.is_ascii_alphanumeric())
+        && value.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'));
+    if ok {
+        return Ok(());
+    }
+    Err(format!(
+        "{field} `{}` is refused: it names the default output folder and archive, so it must be 1 to {max} \
+         letters, digits, `.`, `_` or `-`, starting with a letter or digit (e.g. `oedometer`, `1.2.0`)",
+        value.escape_debug()
+    ))
+}
+
 /// The regular files of a tar archive, by relative path. Links, devices, absolute paths and
 /// `..` are refused; an archive whose files sit in one top folder is read from inside it.
 fn read_archive(path: &Path) -> Result<BTreeMap<String, Vec<u8>>, String> {
@@ -406,15 +441,36 @@ fn read_archive(path: &Path) -> Result<BTreeMap<String, Vec<u8>>, String> {
         }
         let mut bytes = Vec::with_capacity(entry.size() as usize);
         entry.read_to_end(&mut bytes).map_err(|e| at(format!("cannot read {}: {e}", raw.display())))?;
-        files.insert(parts.join("/"), bytes);
+        let name = parts.join("/");
+        // tar lets a later entry shadow an earlier one; which copy runs must not be a guess.
+        if files.insert(name.clone(), bytes).is_some() {
+            return Err(at(format!(
+                "holds `{name}` twice (a later entry would silently replace the first); repack it with \
+                 `matdem-rs pack FOLDER`"
+            )));
+        }
+    }
+    let manifests: Vec<&str> =
+        files.keys().map(String::as_str).filter(|k| *k == MANIFEST || k.ends_with(&format!("/{MANIFEST}"))).collect();
+    if manifests.len() > 1 {
+        return Err(at(format!(
+            "holds {} manifests ({}); a package has one {MANIFEST}, so which one runs would be a guess",
+            manifests.len(),
+            manifests.join(", ")
+        )));
     }
     if !files.contains_key(MANIFEST) {
         // `tar cf pkg.tar oedometer/` puts everything under one folder: read from inside it.
         let tops: std::collections::BTreeSet<&str> =
-            files.keys().filter_map(|k| k.split_once('/').map(|(t, _)| t)).collect();
+            files.keys().map(|k| k.split_once('/').map_or(k.as_str(), |(t, _)| t)).collect();
         let top = match tops.iter().next() {
             Some(t) if tops.len() == 1 && files.contains_key(&format!("{t}/{MANIFEST}")) => t.to_string(),
-            _ => return Err(at(format!("has no {MANIFEST} at its root; make one with `matdem-rs pack FOLDER`"))),
+            _ => {
+                return Err(at(format!(
+                    "has no {MANIFEST} at its root (nor one top folder holding it and everything else); make \
+                     one with `matdem-rs pack FOLDER`"
+                )))
+            }
         };
         let prefix = format!("{top}/");
         files = files.into_iter().filter_map(|(k, v)| k.strip_prefix(&prefix).map(|k| (k.to_string(), v))).collect();

@@ -38,6 +38,10 @@ pub struct Session {
     scope: Scope<'static>,
     functions: AST,
     cancel: Arc<AtomicBool>,
+    /// `:load` reads through the host's sandbox, as `import` and `read_text` do.
+    host: Rc<Host>,
+    /// Held for the session: one writer per output folder.
+    _lock: crate::out_lock::OutLock,
     names: Vec<String>,
     stdlib_docs: Vec<(String, String)>,
 }
@@ -53,13 +57,13 @@ Ctrl-C cancels the running balance or script; the session and its models stay.";
 
 impl Session {
     pub fn new(out_dir: PathBuf, read_root: ReadRoot, limits: Limits) -> Result<Session, String> {
-        std::fs::create_dir_all(&out_dir)
-            .map_err(|e| format!("cannot create output folder {}: {e}", out_dir.display()))?;
+        let lock = crate::out_lock::OutLock::acquire(&out_dir, "repl")?;
         let mut host = Host::new(out_dir.clone());
         host.read_root = read_root;
         host.limits = limits;
         let cancel = host.control.cancel.clone();
-        let mut engine = crate::new_engine(Rc::new(host));
+        let host = Rc::new(host);
+        let mut engine = crate::new_engine(host.clone());
         // Script loops are cancelled here; native balances check the same flag.
         let flag = cancel.clone();
         engine.on_progress(move |_| flag.load(Ordering::Relaxed).then(|| Dynamic::from("cancelled by Ctrl-C")));
@@ -79,7 +83,7 @@ impl Session {
         names.extend([":help", ":vars", ":load", ":quit"].map(String::from));
         names.sort();
         names.dedup();
-        Ok(Session { engine, scope, functions: AST::empty(), cancel, names, stdlib_docs })
+        Ok(Session { engine, scope, functions: AST::empty(), cancel, host, _lock: lock, names, stdlib_docs })
     }
 
     /// The flag Ctrl-C sets.
@@ -104,9 +108,12 @@ impl Session {
                 }
                 "help" | "h" => Reply::Out(self.help(arg)),
                 "vars" => Reply::Out(self.vars()),
-                "load" if !arg.is_empty() => match std::fs::read_to_string(arg) {
-                    Ok(text) => self.eval_code(&text, arg),
-                    Err(e) => Reply::Err(format!("error: cannot read {arg}: {e}")),
+                "load" if !arg.is_empty() => match self.host.read_root.read(arg) {
+                    Ok(bytes) => match String::from_utf8(bytes) {
+                        Ok(text) => self.eval_code(&text, arg),
+                        Err(_) => Reply::Err(format!("error: cannot load `{arg}`: it is not UTF-8 text")),
+                    },
+                    Err(e) => Reply::Err(format!("error: cannot load: {e}")),
                 },
                 _ => Reply::Err(format!("error: unknown command `:{cmd}`; try :help")),
             };
@@ -271,7 +278,9 @@ pub fn run_repl(cfg: ReplConfig) -> Result<u8, String> {
     let flag = session.cancel_flag();
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
     if let Some(script) = &cfg.script {
-        if !report(session.eval_input(&format!(":load {}", script.display()))) {
+        // The session reads inside the script's folder, where the script is by its name.
+        let name = script.file_name().map(Path::new).unwrap_or(script);
+        if !report(session.eval_input(&format!(":load {}", name.display()))) {
             return Ok(0);
         }
     }

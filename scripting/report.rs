@@ -49,13 +49,11 @@ pub fn message(e: &EvalAltResult) -> String {
             sandbox's call depth (endless recursion?); if it is real, raise it with --max-call-depth N"
             .to_string(),
         EvalAltResult::ErrorDataTooLarge(what, _) => {
-            let flag = match what.as_str() {
-                w if w.contains("rray") => "--max-array-size",
-                w if w.contains("tring") => "--max-string-size",
-                w if w.contains("ap") => "--max-map-size",
-                _ => "--max-array-size, --max-string-size or --max-map-size",
-            };
-            format!("{what} too large for the sandbox's limit; if it is real, raise it with {flag} N")
+            format!("{what} too large for the sandbox's limit; if it is real, raise it with {} N", size_flag(what))
+        }
+        // The same limits, met by a literal while parsing.
+        EvalAltResult::ErrorParsing(rhai::ParseErrorType::LiteralTooLarge(what, max), _) => {
+            format!("{what} exceeds the sandbox's limit ({max}); if it is real, raise it with {} N", size_flag(what))
         }
         other => {
             let s = other.to_string();
@@ -65,6 +63,16 @@ pub fn message(e: &EvalAltResult) -> String {
                 _ => s,
             }
         }
+    }
+}
+
+/// The option that raises the size limit an error message names.
+fn size_flag(what: &str) -> &'static str {
+    match what {
+        w if w.contains("rray") => "--max-array-size",
+        w if w.contains("tring") => "--max-string-size",
+        w if w.contains("ap") => "--max-map-size",
+        _ => "--max-array-size, --max-string-size or --max-map-size",
     }
 }
 
@@ -89,10 +97,50 @@ fn snippet(sources: &Sources<'_>, source: &str, pos: Position) -> String {
         return String::new();
     };
     let col = pos.position().unwrap_or(1);
-    let code = text.lines().nth(line - 1).unwrap_or("");
+    let full = text.lines().nth(line - 1).unwrap_or("");
+    // A generated one-line script may be huge: show the part around the column.
+    let (code, caret) = window(full, col.saturating_sub(1), SNIPPET_WIDTH);
     let w = line.to_string().len();
     let pad = " ".repeat(w);
     // Keep the caret under the character even when the line has tabs.
-    let lead: String = code.chars().take(col.saturating_sub(1)).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
+    let lead: String = code.chars().take(caret).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
     format!("{pad} ┌─ {path}:{line}:{col}\n{pad} │\n{line} │ {code}\n{pad} │ {lead}^\n")
+}
+
+/// The most characters of a source line a report shows.
+const SNIPPET_WIDTH: usize = 160;
+
+/// At most `width` characters of `line` around character `at`, with `…` where it was cut,
+/// and where `at` falls in what is shown.
+fn window(line: &str, at: usize, width: usize) -> (String, usize) {
+    let n = line.chars().count();
+    if n <= width {
+        return (line.to_string(), at);
+    }
+    let start = at.saturating_sub(width / 2).min(n - width);
+    let mut shown: String = line.chars().skip(start).take(width).collect();
+    let mut caret = at - start;
+    if start > 0 {
+        shown.insert(0, '…');
+        caret += 1;
+    }
+    if start + width < n {
+        shown.push('…');
+    }
+    (shown, caret)
+}
+
+#[cfg(test)]
+mod window_tests {
+    use super::window;
+
+    #[test]
+    fn a_long_line_is_cut_around_the_column_with_the_caret_kept_on_it() {
+        let line = format!("{}X{}", "a".repeat(1000), "b".repeat(1000));
+        let (shown, caret) = window(&line, 1000, 160);
+        assert!(shown.chars().count() <= 162, "{}", shown.len());
+        assert_eq!(shown.chars().nth(caret), Some('X'));
+        assert!(shown.starts_with('…') && shown.ends_with('…'));
+        assert_eq!(window("short", 2, 160), ("short".to_string(), 2));
+    }
 }

@@ -3,9 +3,10 @@
 //! interrupted run (see [`crate::resume`]).
 
 use crate::api::{Host, PLAN_DONE};
+use crate::out_lock::OutLock;
 use crate::package::Package;
 use crate::report::{render, Sources};
-use crate::resume::{self, Pending, Session, INTERRUPTED};
+use crate::resume::{self, Pending, Session, INTERRUPTED, STOPPED};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
 use crate::sandbox::{Limits, ReadRoot};
 use matdem_engine::backend::gpu::device::GpuContext;
@@ -48,6 +49,9 @@ pub enum RunError {
     Script(String),
     /// Ctrl-C or SIGTERM: the resume folder is written; exit 130.
     Interrupted(String),
+    /// Ctrl-C or SIGTERM where nothing can be resumed (a script loop, a box build): the
+    /// outputs so far are kept; exit 130.
+    Stopped(String),
 }
 
 impl RunError {
@@ -55,7 +59,7 @@ impl RunError {
         match self {
             RunError::Setup(_) => 2,
             RunError::Script(_) => 1,
-            RunError::Interrupted(_) => 130,
+            RunError::Interrupted(_) | RunError::Stopped(_) => 130,
         }
     }
 }
@@ -63,8 +67,21 @@ impl RunError {
 impl std::fmt::Display for RunError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RunError::Setup(s) | RunError::Script(s) | RunError::Interrupted(s) => f.write_str(s),
+            RunError::Setup(s) | RunError::Script(s) | RunError::Interrupted(s) | RunError::Stopped(s) => {
+                f.write_str(s)
+            }
         }
+    }
+}
+
+/// `out/NAME` for a run given no `--out`, NAME being a package's name or a script's stem;
+/// a name that is not one plain folder name (a script called `...rhai` has the stem `..`)
+/// falls back to `out/run`, so the default never leads out of `out/`.
+pub fn default_out_dir(stem: &std::ffi::OsStr) -> PathBuf {
+    let mut parts = Path::new(stem).components();
+    match (parts.next(), parts.next()) {
+        (Some(std::path::Component::Normal(name)), None) => Path::new("out").join(name),
+        _ => PathBuf::from("out/run"),
     }
 }
 
@@ -117,11 +134,22 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         session.entries = journal.entries;
         session.pending = Some(Pending { interrupted: journal.interrupted, models });
     }
-    if !cfg.plan_only {
-        std::fs::create_dir_all(&cfg.out_dir).map_err(|e| {
-            RunError::Setup(format!("error: cannot create output folder {}: {e}", cfg.out_dir.display()))
-        })?;
-    }
+    // Held until the run ends: a second run into this folder is refused, not interleaved.
+    let _lock = if cfg.plan_only {
+        None
+    } else {
+        let earlier = earlier_outputs(&cfg.out_dir);
+        let lock = OutLock::acquire(&cfg.out_dir, &format!("run {}", cfg.script.display()))
+            .map_err(|e| RunError::Setup(format!("error: {e}")))?;
+        if earlier > 0 && cfg.resume.is_none() {
+            eprintln!(
+                "note: {} already holds {earlier} file(s) or folder(s) from an earlier run; those this run does not \
+                 write again keep their old contents (give a fresh --out to keep runs apart)",
+                cfg.out_dir.display()
+            );
+        }
+        Some(lock)
+    };
     let mut record = RunRecord {
         script: cfg.script.display().to_string(),
         script_sha256: sha,
@@ -144,6 +172,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         let (status, code) = match &result {
             Ok(_) => ("ok", 0),
             Err(RunError::Interrupted(_)) => ("interrupted", 130),
+            Err(RunError::Stopped(_)) => ("stopped", 130),
             Err(RunError::Script(_)) => ("failed", 1),
             Err(RunError::Setup(_)) => ("could not start", 2),
         };
@@ -160,6 +189,13 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         }
     }
     result
+}
+
+/// How many entries an output folder holds before a run starts (the lock not counted).
+fn earlier_outputs(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map_or(0, |entries| {
+        entries.filter_map(|e| e.ok()).filter(|e| e.file_name() != crate::out_lock::LOCK_FILE).count()
+    })
 }
 
 /// Prepares the host and the engine and evaluates the script.
@@ -189,7 +225,11 @@ fn evaluate(
     host.session = RefCell::new(session);
     host.resumable = !cfg.plan_only;
     let host = Rc::new(host);
-    let engine = crate::new_engine(host.clone());
+    let mut engine = crate::new_engine(host.clone());
+    // A signal in a script loop stops the script at its next operation; a balance sees the
+    // flag first and saves a resume point (see api::model::run_steps).
+    let control = cfg.control.clone();
+    engine.on_progress(move |_| control.is_cancelled().then(|| Dynamic::from(STOPPED)));
     let sources = Sources { main_path: path, main_text: text };
     let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();
@@ -203,7 +243,12 @@ fn evaluate(
         )),
         Ok(()) => Ok(host.written.borrow().clone()),
         Err(e) if cfg.plan_only && is_plan_done(&e) => Ok(Vec::new()),
-        Err(e) if is_interrupted(&e) => Err(RunError::Interrupted(format!(
+        Err(e) if termination(&e) == Some(STOPPED) => Err(RunError::Stopped(
+            "stopped by a signal outside a balance, where there is no resume point: the outputs written so far are \
+             kept; run the script again to start over\n"
+                .into(),
+        )),
+        Err(e) if termination(&e) == Some(INTERRUPTED) => Err(RunError::Interrupted(format!(
             "interrupted: the outputs written so far are kept; continue with\n  matdem-rs run {} --resume {}\n",
             cfg.script.display(),
             cfg.out_dir.display()
@@ -212,13 +257,15 @@ fn evaluate(
     }
 }
 
-fn is_interrupted(e: &EvalAltResult) -> bool {
+/// The marker a terminated script ended with ([`INTERRUPTED`] or [`STOPPED`]), if it was
+/// terminated.
+fn termination(e: &EvalAltResult) -> Option<&'static str> {
     match e {
-        EvalAltResult::ErrorTerminated(v, _) => v.to_string() == INTERRUPTED,
+        EvalAltResult::ErrorTerminated(v, _) => [INTERRUPTED, STOPPED].into_iter().find(|m| v.to_string() == *m),
         EvalAltResult::ErrorInFunctionCall(_, _, inner, _) | EvalAltResult::ErrorInModule(_, inner, _) => {
-            is_interrupted(inner)
+            termination(inner)
         }
-        _ => false,
+        _ => None,
     }
 }
 

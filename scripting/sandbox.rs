@@ -104,6 +104,10 @@ fn relative_parts(name: &str) -> Result<Vec<String>, &'static str> {
     Ok(parts)
 }
 
+/// What the host keeps at the top of an output folder, which no script may write over or
+/// read back: the run record, the resume point and the folder's lock.
+pub const HOST_OWNED: &[&str] = &[crate::run_record::RUN_RECORD, crate::resume::RESUME_DIR, crate::out_lock::LOCK_FILE];
+
 /// Where output `name` goes inside `out_dir`. Refuses `..`, absolute paths and any existing
 /// part of the path that is a symbolic link leading out of the output folder.
 pub fn output_path(out_dir: &Path, name: &str) -> Result<PathBuf, String> {
@@ -115,6 +119,12 @@ pub fn output_path(out_dir: &Path, name: &str) -> Result<PathBuf, String> {
         )
     };
     let parts = relative_parts(name).map_err(outside)?;
+    if let Some(reserved) = HOST_OWNED.iter().find(|r| parts[0].eq_ignore_ascii_case(r)) {
+        return Err(format!(
+            "output path `{name}` is refused: `{reserved}` in the output folder belongs to matdem-rs (the run \
+             record, the resume point and the folder lock); choose another name"
+        ));
+    }
     let real_out = std::fs::canonicalize(out_dir).unwrap_or_else(|_| out_dir.to_path_buf());
     let mut path = out_dir.to_path_buf();
     for part in &parts {

@@ -100,6 +100,7 @@ pub fn run_study(cfg: &StudyConfig, mut progress: impl FnMut(&str)) -> Result<St
     std::fs::create_dir_all(&cfg.out_dir)
         .map_err(|e| format!("cannot create output folder {}: {e}", cfg.out_dir.display()))?;
     let all = settings(&cfg.vary);
+    progress(&format!("study: {} setting(s), one run each, in {}/runNN", all.len(), cfg.out_dir.display()));
     let mut runs = Vec::with_capacity(all.len());
     for (k, setting) in all.into_iter().enumerate() {
         let dir = cfg.out_dir.join(format!("run{:02}", k + 1));
@@ -129,6 +130,16 @@ fn check_config(cfg: &StudyConfig) -> Result<(), String> {
     }
     if !cfg.script.exists() {
         return Err(format!("cannot read script {}: no such file", cfg.script.display()));
+    }
+    if let Some(want) = &cfg.reference {
+        if !settings(&cfg.vary).iter().any(|s| want.iter().all(|w| s.contains(w))) {
+            return Err(format!(
+                "--reference {} matches no setting of the --vary grid; name one of its values for each parameter \
+                 given, e.g. --reference {}",
+                describe(want),
+                describe(&settings(&cfg.vary)[0])
+            ));
+        }
     }
     Ok(())
 }

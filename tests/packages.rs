@@ -203,6 +203,65 @@ fn an_archive_with_a_link_or_an_escaping_entry_is_refused() {
 }
 
 #[test]
+fn an_archive_with_a_duplicate_entry_or_two_manifests_is_refused() {
+    let dir = temp_dir("pkg_duplicates");
+    let archive = |name: &str, entries: &[(&str, &str)]| {
+        let mut b = tar::Builder::new(Vec::new());
+        for (path, text) in entries {
+            let mut h = tar::Header::new_ustar();
+            h.set_size(text.len() as u64);
+            h.set_mode(0o644);
+            b.append_data(&mut h, path, text.as_bytes()).unwrap();
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, b.into_inner().unwrap()).unwrap();
+        path
+    };
+    let manifest = r#"(name: "d", version: "0", description: "", entry: "m.rhai")"#;
+    let twice = archive(
+        "twice.tar",
+        &[("simulator.ron", manifest), ("m.rhai", "print(\"first\");"), ("./m.rhai", "print(\"second\");")],
+    );
+    let o = bin().arg("run").arg(&twice).arg("--out").arg(dir.join("out")).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("holds `m.rhai` twice"), "{}", stderr(&o));
+    assert!(!stdout(&o).contains("first") && !stdout(&o).contains("second"));
+
+    let two = archive(
+        "two_manifests.tar",
+        &[("simulator.ron", manifest), ("m.rhai", "print(1);"), ("inner/simulator.ron", manifest)],
+    );
+    let o = bin().arg("info").arg(&two).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("holds 2 manifests (inner/simulator.ron, simulator.ron)"), "{}", stderr(&o));
+
+    // Files beside the one top folder would be dropped without a word: refused too.
+    let beside = archive(
+        "beside.tar",
+        &[("pkg/simulator.ron", manifest), ("pkg/m.rhai", "print(1);"), ("stray.rhai", "print(2);")],
+    );
+    let o = bin().arg("info").arg(&beside).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("nor one top folder holding it and everything else"), "{}", stderr(&o));
+}
+
+#[test]
+fn pack_never_replaces_a_device_a_pipe_or_a_link() {
+    let dir = temp_dir("pkg_special_target");
+    let pkg = tiny_package(&dir);
+    let fifo = dir.join("fifo");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    for target in [fifo.as_path(), Path::new("/dev/full")] {
+        let o = bin().arg("pack").arg(&pkg).arg("-o").arg(target).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("is not a regular file; refusing to replace it"), "{}", stderr(&o));
+    }
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+    assert!(std::fs::symlink_metadata("/dev/full").unwrap().file_type().is_char_device());
+}
+
+#[test]
 fn the_oedometer_runs_the_same_from_its_folder_and_from_its_packed_archive() {
     let dir = temp_dir("pkg_oedometer");
     let tar = dir.join("oedometer.tar");

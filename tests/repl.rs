@@ -26,12 +26,16 @@ d.set_standard_dt();
 "#;
 
 fn repl_with_input(name: &str, input: &str) -> std::process::Output {
-    let dir = temp_dir(name);
+    repl_in(&temp_dir(name), input)
+}
+
+/// A session started in `dir` (its read folder), fed `input`.
+fn repl_in(dir: &std::path::Path, input: &str) -> std::process::Output {
     let mut child = bin()
         .args(["repl", "--out"])
         .arg(dir.join("out"))
         .env("MATDEM_HISTORY", dir.join("history"))
-        .current_dir(&dir)
+        .current_dir(dir)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -82,14 +86,24 @@ fn help_prints_a_functions_doc_native_or_stdlib() {
 fn load_runs_a_file_in_the_session() {
     let dir = temp_dir("repl_load_file");
     std::fs::write(dir.join("setup.rhai"), "let loaded = 7; fn twice(v) { 2 * v }").unwrap();
-    let input = format!(
-        ":load {}\ntwice(loaded)\n:load {}\n",
-        dir.join("setup.rhai").display(),
-        dir.join("nope.rhai").display()
-    );
-    let o = repl_with_input("repl_load", &input);
+    let o = repl_in(&dir, ":load setup.rhai\ntwice(loaded)\n:load nope.rhai\n");
     assert_eq!(stdout(&o).trim(), "14");
     assert!(stderr(&o).contains("cannot read") && stderr(&o).contains("nope.rhai"), "{}", stderr(&o));
+}
+
+#[test]
+fn load_reads_only_inside_the_session_folder_and_echoes_nothing_it_refused() {
+    let dir = temp_dir("repl_load_escape");
+    std::fs::write(dir.parent().unwrap().join("repl_load_escape_secret.rhai"), "let secret = 1;").unwrap();
+    let o = repl_in(&dir, ":load /etc/passwd\n:load ../repl_load_escape_secret.rhai\nsecret\n");
+    let e = stderr(&o);
+    assert!(e.contains("path `/etc/passwd` is outside the allowed folders (an absolute path)"), "{e}");
+    assert!(
+        e.contains("path `../repl_load_escape_secret.rhai` is outside the allowed folders (`..` climbs out)"),
+        "{e}"
+    );
+    assert!(e.contains("Variable not found: secret"), "the file outside was run:\n{e}");
+    assert!(!e.contains("root:") && !stdout(&o).contains("root:"), "/etc/passwd leaked:\n{e}");
 }
 
 #[test]

@@ -140,3 +140,74 @@ fn scripts_see_no_file_process_network_or_environment_functions() {
     let e = engine.eval::<String>(r#"read_text("x.csv")"#).unwrap_err().to_string();
     assert!(e.contains("no script folder"), "{e}");
 }
+
+#[test]
+fn the_run_record_resume_point_and_lock_cannot_be_written_by_the_script() {
+    let pkg = hostile_copy("sandbox_host_owned");
+    for (name, file) in [("run_record", "run.ron"), ("resume_journal", "resume"), ("lock_file", ".matdem-rs.lock")] {
+        let (_, e) = attack(&pkg, name, &[]);
+        assert!(e.contains(&format!("`{file}` in the output folder belongs to matdem-rs")), "{name}: {e}");
+    }
+    let record = std::fs::read_to_string(pkg.parent().unwrap().join("out_run_record/run.ron")).unwrap();
+    assert!(record.contains("script_sha256") && record.contains("status: \"failed\""), "{record}");
+}
+
+/// The hostile package with its manifest's name (or version) replaced, as an archive built
+/// by hand (`pack` refuses such a manifest), in `dir`.
+fn renamed_archive(dir: &Path, name: &str, version: &str) -> PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/hostile");
+    let manifest = std::fs::read_to_string(src.join("simulator.ron"))
+        .unwrap()
+        .replace("name: \"hostile\"", &format!("name: {name:?}"))
+        .replace("version: \"0.0.1\"", &format!("version: {version:?}"))
+        .replace("default: \"none\"", "default: \"bashrc\"");
+    let mut b = tar::Builder::new(Vec::new());
+    for (file, bytes) in
+        [("simulator.ron", manifest.into_bytes()), ("hostile.rhai", std::fs::read(src.join("hostile.rhai")).unwrap())]
+    {
+        let mut h = tar::Header::new_ustar();
+        h.set_size(bytes.len() as u64);
+        h.set_mode(0o644);
+        b.append_data(&mut h, file, bytes.as_slice()).unwrap();
+    }
+    let path = dir.join("renamed.tar");
+    std::fs::write(&path, b.into_inner().unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn a_manifest_name_or_version_that_is_a_path_is_refused_before_anything_runs_or_packs() {
+    let victim = std::env::temp_dir().join(format!("matdem-victim-{}", std::process::id()));
+    let names =
+        [victim.display().to_string(), "../../x".into(), "..".into(), ".bashrc".into(), "a/b".into(), String::new()];
+    for name in &names {
+        let dir = temp_dir("sandbox_manifest_name");
+        let archive = renamed_archive(&dir, name, "1.0");
+        // No --out: the default output folder is where the name would lead.
+        let o = bin().arg("run").arg(&archive).current_dir(&dir).output().unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "name {name:?}: {e}");
+        assert!(e.contains(&format!("name `{}` is refused", name.escape_debug())), "name {name:?}: {e}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "name {name:?} wrote beside the archive");
+
+        // `pack` refuses the same manifest from a folder, before creating anything.
+        let pkg = dir.join("pkg");
+        std::fs::create_dir_all(&pkg).unwrap();
+        let mut files = tar::Archive::new(std::fs::File::open(&archive).unwrap());
+        files.unpack(&pkg).unwrap();
+        let o = bin().arg("pack").arg(&pkg).current_dir(&dir).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "pack of name {name:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("is refused"), "{}", stderr(&o));
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2, "pack of name {name:?} created something");
+    }
+    assert!(!victim.exists(), "{} was created", victim.display());
+    let dir = temp_dir("sandbox_manifest_version");
+    let o = bin().arg("info").arg(renamed_archive(&dir, "ok", "../../1")).output().unwrap();
+    assert!(stderr(&o).contains("version `../../1` is refused"), "{}", stderr(&o));
+
+    // A well-named package writes its `.bashrc` (harmless) inside out/NAME, nowhere else.
+    let dir = temp_dir("sandbox_manifest_ok");
+    let o = bin().arg("run").arg(renamed_archive(&dir, "victim", "1.0")).current_dir(&dir).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("out/victim/.bashrc").is_file());
+}

@@ -82,6 +82,8 @@ impl LatticeScene {
     /// the floor and the side walls, planes at x = 0, x = Lx, y = 0, y = Ly and z = 0
     /// (L = n·spacing), rows built, time step set.
     pub fn build(&self) -> Result<Model> {
+        let bytes = crate::memory_budget::CPU_BYTES_PER_PARTICLE;
+        crate::memory_budget::check_fits("the bench scene", self.particles() as u64, bytes)?;
         let mut m = Model::new();
         let r = 0.5 * self.diameter;
         m.add_material(Material {

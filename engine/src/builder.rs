@@ -2,6 +2,7 @@
 //! box builder (`obj_Box`): a loose arrangement of a gradation inside a container, ready for
 //! deposition and compaction.
 
+use crate::backend::RunControl;
 use crate::error::{check_positive, Error, Result};
 use crate::model::Model;
 use crate::physics::Vec3;
@@ -177,17 +178,19 @@ impl BoxSpec {
     /// Adds the particles (material 0 must exist) and the walls to `m`: `bottom`, the sides
     /// (`left`, `right`, `front`, `back`, or `ring`) and, if asked, `top_platen`.
     pub fn build_into(&self, m: &mut Model) -> Result<BuiltBox> {
+        self.build_into_until(m, &RunControl::default())
+    }
+
+    /// [`BoxSpec::build_into`] that stops with [`Error::Cancelled`] soon after `control` is
+    /// cancelled (a large box packs for minutes).
+    pub fn build_into_until(&self, m: &mut Model, control: &RunControl) -> Result<BuiltBox> {
         self.validate()?;
         if m.materials.is_empty() {
             return Err(Error::InvalidScene("add a material before building a box".into()));
         }
         let counts = self.counts();
         let total: usize = counts.iter().sum();
-        if total > 50_000_000 {
-            return Err(Error::InvalidScene(format!(
-                "the box would hold {total} particles; reduce its size or enlarge the grains"
-            )));
-        }
+        crate::memory_budget::check_fits("the box", total as u64, crate::memory_budget::CPU_BYTES_PER_PARTICLE)?;
         let r_max = self.classes.iter().map(|c| c.r_max).fold(0.0, f64::max);
         let mut rng = Rng::new(self.seed);
         let mut grains: Vec<(usize, f64)> = Vec::with_capacity(total);
@@ -201,7 +204,7 @@ impl BoxSpec {
         let solid: f64 = grains.iter().map(|g| 4.0 / 3.0 * std::f64::consts::PI * g.1.powi(3)).sum();
         // A loose column at ~33% solids: grains fall less than a grid would make them.
         let loose_height = (solid / (LOOSE_SOLID_FRACTION * self.cross_section())).max(2.0 * r_max);
-        let placed = self.random_sequential_addition(&grains, loose_height, &mut rng)?;
+        let placed = self.random_sequential_addition(&grains, loose_height, &mut rng, control)?;
         let mut class_ids = vec![Vec::new(); self.classes.len()];
         for (pos, (class, r)) in placed.iter().zip(&grains) {
             let id = m.add_particle(*pos, *r, 0)?;
@@ -231,7 +234,13 @@ impl BoxSpec {
 
     /// Places grains one by one at random non-overlapping positions inside the container,
     /// in a column of height `height` that grows when it runs out of room.
-    fn random_sequential_addition(&self, grains: &[(usize, f64)], height: f64, rng: &mut Rng) -> Result<Vec<Vec3>> {
+    fn random_sequential_addition(
+        &self,
+        grains: &[(usize, f64)],
+        height: f64,
+        rng: &mut Rng,
+        control: &RunControl,
+    ) -> Result<Vec<Vec3>> {
         let r_max = grains.iter().map(|g| g.1).fold(0.0, f64::max);
         let (lo, hi) = match self.container {
             Container::Cuboid { width, length } => (Vec3::zeros(), Vec3::new(width, length, 0.0)),
@@ -243,6 +252,9 @@ impl BoxSpec {
         let mut cells: std::collections::HashMap<(usize, usize, usize), Vec<u32>> = Default::default();
         let mut placed: Vec<Vec3> = Vec::with_capacity(grains.len());
         for (k, &(_, r)) in grains.iter().enumerate() {
+            if k % 1024 == 0 && control.is_cancelled() {
+                return Err(Error::Cancelled { completed_steps: 0 });
+            }
             let mut tries = 0;
             let pos = loop {
                 tries += 1;

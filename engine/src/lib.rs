@@ -27,6 +27,7 @@ pub mod checkpoint;
 pub mod error;
 pub mod guard;
 pub mod materials;
+pub mod memory_budget;
 pub mod model;
 pub mod physics;
 pub mod plan;

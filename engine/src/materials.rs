@@ -61,6 +61,15 @@ impl Material {
         mu_p: f64,
         radius: f64,
     ) -> Result<Self> {
+        // E = Kn/(πR) needs the element radius: name it, not the modulus it would spoil.
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(Error::InvalidMaterial {
+                material: name.to_string(),
+                reason: format!(
+                    "`r` = {radius}: the element radius must be a finite number > 0 (it sets E = Kn/(πR) for Hertz)"
+                ),
+            });
+        }
         let m = Material {
             name: name.to_string(),
             density,

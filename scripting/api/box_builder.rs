@@ -83,6 +83,9 @@ fn build(host: &Host, b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
         seed: data.seed,
         top_platen: data.top_platen,
     };
+    // The gradation is checked first: a NaN radius must be named as such, not as the
+    // default material's modulus it would make NaN.
+    spec.validate().map_err(raise)?;
     let mut model = Model::new();
     let r_mean = classes.iter().map(|c| 0.5 * (c.r_min + c.r_max)).sum::<f64>() / classes.len() as f64;
     let mat = match data.material {
@@ -91,7 +94,17 @@ fn build(host: &Host, b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
         None => Material::from_micro("default", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, r_mean).map_err(raise)?,
     };
     model.add_material(mat).map_err(raise)?;
-    let built = spec.build_into(&mut model).map_err(raise)?;
+    let built = match spec.build_into_until(&mut model, &host.control) {
+        Ok(built) => built,
+        // Like a script loop's: nothing to resume, the run stops (see run::evaluate).
+        Err(matdem_engine::Error::Cancelled { .. }) if host.resumable => {
+            return Err(Box::new(rhai::EvalAltResult::ErrorTerminated(
+                crate::resume::STOPPED.into(),
+                rhai::Position::NONE,
+            )))
+        }
+        Err(e) => return Err(raise(e)),
+    };
     model.groups.set("sample", (0..model.len() as u32).collect());
     for (k, ids) in built.class_ids.into_iter().enumerate() {
         model.groups.set(&format!("class{}", k + 1), ids);
@@ -132,7 +145,12 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     num_prop!("sample_r", sample_r);
     num_prop!("porosity", porosity);
     engine
-        .register_set("seed", |b: &mut BoxBuilder, s: INT| b.0.borrow_mut().seed = s as u64)
+        .register_set("seed", |b: &mut BoxBuilder, s: INT| -> RhaiResult<()> {
+            // A negative seed would wrap to a huge one silently.
+            let seed = u64::try_from(s).map_err(|_| err(format!("seed must be 0 or more, got {s}")))?;
+            b.0.borrow_mut().seed = seed;
+            Ok(())
+        })
         .register_get("seed", |b: &mut BoxBuilder| b.0.borrow().seed as INT)
         .register_set("material", |b: &mut BoxBuilder, m: Material| b.0.borrow_mut().material = Some(m))
         .register_set("gradation", |b: &mut BoxBuilder, g: Array| -> RhaiResult<()> {

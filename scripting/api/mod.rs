@@ -94,8 +94,9 @@ impl Host {
     /// The only place such reads are resolved; returns where it was found and the bytes.
     /// `missing` says what a file that is in neither place is and how to make it.
     pub fn read_input(&self, name: &str, missing: &str) -> RhaiResult<(String, Vec<u8>)> {
-        let in_out = output_path(&self.out_dir, name).map_err(err)?;
-        if in_out.is_file() {
+        // A name that may not be in the output folder may still be beside the script; if it
+        // is neither, the read root says why (a read, not an output path).
+        if let Some(in_out) = output_path(&self.out_dir, name).ok().filter(|p| p.is_file()) {
             let bytes = std::fs::read(&in_out).map_err(|e| err(format!("cannot read {}: {e}", in_out.display())))?;
             return Ok((in_out.display().to_string(), bytes));
         }

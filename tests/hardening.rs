@@ -1,0 +1,289 @@
+//! What a careless or hostile user cannot do: switch a limit off or make one panic, run two
+//! runs into one folder, resume into another folder than the interrupted run's, or — with
+//! any manifest and any archive a property test makes up — write outside the output folder.
+
+mod common;
+use common::*;
+use matdem_engine::backend::RunControl;
+use matdem_rs::package::Package;
+use matdem_rs::run::{default_out_dir, RunConfig};
+use matdem_rs::sandbox::Limits;
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+use std::path::{Path, PathBuf};
+
+#[test]
+fn a_zero_limit_is_refused_and_a_tiny_one_stops_the_script_with_a_message_not_a_panic() {
+    let dir = temp_dir("hard_limits");
+    for opt in ["--max-operations", "--max-string-size", "--max-array-size", "--max-map-size"] {
+        let o = run_script(&dir, "p.rhai", "print(1);", &[opt, "0"]);
+        assert_eq!(o.status.code(), Some(2), "{opt} 0: {}", stderr(&o));
+        assert!(stderr(&o).contains("0 would switch the limit off"), "{opt} 0: {}", stderr(&o));
+    }
+    for opt in ["--max-string-size", "--max-array-size", "--max-map-size"] {
+        let o = run_script(&dir, "p.rhai", "print(1);", &[opt, "1"]);
+        assert!(o.status.success(), "{opt} 1: {}", stderr(&o));
+        assert_eq!(stdout(&o).trim(), "1");
+        let o = run_script(&dir, "p.rhai", "let s = \"ab\"; let a = [1, 2]; let m = #{a: 1, b: 2};", &[opt, "1"]);
+        assert_eq!(o.status.code(), Some(1), "{opt} 1 must stop the script: {}", stderr(&o));
+        assert!(stderr(&o).contains(&opt[2..]), "{opt} 1: {}", stderr(&o));
+    }
+    let o = run_script(&dir, "p.rhai", "let n = 0; loop { n += 1; }", &["--max-operations", "1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("too many operations"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_second_run_into_a_folder_in_use_is_refused_naming_the_holder() {
+    let dir = temp_dir("hard_lock");
+    let out = dir.join("out");
+    let held = matdem_rs::out_lock::OutLock::acquire(&out, "the test's own run").unwrap();
+    let o = run_script(&dir, "p.rhai", "print(1);", &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("is in use by matdem-rs pid {} (the test's own run)", std::process::id())), "{e}");
+    assert!(!out.join("run.ron").exists(), "the refused run wrote its record");
+    drop(held);
+    let o = run_script(&dir, "p.rhai", "print(1);", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A run into a folder an earlier run filled says so.
+    let o = run_script(&dir, "p.rhai", "print(1);", &[]);
+    assert!(o.status.success() && stderr(&o).contains("already holds 1 file(s) or folder(s) from an earlier run"));
+}
+
+#[test]
+fn resume_writes_where_the_interrupted_run_wrote_or_refuses() {
+    let dir = temp_dir("hard_resume_out");
+    std::fs::write(dir.join("p.rhai"), "print(1);").unwrap();
+    let o = bin()
+        .arg("run")
+        .arg(dir.join("p.rhai"))
+        .arg("--resume")
+        .arg(dir.join("a"))
+        .arg("--out")
+        .arg(dir.join("b"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--resume continues the run in") && stderr(&o).contains("drop --out"));
+    assert!(!dir.join("b").exists());
+}
+
+#[test]
+fn the_default_output_folder_is_always_one_folder_inside_out() {
+    for stem in ["oedometer", "..", ".", "a/b", "/etc", ""] {
+        let d = default_out_dir(std::ffi::OsStr::new(stem));
+        let parts: Vec<_> = d.components().collect();
+        assert_eq!(parts.len(), 2, "{stem:?} gives {}", d.display());
+        assert_eq!(parts[0].as_os_str(), "out");
+        assert!(matches!(parts[1], std::path::Component::Normal(_)), "{stem:?} gives {}", d.display());
+    }
+}
+
+/// A tar archive written header by header, so entries may say anything (the tar crate's
+/// builder refuses `..` and absolute names).
+fn raw_archive(entries: &[(String, Vec<u8>)]) -> Vec<u8> {
+    let mut b = tar::Builder::new(Vec::new());
+    for (name, bytes) in entries {
+        let mut h = tar::Header::new_old();
+        let n = name.len().min(99);
+        h.as_old_mut().name[..n].copy_from_slice(&name.as_bytes()[..n]);
+        h.set_size(bytes.len() as u64);
+        h.set_mode(0o644);
+        h.set_cksum();
+        b.append(&h, bytes.as_slice()).unwrap();
+    }
+    b.into_inner().unwrap()
+}
+
+/// Every file under `dir`, relative to it.
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if e.file_type().is_ok_and(|t| t.is_dir()) {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_generated_package_writes_outside_its_output_folder() {
+    let victim = std::env::temp_dir().join(format!("matdem-prop-victim-{}", std::process::id()));
+    let victim_text = victim.display().to_string();
+    let words = prop::sample::select(vec![
+        "sim", "..", ".", "", "/", "a/b", ".bashrc", "~", "run.ron", "resume", "x y", "é", "-rf", "out",
+    ]);
+    // Weighted so that about half the packages open and run.
+    let name = prop_oneof![
+        3 => "[a-z][a-z0-9._-]{0,8}",
+        1 => prop::collection::vec(words.clone(), 1..4).prop_map(|w| w.concat()),
+        1 => Just(victim_text.clone()),
+        1 => "[a-zA-Z0-9._/-]{0,12}",
+    ];
+    let entry_dir = prop_oneof![
+        6 => Just(""),
+        1 => prop::sample::select(vec!["./", "../", "/", "a/", "a/../", "a/../../", "pkg/"]),
+    ];
+    let target = prop_oneof![
+        prop::collection::vec(words, 1..4).prop_map(|w| w.join("/")),
+        Just(format!("{victim_text}/x.csv")),
+        Just("../../x.csv".to_string()),
+    ];
+    let case = (name.clone(), name, entry_dir.clone(), entry_dir, target, prop::bool::weighted(0.1));
+    let root = temp_dir("hard_prop_packages");
+    let n = std::cell::Cell::new(0);
+    let refused = std::cell::Cell::new(0);
+    TestRunner::new(Config { cases: 64, failure_persistence: None, ..Config::default() })
+        .run(&case, |(name, version, manifest_dir, script_dir, target, twice)| {
+            n.set(n.get() + 1);
+            let dir = root.join(format!("case{}", n.get()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let manifest = format!("(name: {name:?}, version: {version:?}, description: \"\", entry: \"m.rhai\")");
+            let script = format!("let t = new_table(); t.add_row(#{{ a: 1.0 }}); t.save({target:?});");
+            let mut entries = vec![
+                (format!("{manifest_dir}simulator.ron"), manifest.into_bytes()),
+                (format!("{script_dir}m.rhai"), script.into_bytes()),
+            ];
+            if twice {
+                entries.push((format!("{script_dir}m.rhai"), b"print(1);".to_vec()));
+            }
+            let archive = dir.join("p.tar");
+            std::fs::write(&archive, raw_archive(&entries)).unwrap();
+            match Package::open(&archive) {
+                Err(_) => refused.set(refused.get() + 1),
+                Ok(package) => {
+                    let out = dir.join(default_out_dir(std::ffi::OsStr::new(&package.manifest.name)));
+                    let cfg = RunConfig {
+                        script: archive.clone(),
+                        out_dir: out.clone(),
+                        params: Vec::new(),
+                        progress: false,
+                        plan_only: false,
+                        backend: "cpu (f64)".into(),
+                        control: RunControl::default(),
+                        resume: None,
+                        gpu: None,
+                        package: Some(package),
+                        limits: Limits::default(),
+                    };
+                    let _ = matdem_rs::run::run_script(&cfg);
+                    prop_assert!(out.starts_with(dir.join("out")), "output folder {}", out.display());
+                }
+            }
+            for f in files_under(&dir) {
+                prop_assert!(f == Path::new("p.tar") || f.starts_with("out"), "{} was written", f.display());
+            }
+            prop_assert!(!victim.exists(), "{} was written", victim.display());
+            Ok(())
+        })
+        .unwrap();
+    let (n, refused) = (n.get(), refused.get());
+    eprintln!("{n} generated packages: {refused} refused at opening, the rest wrote only inside out/");
+    assert!(refused > 0 && refused < n, "the generator should make both kinds of package");
+}
+
+/// Starts `script` with `matdem-rs run`, waits for its first line on stdout, sends SIGTERM
+/// and returns (exit code, seconds from the signal to the exit, the run record).
+fn terminate_after_first_line(name: &str, script: &str, extra: &[&str]) -> (Option<i32>, f64, String) {
+    use std::io::BufRead;
+    let dir = temp_dir(name);
+    std::fs::write(dir.join("s.rhai"), script).unwrap();
+    let mut child = bin()
+        .arg("run")
+        .arg(dir.join("s.rhai"))
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--backend", "cpu"])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    assert!(!first.is_empty(), "the script printed nothing");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let sent = std::time::Instant::now();
+    assert!(std::process::Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap().success());
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if sent.elapsed().as_secs() > 20 {
+            let _ = child.kill();
+            panic!("{name}: still running 20 s after SIGTERM");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let record = std::fs::read_to_string(dir.join("out/run.ron")).unwrap_or_default();
+    (code, sent.elapsed().as_secs_f64(), record)
+}
+
+#[test]
+fn sigterm_stops_a_script_loop_within_two_seconds_with_a_clear_record() {
+    let script = "print(\"looping\"); let n = 0; loop { n += 1; }";
+    let (code, secs, record) =
+        terminate_after_first_line("hard_sigterm_loop", script, &["--max-operations", "1000000000000"]);
+    assert_eq!(code, Some(130));
+    assert!(secs < 2.0, "took {secs:.2} s");
+    assert!(record.contains("status: \"stopped\"") && record.contains("exit_code: Some(130)"), "{record}");
+}
+
+#[test]
+fn sigterm_stops_a_large_box_build_within_two_seconds() {
+    // About 2·10⁶ grains: packing them takes far longer than the test waits.
+    let script = r#"print("building");
+        let b = new_box("big"); b.sample_w = 0.2; b.sample_l = 0.2; b.sample_h = 0.2; b.ball_r = 1.0e-3;
+        b.build_initial_model();
+        print("built");"#;
+    let (code, secs, record) = terminate_after_first_line("hard_sigterm_build", script, &[]);
+    assert_eq!(code, Some(130));
+    assert!(secs < 2.0, "took {secs:.2} s");
+    assert!(record.contains("status: \"stopped\""), "{record}");
+}
+
+#[test]
+fn messages_name_the_real_cause() {
+    let dir = temp_dir("hard_messages");
+    let box_with = |line: &str| {
+        format!("let b = new_box(\"t\"); b.sample_w = 0.003; b.sample_l = 0.003; b.sample_h = 0.002; {line}\nb.build_initial_model();")
+    };
+    let o = run_script(&dir, "g.rhai", &box_with("b.gradation = [[0.0 / 0.0, 1e-3, 1.0]];"), &[]);
+    assert!(stderr(&o).contains("r_min") && !stderr(&o).contains("young"), "{}", stderr(&o));
+    let o = run_script(&dir, "s.rhai", &box_with("b.seed = -1;"), &[]);
+    assert!(stderr(&o).contains("seed must be 0 or more, got -1"), "{}", stderr(&o));
+    let o = run_script(&dir, "r.rhai", "material_micro(\"m\", #{ kn: 1e6, ks: 4e5, r: 0.0 });", &[]);
+    assert!(stderr(&o).contains("`r` = 0") && !stderr(&o).contains("young"), "{}", stderr(&o));
+    let o = run_script(&dir, "l.rhai", "load_model(\"../x\");", &[]);
+    assert!(stderr(&o).contains("`..` climbs out") && !stderr(&o).contains("output path"), "{}", stderr(&o));
+    let o = run_script(&dir, "c.rhai", "print(params);", &["--set", "case=1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("parameter name `case` is a word Rhai reserves"), "{}", stderr(&o));
+    // A 400 kB generated line with an error at its end is shown around the error only.
+    let o = run_script(&dir, "long.rhai", &format!("let a = [{}1 +];", "1, ".repeat(100_000)), &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).len() < 2_000, "{} bytes of report", stderr(&o).len());
+}
+
+#[test]
+fn a_study_reference_outside_its_grid_is_refused_before_any_run() {
+    let dir = temp_dir("hard_study_reference");
+    std::fs::write(dir.join("s.rhai"), "report(\"m\", params.a * 1.0);").unwrap();
+    let o = bin()
+        .arg("study")
+        .arg(dir.join("s.rhai"))
+        .args(["--vary", "a=1,2", "--metric", "m", "--reference", "a=3", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert_ne!(o.status.code(), Some(0));
+    assert!(stderr(&o).contains("--reference a=3 matches no setting of the --vary grid"), "{}", stderr(&o));
+    assert!(!dir.join("out/run01").exists(), "a run started before the reference was checked");
+}
