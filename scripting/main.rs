@@ -409,7 +409,13 @@ fn open_backend(backend: Backend) -> Result<Option<Arc<GpuContext>>, ExitCode> {
             Ok(Some(ctx))
         }
         Ok(Compute::Cpu { reason }) => {
-            eprintln!("backend: cpu (f64, {} threads): {reason}", rayon_threads());
+            // Passing over a software adapter is the right choice, not news on every run;
+            // other reasons (no adapter, a device that failed to open) are said.
+            if reason.contains("software adapter") {
+                eprintln!("backend: cpu (f64, {} threads)", rayon_threads());
+            } else {
+                eprintln!("backend: cpu (f64, {} threads): {reason}", rayon_threads());
+            }
             Ok(None)
         }
         Err(e) => {

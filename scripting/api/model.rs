@@ -165,7 +165,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         let bar = (host.progress && total >= 2000).then(|| {
             let b = indicatif::ProgressBar::new(total);
             b.set_style(
-                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {eta} left")
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec}, {eta} left")
                     .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
                     .progress_chars("=> "),
             );
@@ -178,9 +178,18 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
                 b.set_position(k);
             }
         };
+        let started = std::time::Instant::now();
         let rep = data.sim.balance_from(how, done, &host.control, &mut progress);
         if let Some(b) = bar {
             b.finish_and_clear();
+        }
+        // Without a terminal there is no bar: a log still hears of each long balance.
+        let secs = started.elapsed().as_secs_f64();
+        if let (false, Ok(r)) = (host.progress, &rep) {
+            if secs >= LOG_BALANCE_AFTER_S {
+                let rate = r.steps as f64 * data.sim.model.len() as f64 / secs;
+                eprintln!("{}: {call} of {} steps in {secs:.1} s ({rate:.3e} particle-steps/s)", data.name, r.steps);
+            }
         }
         let rep = match rep {
             Err(matdem_engine::Error::Cancelled { completed_steps }) => {
@@ -213,6 +222,9 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
     }
     result
 }
+
+/// A balance that takes at least this long is logged when no progress bar is drawn.
+const LOG_BALANCE_AFTER_S: f64 = 5.0;
 
 /// A replayed run call never runs: `observe` answers it from the journal.
 fn unreachable_in_replay(call: &str) -> RhaiResult<Dynamic> {
