@@ -466,7 +466,12 @@ fn study(
         }
     };
     let backend = backend.to_possible_value().map_or("auto".to_string(), |v| v.get_name().to_string());
+    let control = RunControl::default();
+    if let Err(e) = stop_on_signals(&control) {
+        eprintln!("warning: Ctrl-C and SIGTERM will stop the study without letting its running setting save ({e})");
+    }
     let cfg = StudyConfig {
+        control,
         exe,
         script,
         out_dir: out.unwrap_or_else(|| PathBuf::from("out/study")),
@@ -493,7 +498,7 @@ fn study(
         }
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(1)
+            ExitCode::from(if cfg.control.is_cancelled() { 130 } else { 1 })
         }
     }
 }

@@ -52,6 +52,9 @@ pub struct StudyConfig {
     pub reference: Option<Vec<(String, String)>>,
     /// `--backend` for runs that do not vary `backend`.
     pub backend: String,
+    /// Ctrl-C or SIGTERM: the running setting is stopped the same way (it saves its resume
+    /// point) and the study ends.
+    pub control: matdem_engine::backend::RunControl,
 }
 
 /// One setting and what its run gave.
@@ -102,9 +105,20 @@ pub fn run_study(cfg: &StudyConfig, mut progress: impl FnMut(&str)) -> Result<St
     let all = settings(&cfg.vary);
     progress(&format!("study: {} setting(s), one run each, in {}/runNN", all.len(), cfg.out_dir.display()));
     let mut runs = Vec::with_capacity(all.len());
+    let count = all.len();
     for (k, setting) in all.into_iter().enumerate() {
         let dir = cfg.out_dir.join(format!("run{:02}", k + 1));
         let run = run_one(cfg, setting, &dir)?;
+        if cfg.control.is_cancelled() {
+            return Err(format!(
+                "interrupted during run {} of {count} ({}): runs 1 to {k} finished and are kept in their folders; \
+                 the interrupted one can be resumed with `matdem-rs run {} --resume {}`",
+                k + 1,
+                dir.display(),
+                cfg.script.display(),
+                dir.display()
+            ));
+        }
         let shown = match &run.outcome {
             Ok(m) => format!("{} = {m:.6e}", cfg.metric),
             Err(why) => format!("no result: {why}"),
@@ -163,17 +177,52 @@ fn run_one(cfg: &StudyConfig, setting: Vec<(String, String)>, dir: &Path) -> Res
     // A stale metrics file from an earlier study must not pass for this run's.
     let _ = std::fs::remove_file(dir.join(METRICS_FILE));
     let start = Instant::now();
-    let out = cmd.output().map_err(|e| format!("cannot start {}: {e}", cfg.exe.display()))?;
+    let (status, stdout, stderr) = run_until_cancelled(cmd, &cfg.control, dir)?;
     let wall_s = start.elapsed().as_secs_f64();
-    let mut log = out.stdout.clone();
-    log.extend_from_slice(&out.stderr);
+    let mut log = stdout;
+    log.extend_from_slice(&stderr);
     write_atomic(&dir.join("log.txt"), &log).map_err(|e| format!("cannot write {}/log.txt: {e}", dir.display()))?;
-    let outcome = if out.status.success() {
+    let outcome = if status.success() {
         read_metric(dir, &cfg.metric)
     } else {
-        Err(first_error_line(&String::from_utf8_lossy(&out.stderr), out.status.code()))
+        Err(first_error_line(&String::from_utf8_lossy(&stderr), status.code()))
     };
     Ok(StudyRun { setting, wall_s, outcome })
+}
+
+/// Runs `cmd` to its end, its output caught in files beside `dir`; when `control` is
+/// cancelled, sends the child SIGTERM (so it saves its resume point) and waits for it.
+fn run_until_cancelled(
+    mut cmd: Command,
+    control: &matdem_engine::backend::RunControl,
+    dir: &Path,
+) -> Result<(std::process::ExitStatus, Vec<u8>, Vec<u8>), String> {
+    let parent = dir.parent().unwrap_or(Path::new("."));
+    let name = dir.file_name().unwrap_or_default().to_string_lossy();
+    let (out_path, err_path) = (parent.join(format!(".{name}.stdout")), parent.join(format!(".{name}.stderr")));
+    let file = |p: &Path| std::fs::File::create(p).map_err(|e| format!("cannot create {}: {e}", p.display()));
+    cmd.stdout(file(&out_path)?).stderr(file(&err_path)?).stdin(std::process::Stdio::null());
+    let mut child = cmd.spawn().map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+    let mut told = false;
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break status,
+            Ok(None) => {}
+            Err(e) => return Err(format!("cannot wait for run {}: {e}", dir.display())),
+        }
+        if control.is_cancelled() && !told {
+            // SAFETY: kill(2) on our own child's pid; no memory is touched.
+            unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+            told = true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let read = |p: &Path| {
+        let bytes = std::fs::read(p).unwrap_or_default();
+        let _ = std::fs::remove_file(p);
+        bytes
+    };
+    Ok((status, read(&out_path), read(&err_path)))
 }
 
 fn read_metric(dir: &Path, metric: &str) -> Result<f64, String> {

@@ -287,3 +287,49 @@ fn a_study_reference_outside_its_grid_is_refused_before_any_run() {
     assert!(stderr(&o).contains("--reference a=3 matches no setting of the --vary grid"), "{}", stderr(&o));
     assert!(!dir.join("out/run01").exists(), "a run started before the reference was checked");
 }
+
+#[test]
+fn sigterm_stops_a_study_and_its_running_setting_saves_its_resume_point() {
+    let dir = temp_dir("hard_sigterm_study");
+    std::fs::write(
+        dir.join("s.rhai"),
+        r#"let b = new_box("t"); b.sample_w = 0.003; b.sample_l = 0.003; b.sample_h = 0.002; b.ball_r = 0.4e-3;
+        let d = b.build_initial_model();
+        d.set_group_mat("sample", material_micro("m", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.4e-3 }));
+        d.set_standard_dt();
+        d.balance(1000000000);
+        report("m", 1.0);"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let mut study = bin()
+        .arg("study")
+        .arg(dir.join("s.rhai"))
+        .args(["--vary", "a=1,2", "--metric", "m", "--backend", "cpu", "--out"])
+        .arg(&out)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while !out.join("run01/run.ron").exists() {
+        assert!(started.elapsed().as_secs() < 30, "the first setting never started");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let sent = std::time::Instant::now();
+    assert!(std::process::Command::new("kill").arg("-TERM").arg(study.id().to_string()).status().unwrap().success());
+    let code = loop {
+        if let Some(status) = study.try_wait().unwrap() {
+            break status.code();
+        }
+        assert!(sent.elapsed().as_secs() < 20, "the study still runs 20 s after SIGTERM");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let secs = sent.elapsed().as_secs_f64();
+    assert_eq!(code, Some(130));
+    assert!(secs < 2.0, "took {secs:.2} s");
+    let record = std::fs::read_to_string(out.join("run01/run.ron")).unwrap();
+    assert!(record.contains("status: \"interrupted\""), "{record}");
+    assert!(out.join("run01/resume/journal.ron").is_file());
+    assert!(!out.join("run02").exists(), "the study went on to the next setting");
+}
