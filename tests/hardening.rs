@@ -266,6 +266,10 @@ fn messages_name_the_real_cause() {
     let o = run_script(&dir, "c.rhai", "print(params);", &["--set", "case=1"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("parameter name `case` is a word Rhai reserves"), "{}", stderr(&o));
+    let oedometer = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/oedometer");
+    let o =
+        bin().arg("run").arg(oedometer).args(["--set", "samples=4", "--out"]).arg(dir.join("oed")).output().unwrap();
+    assert!(stderr(&o).contains("there is no gradation No.4"), "{}", stderr(&o));
     // A 400 kB generated line with an error at its end is shown around the error only.
     let o = run_script(&dir, "long.rhai", &format!("let a = [{}1 +];", "1, ".repeat(100_000)), &[]);
     assert_eq!(o.status.code(), Some(1));
