@@ -83,13 +83,39 @@ pub fn render(e: &EvalAltResult, sources: &Sources<'_>) -> String {
     // The innermost position belongs to the innermost call's source (a stdlib module or the
     // script); the outer calls are in the script that made them.
     let inner_source = chain.last().map(|(_, s, _)| s.clone()).unwrap_or_default();
-    out.push_str(&snippet(sources, &inner_source, inner.position()));
+    let mut pos = inner.position();
+    // Rhai reports a missing separator or terminator where the next token starts, often on
+    // the next line; the caret belongs right after the code that lacks it.
+    if let EvalAltResult::ErrorParsing(rhai::ParseErrorType::MissingToken(..), _) = inner {
+        if let Some((_, text)) = sources.text(&inner_source) {
+            pos = after_previous_code(text, pos);
+        }
+    }
+    out.push_str(&snippet(sources, &inner_source, pos));
     for (k, (name, _, pos)) in chain.iter().enumerate().rev() {
         let caller_src = if k == 0 { String::new() } else { chain[k - 1].1.clone() };
         out.push_str(&format!("  = in call to `{name}`\n"));
         out.push_str(&snippet(sources, &caller_src, *pos));
     }
     out
+}
+
+/// The position just after the last non-blank character before `pos` in `text`, when
+/// that is on an earlier line (else `pos`).
+fn after_previous_code(text: &str, pos: Position) -> Position {
+    let (Some(line), Some(col)) = (pos.line(), pos.position()) else { return pos };
+    let lines: Vec<&str> = text.lines().collect();
+    let before_on_line = lines.get(line - 1).map_or("", |l| {
+        let end = l.char_indices().nth(col.saturating_sub(1)).map_or(l.len(), |(i, _)| i);
+        &l[..end]
+    });
+    if !before_on_line.trim().is_empty() {
+        return pos;
+    }
+    (0..line.saturating_sub(1))
+        .rev()
+        .find(|&k| !lines[k].trim().is_empty())
+        .map_or(pos, |k| Position::new(k as u16 + 1, lines[k].trim_end().chars().count() as u16 + 1))
 }
 
 fn snippet(sources: &Sources<'_>, source: &str, pos: Position) -> String {
@@ -133,6 +159,15 @@ fn window(line: &str, at: usize, width: usize) -> (String, usize) {
 #[cfg(test)]
 mod window_tests {
     use super::window;
+
+    #[test]
+    fn a_missing_terminator_is_placed_after_the_code_that_lacks_it() {
+        use rhai::Position;
+        let text = "let a = 1\n\nlet b = 2;";
+        assert_eq!(super::after_previous_code(text, Position::new(3, 1)), Position::new(1, 10));
+        // On the same line as code before it, the position stands.
+        assert_eq!(super::after_previous_code("f(1 2)", Position::new(1, 5)), Position::new(1, 5));
+    }
 
     #[test]
     fn a_long_line_is_cut_around_the_column_with_the_caret_kept_on_it() {
