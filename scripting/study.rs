@@ -332,6 +332,31 @@ mod tests {
     }
 
     #[test]
+    fn a_note_with_quotes_commas_and_line_breaks_stays_one_csv_cell() {
+        let why = "error: `x` must be \"positive\", got -1\nsee the log";
+        let run =
+            |m: Result<f64, String>| StudyRun { setting: vec![("x".into(), "a,b".into())], wall_s: 1.0, outcome: m };
+        let study = Study { runs: vec![run(Err(why.into())), run(Ok(2.0))], reference: 1 };
+        let cfg = StudyConfig {
+            exe: PathBuf::new(),
+            script: PathBuf::new(),
+            out_dir: PathBuf::new(),
+            vary: vec!["x=1".parse().unwrap()],
+            fixed: vec![],
+            metric: "m".into(),
+            reference: None,
+            backend: "cpu".into(),
+        };
+        let text = to_csv(&study, &cfg);
+        assert!(text.starts_with("run,x,wall_s,m,rel_error,reference,note\n"), "{text}");
+        assert!(text.ends_with("2,\"a,b\",1.000,2.0,0.0,true,\"\"\n"), "{text}");
+        let rows: Vec<csv::StringRecord> =
+            csv::Reader::from_reader(text.as_bytes()).records().map(Result::unwrap).collect();
+        assert_eq!(rows.len(), 2, "{text}");
+        assert_eq!((&rows[0][1], &rows[0][6]), ("a,b", why));
+    }
+
+    #[test]
     fn error_is_relative_to_the_reference_run() {
         let run = |m: Result<f64, String>| StudyRun { setting: vec![], wall_s: 1.0, outcome: m };
         let s = Study { runs: vec![run(Ok(1.1)), run(Ok(1.0)), run(Err("unstable".into()))], reference: 1 };

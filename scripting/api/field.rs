@@ -479,3 +479,68 @@ fn summary(v: &[f64]) -> String {
     let more = if v.len() > 6 { ", …" } else { "" };
     format!("Field[{}]({}{more})", v.len(), head.join(", "))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f(v: &[f64]) -> Field {
+        Field::new(v.to_vec())
+    }
+
+    fn message(r: RhaiResult<impl std::fmt::Debug>) -> String {
+        r.expect_err("expected a refusal").to_string()
+    }
+
+    #[test]
+    fn a_division_that_makes_nan_from_zero_over_zero_is_refused_naming_the_element() {
+        let e = message(binary("/", &f(&[1.0, 0.0]).into(), &f(&[2.0, 0.0]).into(), |x, y| x / y, arithmetic_why("/")));
+        assert!(e.contains("`/`: element 1 divides 0 by zero"), "{e}");
+    }
+
+    #[test]
+    fn nan_already_in_a_field_passes_through_element_wise_maths() {
+        let out =
+            binary("*", &f(&[f64::NAN, 2.0]).into(), &Operand::Number(3.0), |x, y| x * y, arithmetic_why("*")).unwrap();
+        assert!(out.0[0].is_nan());
+        assert_eq!(out.0[1], 6.0);
+        let out = f(&[f64::NAN, 4.0]).unary("sqrt", f64::sqrt, |_| unreachable_message()).unwrap();
+        assert!(out.0[0].is_nan() && out.0[1] == 2.0);
+    }
+
+    #[test]
+    fn element_wise_min_and_max_keep_nan_as_a_missing_value() {
+        let out = extreme("min", &f(&[f64::NAN, 5.0]).into(), &Operand::Number(1.0), false).unwrap();
+        assert!(out.0[0].is_nan());
+        assert_eq!(out.0[1], 1.0);
+    }
+
+    #[test]
+    fn clamp_with_a_nan_bound_or_lo_above_hi_is_an_error_not_a_panic() {
+        for (lo, hi) in [(f64::NAN, 1.0), (0.0, f64::NAN), (2.0, 1.0), (f64::NEG_INFINITY, 0.0)] {
+            assert!(message(f(&[1.0]).clamp(lo, hi)).contains("clamp: the bounds"));
+        }
+        assert_eq!(f(&[-1.0, 0.5, 9.0]).clamp(0.0, 1.0).unwrap().0.as_slice(), [0.0, 0.5, 1.0]);
+    }
+
+    #[test]
+    fn the_mean_of_values_near_the_largest_number_does_not_overflow() {
+        assert_eq!(f(&[f64::MAX, f64::MAX]).mean().unwrap(), f64::MAX);
+        assert!(message(f(&[f64::MAX, f64::MAX]).sum()).contains("overflows"));
+    }
+
+    #[test]
+    fn where_refuses_a_field_of_another_length_than_the_mask() {
+        let mask = Mask(Rc::new(vec![true, false]));
+        let e = message(choose(&mask, &f(&[1.0, 2.0, 3.0]).into(), &Operand::Number(0.0)));
+        assert!(e.contains("the mask has 2 entries but a field has 3"), "{e}");
+    }
+
+    #[test]
+    fn messages_show_numbers_short() {
+        assert_eq!(show(-3.2e-4), "-3.2e-4");
+        assert_eq!(show(0.0), "0");
+        assert_eq!(show(2.5), "2.5");
+        assert_eq!(show(f64::NAN), "NaN");
+    }
+}

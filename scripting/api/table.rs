@@ -149,3 +149,46 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         })
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(rows: &[&[(&str, f64)]]) -> TableData {
+        let mut t = TableData::default();
+        for row in rows {
+            t.push(&row.iter().map(|(n, v)| (n.to_string(), *v)).collect::<Vec<_>>());
+        }
+        t
+    }
+
+    #[test]
+    fn csv_without_names_that_need_quotes_is_written_as_before() {
+        let t = table(&[&[("step", 0.0), ("stress", 2.5e-7)], &[("step", 100.0), ("stress", 1e21), ("extra", 0.1)]]);
+        assert_eq!(t.to_csv(), "step,stress,extra\n0,0.00000025,NaN\n100,1000000000000000000000,0.1\n");
+        assert_eq!(TableData::default().to_csv(), "\n");
+    }
+
+    #[test]
+    fn a_column_name_with_a_comma_a_quote_and_a_line_break_is_quoted_and_reads_back() {
+        let t = table(&[&[("a,b\nc", 1.0), ("say \"hi\"", 2.0)]]);
+        let text = t.to_csv();
+        assert_eq!(text, "\"a,b\nc\",\"say \"\"hi\"\"\"\n1,2\n");
+        let back = TableData::from_csv(&text).unwrap();
+        assert_eq!(back.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>(), ["a,b\nc", "say \"hi\""]);
+        assert_eq!(back.column("a,b\nc").unwrap(), [1.0]);
+    }
+
+    #[test]
+    fn hand_written_csv_with_spaces_blank_lines_and_empty_cells_still_reads() {
+        let t = TableData::from_csv("x, y\n\n1, 2\n   \n3,\n").unwrap();
+        assert_eq!(t.rows, 2);
+        assert_eq!(t.column("y").unwrap()[0], 2.0);
+        assert!(t.column("y").unwrap()[1].is_nan());
+        let e = TableData::from_csv("x,y\n1,2,3\n").unwrap_err();
+        assert!(e.contains("line 2 has 3 cells; the header has 2"), "{e}");
+        let e = TableData::from_csv("x\nabc\n").unwrap_err();
+        assert!(e.contains("line 2, column `x`: `abc` is not a number"), "{e}");
+        assert!(TableData::from_csv("").unwrap_err().contains("empty"));
+    }
+}
