@@ -227,3 +227,9 @@ fn load_table_reads_quoted_cells_from_a_spreadsheet_export() {
     assert!(o.status.success(), "{}", common::stderr(&o));
     assert_eq!(common::stdout(&o).trim(), "3.5");
 }
+
+#[test]
+fn the_critical_step_of_a_model_without_particles_is_refused_not_nan() {
+    let e = refusal("critical_empty", &format!("{SMALL_BOX} d.remove(\"all\"); d.critical_dt()"));
+    assert!(e.contains("critical_dt: the model has no particles"), "{e}");
+}
