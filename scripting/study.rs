@@ -274,26 +274,44 @@ pub fn describe(setting: &[(String, String)]) -> String {
     setting.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")
 }
 
-/// The table: one row per run.
+/// The table: one row per run. Cells are quoted per RFC 4180 where they need it; the note
+/// (why a run gave no result) is always quoted, as it always was.
 pub fn to_csv(study: &Study, cfg: &StudyConfig) -> String {
-    let names: Vec<&str> = cfg.vary.iter().map(|v| v.name.as_str()).collect();
-    let mut s = format!("run,{},wall_s,{},rel_error,reference,note\n", names.join(","), cfg.metric);
+    let mut header = vec!["run".to_string()];
+    header.extend(cfg.vary.iter().map(|v| v.name.clone()));
+    header.extend(["wall_s", &cfg.metric, "rel_error", "reference", "note"].map(String::from));
+    let mut s = csv_line(&header, None);
     for (i, r) in study.runs.iter().enumerate() {
-        let values: Vec<&str> = r.setting.iter().map(|(_, v)| v.as_str()).collect();
         let (metric, note) = match &r.outcome {
-            Ok(m) => (format!("{m:?}"), String::new()),
-            Err(why) => (String::new(), why.replace(['"', '\n'], "'")),
+            Ok(m) => (format!("{m:?}"), ""),
+            Err(why) => (String::new(), why.as_str()),
         };
+        let mut row = vec![(i + 1).to_string()];
+        row.extend(r.setting.iter().map(|(_, v)| v.clone()));
         let error = study.error(i).map_or(String::new(), |e| format!("{e:?}"));
-        let reference = i == study.reference;
-        s.push_str(&format!(
-            "{},{},{:.3},{metric},{error},{reference},\"{note}\"\n",
-            i + 1,
-            values.join(","),
-            r.wall_s
-        ));
+        row.extend([format!("{:.3}", r.wall_s), metric, error, (i == study.reference).to_string()]);
+        s.push_str(&csv_line(&row, Some(note)));
     }
     s
+}
+
+/// One CSV line of `fields`, quoted where needed, then `always_quoted` if given.
+fn csv_line(fields: &[String], always_quoted: Option<&str>) -> String {
+    let text = |w: csv::Writer<Vec<u8>>| {
+        String::from_utf8(w.into_inner().expect("flushing a CSV writer into memory cannot fail"))
+            .expect("CSV of UTF-8 text is UTF-8")
+    };
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(fields).expect("a CSV record written to memory cannot fail");
+    let mut line = text(w);
+    if let Some(last) = always_quoted {
+        let mut q = csv::WriterBuilder::new().quote_style(csv::QuoteStyle::Always).from_writer(Vec::new());
+        q.write_record([last]).expect("a CSV record written to memory cannot fail");
+        line.pop();
+        line.push(',');
+        line.push_str(&text(q));
+    }
+    line
 }
 
 /// Error (%) against wall time: one series per combination of all but the first varied
@@ -371,6 +389,31 @@ mod tests {
             let e = bad.parse::<Vary>().unwrap_err();
             assert!(e.contains("--vary"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_note_with_quotes_commas_and_line_breaks_stays_one_csv_cell() {
+        let why = "error: `x` must be \"positive\", got -1\nsee the log";
+        let run =
+            |m: Result<f64, String>| StudyRun { setting: vec![("x".into(), "a,b".into())], wall_s: 1.0, outcome: m };
+        let study = Study { runs: vec![run(Err(why.into())), run(Ok(2.0))], reference: 1 };
+        let cfg = StudyConfig {
+            exe: PathBuf::new(),
+            script: PathBuf::new(),
+            out_dir: PathBuf::new(),
+            vary: vec!["x=1".parse().unwrap()],
+            fixed: vec![],
+            metric: "m".into(),
+            reference: None,
+            backend: "cpu".into(),
+        };
+        let text = to_csv(&study, &cfg);
+        assert!(text.starts_with("run,x,wall_s,m,rel_error,reference,note\n"), "{text}");
+        assert!(text.ends_with("2,\"a,b\",1.000,2.0,0.0,true,\"\"\n"), "{text}");
+        let rows: Vec<csv::StringRecord> =
+            csv::Reader::from_reader(text.as_bytes()).records().map(Result::unwrap).collect();
+        assert_eq!(rows.len(), 2, "{text}");
+        assert_eq!((&rows[0][1], &rows[0][6]), ("a,b", why));
     }
 
     #[test]

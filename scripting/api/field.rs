@@ -1,6 +1,14 @@
 //! Whole-array values (MatDEM works on matrices): `Field` holds one number per particle (or
-//! per row of a table), `Mask` one boolean. Arithmetic, comparisons and reductions run
-//! natively, so a script never needs a per-particle loop.
+//! per row of a table), `Mask` one boolean. Arithmetic, comparisons, element-wise functions
+//! (`min max clamp abs sqrt exp ln log10 pow where`) and reductions run natively, so a script
+//! never needs a per-particle loop.
+//!
+//! Numbers: field maths never makes a NaN or an infinity silently. An element-wise operation
+//! whose finite operands would give one (a division by zero, the square root or logarithm of
+//! a negative, an overflow) is refused, naming the first such element, its value and what to
+//! do; a number operand must be finite. NaN already in a field (a table's missing value)
+//! passes through element-wise maths unchanged. Reductions (`sum mean min max`) refuse a
+//! NaN/inf element, naming it, and `mean min max` refuse an empty field.
 
 use super::{err, RhaiResult};
 use rhai::{Array, Dynamic, Engine, FLOAT, INT};
@@ -20,21 +28,6 @@ pub struct Mask(pub Rc<Vec<bool>>);
 impl Field {
     pub fn new(v: Vec<f64>) -> Self {
         Field(Rc::new(v))
-    }
-
-    fn zip(&self, o: &Field, op: &str, f: impl Fn(f64, f64) -> f64) -> RhaiResult<Field> {
-        if self.0.len() != o.0.len() {
-            return Err(err(format!(
-                "cannot apply `{op}` to arrays of different lengths ({} and {})",
-                self.0.len(),
-                o.0.len()
-            )));
-        }
-        Ok(Field::new(self.0.iter().zip(o.0.iter()).map(|(a, b)| f(*a, *b)).collect()))
-    }
-
-    fn map(&self, f: impl Fn(f64) -> f64) -> Field {
-        Field::new(self.0.iter().map(|a| f(*a)).collect())
     }
 
     fn cmp(&self, o: &Field, op: &str, f: impl Fn(f64, f64) -> bool) -> RhaiResult<Mask> {
@@ -69,12 +62,266 @@ impl Field {
             .map(Field::new)
     }
 
-    pub fn mean(&self) -> f64 {
-        if self.0.is_empty() {
-            f64::NAN
-        } else {
-            self.0.iter().sum::<f64>() / self.0.len() as f64
+    /// `f(x)` of every element; refuses (naming the first element, with `why(x)`) a result
+    /// that is NaN or infinite where `x` was finite.
+    fn unary(&self, op: &str, f: impl Fn(f64) -> f64, why: impl Fn(f64) -> String) -> RhaiResult<Field> {
+        let out: Vec<f64> = self.0.iter().map(|&x| f(x)).collect();
+        match out.iter().zip(self.0.iter()).position(|(y, x)| !y.is_finite() && x.is_finite()) {
+            Some(i) => Err(err(format!("{op}: element {i} {}", why(self.0[i])))),
+            None => Ok(Field::new(out)),
         }
+    }
+
+    /// Checks that a reduction has finite values to work on.
+    fn reducible(&self, what: &str) -> RhaiResult<()> {
+        if self.0.is_empty() {
+            return Err(err(format!(
+                "{what} of an empty field (0 values): the selection is empty; check `mask.count() > 0` before taking its {what}"
+            )));
+        }
+        self.all_finite(what)
+    }
+
+    fn all_finite(&self, what: &str) -> RhaiResult<()> {
+        match self.0.iter().position(|x| !x.is_finite()) {
+            Some(i) => Err(err(format!(
+                "{what}: element {i} is {} (a missing or diverged value); take the {what} of the finite values: \
+                 `f.select(f.is_finite()).{what}()`",
+                show(self.0[i])
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// The sum; 0 for an empty field. Refuses non-finite elements and an overflowing sum.
+    pub fn sum(&self) -> RhaiResult<f64> {
+        self.all_finite("sum")?;
+        let s: f64 = self.0.iter().sum();
+        if s.is_finite() {
+            Ok(s)
+        } else {
+            Err(err(format!(
+                "sum: the sum of {} values overflows beyond ±{LARGEST}; rescale the values first (e.g. to MPa)",
+                self.0.len()
+            )))
+        }
+    }
+
+    /// The mean. Refuses an empty field and non-finite elements.
+    pub fn mean(&self) -> RhaiResult<f64> {
+        self.reducible("mean")?;
+        let n = self.0.len() as f64;
+        let s: f64 = self.0.iter().sum();
+        // NOTE: values near ±f64::MAX overflow the plain sum; their scaled sum cannot.
+        Ok(if s.is_finite() { s / n } else { self.0.iter().map(|x| x / n).sum() })
+    }
+
+    /// The smallest value. Refuses an empty field and non-finite elements.
+    pub fn min(&self) -> RhaiResult<f64> {
+        self.reducible("min")?;
+        Ok(self.0.iter().copied().fold(f64::INFINITY, f64::min))
+    }
+
+    /// The largest value. Refuses an empty field and non-finite elements.
+    pub fn max(&self) -> RhaiResult<f64> {
+        self.reducible("max")?;
+        Ok(self.0.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+    }
+
+    /// Each element clamped into `[lo, hi]`; NaN (a missing value) stays NaN.
+    pub fn clamp(&self, lo: f64, hi: f64) -> RhaiResult<Field> {
+        // NOTE: f64::clamp panics on a NaN bound or lo > hi: check first.
+        if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+            return Err(err(format!(
+                "clamp: the bounds must be finite numbers with lo ≤ hi, got lo = {}, hi = {}",
+                show(lo),
+                show(hi)
+            )));
+        }
+        Ok(Field::new(self.0.iter().map(|x| x.clamp(lo, hi)).collect()))
+    }
+
+    /// A mask of the elements that are finite numbers (not NaN or ±inf).
+    pub fn is_finite(&self) -> Mask {
+        Mask(Rc::new(self.0.iter().map(|x| x.is_finite()).collect()))
+    }
+}
+
+/// One side of an element-wise operation: a field, or one number for every element.
+#[derive(Debug, Clone)]
+pub enum Operand {
+    Values(Field),
+    Number(f64),
+}
+
+impl Operand {
+    /// A Field, a number (INT or FLOAT); a number must be finite.
+    pub fn from_dynamic(v: &Dynamic, op: &str) -> RhaiResult<Operand> {
+        if let Some(f) = v.clone().try_cast::<Field>() {
+            return Ok(Operand::Values(f));
+        }
+        match number(v) {
+            Some(x) if x.is_finite() => Ok(Operand::Number(x)),
+            Some(x) => Err(err(format!("{}: the number {} is not finite; give a finite number", label(op), show(x)))),
+            None => Err(err(format!("{}: expected a Field or a number, got {}", label(op), v.type_name()))),
+        }
+    }
+
+    fn at(&self, i: usize) -> f64 {
+        match self {
+            Operand::Values(f) => f.0[i],
+            Operand::Number(x) => *x,
+        }
+    }
+
+    fn len(&self) -> Option<usize> {
+        match self {
+            Operand::Values(f) => Some(f.0.len()),
+            Operand::Number(_) => None,
+        }
+    }
+}
+
+impl From<Field> for Operand {
+    fn from(f: Field) -> Self {
+        Operand::Values(f)
+    }
+}
+
+impl From<f64> for Operand {
+    fn from(x: f64) -> Self {
+        Operand::Number(x)
+    }
+}
+
+/// The common length of operands that are fields (`None`: all numbers).
+fn common_len(op: &str, operands: &[&Operand]) -> RhaiResult<Option<usize>> {
+    let mut n: Option<usize> = None;
+    for len in operands.iter().filter_map(|o| o.len()) {
+        match n {
+            Some(m) if m != len => {
+                return Err(err(format!("cannot apply `{op}` to arrays of different lengths ({m} and {len})")))
+            }
+            _ => n = Some(len),
+        }
+    }
+    Ok(n)
+}
+
+/// `f(a, b)` element by element (a number applies to every element). Refuses, naming the
+/// first element and `why(a, b)`, a result that is NaN or infinite where `a` and `b` were
+/// finite: field maths never makes a NaN or an infinity silently.
+pub fn binary(
+    op: &str,
+    a: &Operand,
+    b: &Operand,
+    f: impl Fn(f64, f64) -> f64,
+    why: impl Fn(f64, f64) -> String,
+) -> RhaiResult<Field> {
+    let n = common_len(op, &[a, b])?.unwrap_or(1);
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let (x, y) = (a.at(i), b.at(i));
+        let z = f(x, y);
+        if !z.is_finite() && x.is_finite() && y.is_finite() {
+            return Err(err(format!("{}: element {i} {}", label(op), why(x, y))));
+        }
+        out.push(z);
+    }
+    Ok(Field::new(out))
+}
+
+/// `mask ? a : b` element by element: MatDEM's `a(mask) = …` without a loop.
+pub fn choose(mask: &Mask, a: &Operand, b: &Operand) -> RhaiResult<Field> {
+    let n = mask.0.len();
+    for o in [a, b] {
+        if let Some(len) = o.len().filter(|&len| len != n) {
+            return Err(err(format!("where: the mask has {n} entries but a field has {len}")));
+        }
+    }
+    Ok(Field::new((0..n).map(|i| if mask.0[i] { a.at(i) } else { b.at(i) }).collect()))
+}
+
+/// Element-wise smaller (`pick_max` false) or larger of `a` and `b`; NaN stays NaN.
+fn extreme(op: &str, a: &Operand, b: &Operand, pick_max: bool) -> RhaiResult<Field> {
+    let f = move |x: f64, y: f64| match (x.is_nan() || y.is_nan(), pick_max) {
+        (true, _) => f64::NAN,
+        (false, true) => x.max(y),
+        (false, false) => x.min(y),
+    };
+    binary(op, a, b, f, |_, _| unreachable_message())
+}
+
+/// For operations that cannot turn finite values into non-finite ones.
+fn unreachable_message() -> String {
+    "became non-finite from finite values (a bug; please report it)".to_string()
+}
+
+/// Why `x op y` (finite) is not finite.
+fn arithmetic_why(op: &'static str) -> impl Fn(f64, f64) -> String {
+    move |x, y| {
+        if op == "/" && y == 0.0 {
+            format!(
+                "divides {} by zero; divide only where the divisor is non-zero \
+                 (`let m = b.abs() > 0.0; a.select(m) / b.select(m)`) or bound it (`a / max(b, 1e-12)`)",
+                show(x)
+            )
+        } else {
+            format!(
+                "overflows: {} {op} {} is beyond ±{LARGEST}; rescale the values first (e.g. to MPa)",
+                show(x),
+                show(y)
+            )
+        }
+    }
+}
+
+/// Why `x^y` (finite) is not finite.
+fn pow_why(x: f64, y: f64) -> String {
+    if x == 0.0 && y < 0.0 {
+        format!("is 0 and 0^{} divides by zero; raise only the non-zero values", show(y))
+    } else if x < 0.0 && y.fract() != 0.0 {
+        format!(
+            "is {} (negative) and the exponent {} is not a whole number: no real result; \
+             use `abs(x).pow(e)` or `max(x, 0.0).pow(e)`",
+            show(x),
+            show(y)
+        )
+    } else {
+        format!("overflows: {}^{} is beyond ±{LARGEST}; rescale the values first", show(x), show(y))
+    }
+}
+
+/// Why the logarithm `name` of finite `x` is not finite.
+fn log_why(name: &'static str) -> impl Fn(f64) -> String {
+    move |x| {
+        let what =
+            if x == 0.0 { "0 (the logarithm of 0 is −∞)".to_string() } else { format!("{} (negative)", show(x)) };
+        format!(
+            "is {what}; {name} needs x > 0: select the positive values first (`f.select(f > 0.0).{name}()`) \
+             or bound them (`max(f, 1e-300).{name}()`)"
+        )
+    }
+}
+
+/// An operation's name for a message: `sqrt` as is, an operator in backquotes (`` `/` ``).
+fn label(op: &str) -> String {
+    if op.chars().all(|c| c.is_alphanumeric() || c == '_') {
+        op.to_string()
+    } else {
+        format!("`{op}`")
+    }
+}
+
+/// The largest finite number, for messages.
+const LARGEST: &str = "1.8e308";
+
+/// A number for a message: plain where that is short, else in scientific notation.
+fn show(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-3..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
@@ -113,12 +360,36 @@ pub fn register(engine: &mut Engine) {
         })
         .register_fn("len", |f: &mut Field| f.0.len() as INT)
         .register_get("len", |f: &mut Field| f.0.len() as INT)
-        .register_fn("sum", |f: &mut Field| f.0.iter().sum::<f64>())
+        .register_fn("sum", |f: &mut Field| f.sum())
         .register_fn("mean", |f: &mut Field| f.mean())
-        .register_fn("max", |f: &mut Field| f.0.iter().copied().fold(f64::NEG_INFINITY, f64::max))
-        .register_fn("min", |f: &mut Field| f.0.iter().copied().fold(f64::INFINITY, f64::min))
-        .register_fn("abs", |f: &mut Field| f.map(f64::abs))
-        .register_fn("sqrt", |f: &mut Field| f.map(f64::sqrt))
+        .register_fn("max", |f: &mut Field| f.max())
+        .register_fn("min", |f: &mut Field| f.min())
+        .register_fn("is_finite", |f: &mut Field| f.is_finite())
+        .register_fn("abs", |f: &mut Field| f.unary("abs", f64::abs, |_| unreachable_message()))
+        .register_fn("sqrt", |f: &mut Field| {
+            f.unary("sqrt", f64::sqrt, |x| {
+                format!(
+                    "is {} (negative); take the square root of `abs(f)`, or of `max(f, 0.0)` where the negatives are round-off",
+                    show(x)
+                )
+            })
+        })
+        .register_fn("exp", |f: &mut Field| {
+            f.unary("exp", f64::exp, |x| {
+                format!("is {}: exp overflows beyond {LARGEST} for x > 709.78; rescale the values first", show(x))
+            })
+        })
+        .register_fn("ln", |f: &mut Field| f.unary("ln", f64::ln, log_why("ln")))
+        .register_fn("log10", |f: &mut Field| f.unary("log10", f64::log10, log_why("log10")))
+        .register_fn("clamp", |f: &mut Field, lo: Dynamic, hi: Dynamic| -> RhaiResult<Field> {
+            let bound = |v: &Dynamic, which: &str| {
+                number(v).ok_or_else(|| err(format!("clamp: {which} must be a number, got {}", v.type_name())))
+            };
+            f.clamp(bound(&lo, "lo")?, bound(&hi, "hi")?)
+        })
+        .register_fn("where", |m: Mask, a: Dynamic, b: Dynamic| -> RhaiResult<Field> {
+            choose(&m, &Operand::from_dynamic(&a, "where")?, &Operand::from_dynamic(&b, "where")?)
+        })
         .register_fn("to_array", |f: &mut Field| f.0.iter().map(|v| Dynamic::from_float(*v)).collect::<Array>())
         .register_fn("select", |f: &mut Field, m: Mask| f.select(&m))
         .register_fn("fmt", |x: FLOAT, decimals: INT| format!("{x:.*}", decimals.clamp(0, 17) as usize))
@@ -131,21 +402,42 @@ pub fn register(engine: &mut Engine) {
                 .filter(|_| i >= 0)
                 .ok_or_else(|| err(format!("index {i} out of range 0..{}", f.0.len())))
         });
-    macro_rules! arith {
-        ($op:literal, $f:expr) => {
+    // Operations of two operands, a Field and a Field or number on either side. A number
+    // must be finite; a result is refused where finite operands give NaN or ±inf.
+    macro_rules! two_operands {
+        ($name:literal, |$a:ident, $b:ident| $body:expr) => {
             engine
-                .register_fn($op, |a: Field, b: Field| a.zip(&b, $op, $f))
-                .register_fn($op, |a: Field, b: FLOAT| a.map(|x| $f(x, b)))
-                .register_fn($op, |a: FLOAT, b: Field| b.map(|x| $f(a, x)))
-                .register_fn($op, |a: Field, b: INT| a.map(|x| $f(x, b as f64)))
-                .register_fn($op, |a: INT, b: Field| b.map(|x| $f(a as f64, x)));
+                .register_fn($name, |a: Field, b: Field| {
+                    let ($a, $b) = (Operand::from(a), Operand::from(b));
+                    $body
+                })
+                .register_fn($name, |a: Field, b: FLOAT| {
+                    let ($a, $b) = (Operand::from(a), Operand::from_dynamic(&Dynamic::from_float(b), $name)?);
+                    $body
+                })
+                .register_fn($name, |a: FLOAT, b: Field| {
+                    let ($a, $b) = (Operand::from_dynamic(&Dynamic::from_float(a), $name)?, Operand::from(b));
+                    $body
+                })
+                .register_fn($name, |a: Field, b: INT| {
+                    let ($a, $b) = (Operand::from(a), Operand::from(b as f64));
+                    $body
+                })
+                .register_fn($name, |a: INT, b: Field| {
+                    let ($a, $b) = (Operand::from(a as f64), Operand::from(b));
+                    $body
+                });
         };
     }
-    arith!("+", |a: f64, b: f64| a + b);
-    arith!("-", |a: f64, b: f64| a - b);
-    arith!("*", |a: f64, b: f64| a * b);
-    arith!("/", |a: f64, b: f64| a / b);
-    engine.register_fn("-", |a: Field| a.map(|x| -x));
+    two_operands!("+", |a, b| binary("+", &a, &b, |x, y| x + y, arithmetic_why("+")));
+    two_operands!("-", |a, b| binary("-", &a, &b, |x, y| x - y, arithmetic_why("-")));
+    two_operands!("*", |a, b| binary("*", &a, &b, |x, y| x * y, arithmetic_why("*")));
+    two_operands!("/", |a, b| binary("/", &a, &b, |x, y| x / y, arithmetic_why("/")));
+    two_operands!("pow", |a, b| binary("pow", &a, &b, f64::powf, pow_why));
+    two_operands!("**", |a, b| binary("**", &a, &b, f64::powf, pow_why));
+    two_operands!("min", |a, b| extreme("min", &a, &b, false));
+    two_operands!("max", |a, b| extreme("max", &a, &b, true));
+    engine.register_fn("-", |a: Field| Field::new(a.0.iter().map(|x| -x).collect()));
     macro_rules! compare {
         ($op:literal, $f:expr) => {
             engine
@@ -186,4 +478,69 @@ fn summary(v: &[f64]) -> String {
     let head: Vec<String> = v.iter().take(6).map(|x| format!("{x:.6e}")).collect();
     let more = if v.len() > 6 { ", …" } else { "" };
     format!("Field[{}]({}{more})", v.len(), head.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f(v: &[f64]) -> Field {
+        Field::new(v.to_vec())
+    }
+
+    fn message(r: RhaiResult<impl std::fmt::Debug>) -> String {
+        r.expect_err("expected a refusal").to_string()
+    }
+
+    #[test]
+    fn a_division_that_makes_nan_from_zero_over_zero_is_refused_naming_the_element() {
+        let e = message(binary("/", &f(&[1.0, 0.0]).into(), &f(&[2.0, 0.0]).into(), |x, y| x / y, arithmetic_why("/")));
+        assert!(e.contains("`/`: element 1 divides 0 by zero"), "{e}");
+    }
+
+    #[test]
+    fn nan_already_in_a_field_passes_through_element_wise_maths() {
+        let out =
+            binary("*", &f(&[f64::NAN, 2.0]).into(), &Operand::Number(3.0), |x, y| x * y, arithmetic_why("*")).unwrap();
+        assert!(out.0[0].is_nan());
+        assert_eq!(out.0[1], 6.0);
+        let out = f(&[f64::NAN, 4.0]).unary("sqrt", f64::sqrt, |_| unreachable_message()).unwrap();
+        assert!(out.0[0].is_nan() && out.0[1] == 2.0);
+    }
+
+    #[test]
+    fn element_wise_min_and_max_keep_nan_as_a_missing_value() {
+        let out = extreme("min", &f(&[f64::NAN, 5.0]).into(), &Operand::Number(1.0), false).unwrap();
+        assert!(out.0[0].is_nan());
+        assert_eq!(out.0[1], 1.0);
+    }
+
+    #[test]
+    fn clamp_with_a_nan_bound_or_lo_above_hi_is_an_error_not_a_panic() {
+        for (lo, hi) in [(f64::NAN, 1.0), (0.0, f64::NAN), (2.0, 1.0), (f64::NEG_INFINITY, 0.0)] {
+            assert!(message(f(&[1.0]).clamp(lo, hi)).contains("clamp: the bounds"));
+        }
+        assert_eq!(f(&[-1.0, 0.5, 9.0]).clamp(0.0, 1.0).unwrap().0.as_slice(), [0.0, 0.5, 1.0]);
+    }
+
+    #[test]
+    fn the_mean_of_values_near_the_largest_number_does_not_overflow() {
+        assert_eq!(f(&[f64::MAX, f64::MAX]).mean().unwrap(), f64::MAX);
+        assert!(message(f(&[f64::MAX, f64::MAX]).sum()).contains("overflows"));
+    }
+
+    #[test]
+    fn where_refuses_a_field_of_another_length_than_the_mask() {
+        let mask = Mask(Rc::new(vec![true, false]));
+        let e = message(choose(&mask, &f(&[1.0, 2.0, 3.0]).into(), &Operand::Number(0.0)));
+        assert!(e.contains("the mask has 2 entries but a field has 3"), "{e}");
+    }
+
+    #[test]
+    fn messages_show_numbers_short() {
+        assert_eq!(show(-3.2e-4), "-3.2e-4");
+        assert_eq!(show(0.0), "0");
+        assert_eq!(show(2.5), "2.5");
+        assert_eq!(show(f64::NAN), "NaN");
+    }
 }

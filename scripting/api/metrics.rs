@@ -50,26 +50,34 @@ fn check_name(name: &str) -> RhaiResult<()> {
 }
 
 fn to_csv(metrics: &[(String, f64)]) -> String {
-    let mut s = String::from("name,value\n");
-    for (n, v) in metrics {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let rows = std::iter::once(["name".to_string(), "value".to_string()])
         // `{:?}` prints the shortest string that reads back to the same f64.
-        s.push_str(&format!("{n},{v:?}\n"));
+        .chain(metrics.iter().map(|(n, v)| [n.clone(), format!("{v:?}")]));
+    for row in rows {
+        w.write_record(&row).expect("a CSV record written to memory cannot fail");
     }
-    s
+    String::from_utf8(w.into_inner().expect("flushing a CSV writer into memory cannot fail"))
+        .expect("CSV of UTF-8 names and numbers is UTF-8")
 }
 
 /// Reads a `metrics.csv` written by [`register`]'s `report`.
 pub fn parse_metrics(text: &str) -> Result<Vec<(String, f64)>, String> {
-    let mut lines = text.lines();
-    if lines.next() != Some("name,value") {
-        return Err("not a metrics file: the first line is not `name,value`".into());
+    let mut reader = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(text.as_bytes());
+    let mut records = reader.records();
+    match records.next() {
+        Some(Ok(h)) if h.len() == 2 && &h[0] == "name" && &h[1] == "value" => {}
+        _ => return Err("not a metrics file: the first line is not `name,value`".into()),
     }
-    lines
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let (n, v) = l.split_once(',').ok_or_else(|| format!("bad metrics line `{l}`"))?;
-            let v: f64 = v.parse().map_err(|_| format!("bad metric value in `{l}`"))?;
-            Ok((n.to_string(), v))
+    records
+        .map(|r| {
+            let r = r.map_err(|e| format!("bad metrics file: {e}"))?;
+            let line = r.iter().collect::<Vec<_>>().join(",");
+            if r.len() != 2 {
+                return Err(format!("bad metrics line `{line}`"));
+            }
+            let v: f64 = r[1].parse().map_err(|_| format!("bad metric value in `{line}`"))?;
+            Ok((r[0].to_string(), v))
         })
         .collect()
 }

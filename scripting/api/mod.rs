@@ -66,6 +66,8 @@ pub struct Host {
     pub read_root: ReadRoot,
     /// Limits on operations, call depth and data sizes.
     pub limits: Limits,
+    /// Warnings given so far, by key: each key is printed once (see [`Host::warn`]).
+    pub warnings: RefCell<Vec<(String, String)>>,
 }
 
 /// Marker error that ends a script in `plan` mode once a plan was printed.
@@ -86,6 +88,7 @@ impl Host {
             session: RefCell::new(Session::default()),
             resumable: false,
             gpu: None,
+            warnings: RefCell::new(Vec::new()),
         }
     }
 
@@ -156,6 +159,16 @@ impl Host {
     /// Reads a file of the script's folder or package; refuses anything outside it.
     pub fn read(&self, name: &str) -> RhaiResult<Vec<u8>> {
         self.read_root.read(name).map_err(err)
+    }
+
+    /// Prints `warning: {message}` on stderr the first time `key` is warned about, and
+    /// keeps it; later warnings with the same key are dropped, so a loop warns once.
+    pub fn warn(&self, key: &str, message: String) {
+        let mut warnings = self.warnings.borrow_mut();
+        if !warnings.iter().any(|(k, _)| k == key) {
+            eprintln!("warning: {message}");
+            warnings.push((key.to_string(), message));
+        }
     }
 
     pub fn note_written(&self, paths: impl IntoIterator<Item = PathBuf>) {

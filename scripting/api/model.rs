@@ -275,7 +275,12 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_set("dt", |d: &mut ModelHandle, dt: FLOAT| d.model().set_dt(dt).map_err(raise))
         .register_fn("set_standard_dt", |d: &mut ModelHandle| d.model().set_standard_dt().map_err(raise))
         .register_fn("standard_dt", |d: &mut ModelHandle| d.model().standard_dt().map_err(raise))
-        .register_fn("critical_dt", |d: &mut ModelHandle| d.model().critical_dt().map_or(f64::NAN, |c| c.1))
+        .register_fn("critical_dt", |d: &mut ModelHandle| -> RhaiResult<FLOAT> {
+            d.model()
+                .critical_dt()
+                .map(|c| c.1)
+                .ok_or_else(|| err("critical_dt: the model has no particles; add some first"))
+        })
         .register_get("gravity", |d: &mut ModelHandle| {
             let g = d.model().settings.gravity;
             vec![Dynamic::from_float(g.x), Dynamic::from_float(g.y), Dynamic::from_float(g.z)]
@@ -545,6 +550,12 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_fn(
             "porosity_cylinder",
             observed!("porosity_cylinder", |d, radius: FLOAT, z0: FLOAT, z1: FLOAT| {
+                if !(radius.is_finite() && radius > 0.0 && z0.is_finite() && z1.is_finite() && z0 < z1) {
+                    return Err(err(format!(
+                        "porosity_cylinder: the window must have a radius > 0 and z0 < z1 (finite, m), \
+                         got radius {radius}, z0 {z0}, z1 {z1}; give the lower height first"
+                    )));
+                }
                 porosity(&d.model(), &Region::Cylinder { center: Vec3::zeros(), radius, z0, z1 })
             }),
         )
@@ -552,6 +563,14 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             "porosity_box",
             observed!("porosity_box", |d, lo: Array, hi: Array| {
                 let (lo, hi) = (vec3(&Dynamic::from_array(lo), "lo")?, vec3(&Dynamic::from_array(hi), "hi")?);
+                if let Some(k) = (0..3).find(|&k| lo[k] >= hi[k]) {
+                    let axis = ["x", "y", "z"][k];
+                    return Err(err(format!(
+                        "porosity_box: the window is empty or inverted along {axis} (lo {} ≥ hi {}); \
+                         give the lower corner first: porosity_box([x0, y0, z0], [x1, y1, z1]) with x0 < x1, y0 < y1, z0 < z1",
+                        lo[k], hi[k]
+                    )));
+                }
                 porosity(&d.model(), &Region::Box { lo, hi })
             }),
         )

@@ -28,6 +28,22 @@ fn save_figure(
     Ok(Dynamic::from_array(written.iter().map(|p| Dynamic::from(p.display().to_string())).collect()))
 }
 
+/// A chart leaves out the points it cannot draw (NaN — a table's missing value — ±inf,
+/// beyond ±1e300); it says so once per chart file and series, naming the first point.
+fn warn_gaps(host: &Host, chart: &LineChart, name: &str) {
+    for g in chart.gaps() {
+        host.warn(
+            &format!("chart gap {name} {}", g.series),
+            format!(
+                "chart `{name}`: series `{}` has {} point(s) that cannot be drawn (NaN, ±inf or beyond ±1e300), \
+                 left out of its line; the first is index {} (x = {}, y = {}). To plot only the drawable points: \
+                 `let m = x.is_finite() & y.is_finite(); c.series(name, x.select(m), y.select(m))`",
+                g.series, g.count, g.first, g.x, g.y
+            ),
+        );
+    }
+}
+
 /// The values of a named per-particle field for pictures.
 fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)> {
     let mut data = d.data();
@@ -126,7 +142,10 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     let h = host.clone();
     engine.register_fn("save", move |c: &mut Chart, name: &str| {
         let chart = c.0.borrow();
-        h.observe("save_chart", || save_figure(&h, name, |p| chart.save(p)))
+        h.observe("save_chart", || {
+            warn_gaps(&h, &chart, name);
+            save_figure(&h, name, |p| chart.save(p))
+        })
     });
     let h = host.clone();
     engine.register_fn("show", move |d: &mut ModelHandle, field: &str, name: &str| {

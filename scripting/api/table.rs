@@ -39,27 +39,37 @@ impl TableData {
         })
     }
 
-    /// A table from CSV text: a header of column names, then rows of numbers (empty or
-    /// `NaN` cells are NaN).
+    /// A table from CSV text (RFC 4180: a quoted cell may hold commas, quotes and line
+    /// breaks): a header of column names, then rows of numbers (empty or `NaN` cells are NaN).
+    /// Blank lines are skipped; cells and names are trimmed of surrounding spaces.
     pub fn from_csv(text: &str) -> Result<Self, String> {
-        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or("the file is empty; expected a header line of column names")?;
-        let names: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+        let mut reader = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(text.as_bytes());
+        let mut records = reader.records().filter(|r| {
+            // A line of spaces reads as one blank cell: skip it as a blank line.
+            !matches!(r, Ok(rec) if rec.len() == 1 && rec[0].trim().is_empty())
+        });
+        let line = |r: &csv::StringRecord| r.position().map_or(0, |p| p.line());
+        let header = match records.next() {
+            None => return Err("the file is empty; expected a header line of column names".into()),
+            Some(r) => r.map_err(|e| format!("cannot read the header: {e}"))?,
+        };
+        let names: Vec<String> = header.iter().map(|c| c.trim().to_string()).collect();
         let mut table = TableData::default();
-        for (k, line) in lines {
-            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-            if cells.len() != names.len() {
-                return Err(format!("line {} has {} cells; the header has {}", k + 1, cells.len(), names.len()));
+        for record in records {
+            let record = record.map_err(|e| format!("cannot read the file as CSV: {e}"))?;
+            let k = line(&record);
+            if record.len() != names.len() {
+                return Err(format!("line {k} has {} cells; the header has {}", record.len(), names.len()));
             }
             let row = names
                 .iter()
-                .zip(cells)
+                .zip(record.iter().map(str::trim))
                 .map(|(name, cell)| match cell {
                     "" => Ok((name.clone(), f64::NAN)),
                     _ => cell
                         .parse::<f64>()
                         .map(|x| (name.clone(), x))
-                        .map_err(|_| format!("line {}, column `{name}`: `{cell}` is not a number", k + 1)),
+                        .map_err(|_| format!("line {k}, column `{name}`: `{cell}` is not a number")),
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             table.push(&row);
@@ -70,15 +80,23 @@ impl TableData {
         Ok(table)
     }
 
+    /// The table as CSV: a header of column names, then one row per record. Names are
+    /// quoted per RFC 4180 where they need it (a comma, a quote, a line break); numbers are
+    /// written as Rust's `{}` writes them, NaN (a missing value) as `NaN`.
     pub fn to_csv(&self) -> String {
-        let mut s = self.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(",");
-        s.push('\n');
-        for r in 0..self.rows {
-            let row: Vec<String> = self.columns.iter().map(|(_, v)| format!("{}", v[r])).collect();
-            s.push_str(&row.join(","));
-            s.push('\n');
+        if self.columns.is_empty() {
+            // NOTE: a CSV writer spells an empty record `""`; a table without columns has
+            // always been written as empty lines.
+            return "\n".repeat(self.rows + 1);
         }
-        s
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let rows = std::iter::once(self.columns.iter().map(|(c, _)| c.clone()).collect::<Vec<_>>())
+            .chain((0..self.rows).map(|r| self.columns.iter().map(|(_, v)| format!("{}", v[r])).collect()));
+        for row in rows {
+            w.write_record(&row).expect("a CSV record of equal length written to memory cannot fail");
+        }
+        let bytes = w.into_inner().expect("flushing a CSV writer into memory cannot fail");
+        String::from_utf8(bytes).expect("CSV of UTF-8 names and numbers is UTF-8")
     }
 }
 
@@ -130,4 +148,47 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             Ok(Dynamic::from(path.display().to_string()))
         })
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(rows: &[&[(&str, f64)]]) -> TableData {
+        let mut t = TableData::default();
+        for row in rows {
+            t.push(&row.iter().map(|(n, v)| (n.to_string(), *v)).collect::<Vec<_>>());
+        }
+        t
+    }
+
+    #[test]
+    fn csv_without_names_that_need_quotes_is_written_as_before() {
+        let t = table(&[&[("step", 0.0), ("stress", 2.5e-7)], &[("step", 100.0), ("stress", 1e21), ("extra", 0.1)]]);
+        assert_eq!(t.to_csv(), "step,stress,extra\n0,0.00000025,NaN\n100,1000000000000000000000,0.1\n");
+        assert_eq!(TableData::default().to_csv(), "\n");
+    }
+
+    #[test]
+    fn a_column_name_with_a_comma_a_quote_and_a_line_break_is_quoted_and_reads_back() {
+        let t = table(&[&[("a,b\nc", 1.0), ("say \"hi\"", 2.0)]]);
+        let text = t.to_csv();
+        assert_eq!(text, "\"a,b\nc\",\"say \"\"hi\"\"\"\n1,2\n");
+        let back = TableData::from_csv(&text).unwrap();
+        assert_eq!(back.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>(), ["a,b\nc", "say \"hi\""]);
+        assert_eq!(back.column("a,b\nc").unwrap(), [1.0]);
+    }
+
+    #[test]
+    fn hand_written_csv_with_spaces_blank_lines_and_empty_cells_still_reads() {
+        let t = TableData::from_csv("x, y\n\n1, 2\n   \n3,\n").unwrap();
+        assert_eq!(t.rows, 2);
+        assert_eq!(t.column("y").unwrap()[0], 2.0);
+        assert!(t.column("y").unwrap()[1].is_nan());
+        let e = TableData::from_csv("x,y\n1,2,3\n").unwrap_err();
+        assert!(e.contains("line 2 has 3 cells; the header has 2"), "{e}");
+        let e = TableData::from_csv("x\nabc\n").unwrap_err();
+        assert!(e.contains("line 2, column `x`: `abc` is not a number"), "{e}");
+        assert!(TableData::from_csv("").unwrap_err().contains("empty"));
+    }
 }

@@ -33,6 +33,18 @@ pub struct LineChart {
     pub series: Vec<Series>,
 }
 
+/// Points of one series that a chart leaves out (see [`LineChart::gaps`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gap {
+    pub series: String,
+    /// How many points are left out.
+    pub count: usize,
+    /// The first one's index and coordinates.
+    pub first: usize,
+    pub x: f64,
+    pub y: f64,
+}
+
 /// A series ready to draw: unbroken runs of finite points.
 struct Prepared<'a> {
     name: &'a str,
@@ -80,6 +92,21 @@ impl LineChart {
     /// files written.
     pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
         super::save_figure(path, || self.render_svg(), || self.render_png())
+    }
+
+    /// The points of each series that cannot be drawn (NaN, ±inf or beyond ±1e300), which
+    /// [`LineChart::save`] leaves out: one entry per series that has any, in series order.
+    pub fn gaps(&self) -> Vec<Gap> {
+        self.series
+            .iter()
+            .filter_map(|s| {
+                let bad: Vec<usize> = (0..s.x.len().min(s.y.len()))
+                    .filter(|&i| !(style::plottable(s.x[i]) && style::plottable(s.y[i])))
+                    .collect();
+                let &first = bad.first()?;
+                Some(Gap { series: s.name.clone(), count: bad.len(), first, x: s.x[first], y: s.y[first] })
+            })
+            .collect()
     }
 
     /// Checks the data and splits each series into runs of finite points.
@@ -372,5 +399,16 @@ mod tests {
         assert!(svg.contains("gappy"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
         chart.render_png().unwrap();
+    }
+
+    #[test]
+    fn gaps_name_each_series_with_points_left_out_and_the_first_index() {
+        let mut chart = LineChart::new("gaps", "x", "y");
+        chart.add_series("clean", vec![0.0, 1.0], vec![0.0, 1.0]);
+        chart.add_series("gappy", vec![0.0, 1.0, f64::NAN, 3.0, 4.0], vec![0.0, 1.0, 2.0, f64::INFINITY, 1e301]);
+        let gaps = chart.gaps();
+        assert_eq!(gaps.len(), 1, "{gaps:?}");
+        assert_eq!((gaps[0].series.as_str(), gaps[0].count, gaps[0].first), ("gappy", 3, 2));
+        assert!(gaps[0].x.is_nan() && gaps[0].y == 2.0);
     }
 }

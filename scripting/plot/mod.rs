@@ -18,7 +18,7 @@ mod style;
 
 use std::path::{Path, PathBuf};
 
-pub use chart::{LineChart, Series};
+pub use chart::{Gap, LineChart, Series};
 pub use picture::ParticlePicture;
 
 /// Why a figure could not be rendered or written.
