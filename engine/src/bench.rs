@@ -115,7 +115,7 @@ impl LatticeScene {
             m.particles.enable_rotation();
         }
         m.set_dt(self.dt)?;
-        crate::backend::cpu::neighbours::rebuild(&mut m);
+        crate::neighbours::rebuild(&mut m);
         Ok(m)
     }
 }

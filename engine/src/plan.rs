@@ -71,6 +71,17 @@ impl StepPlan {
         }
     }
 
+    /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
+    /// (N·s/m) with k_i the element's stiffness; empty when the plan has no viscous damping.
+    /// Both backends take theirs from here (the GPU as c_i/m_i).
+    pub fn damping_coefficients(&self, m: &Model) -> Vec<f64> {
+        if self.damping > 0.0 {
+            (0..m.len()).map(|i| 2.0 * self.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt()).collect()
+        } else {
+            Vec::new()
+        }
+    }
+
     #[inline(always)]
     pub fn pair(&self, a: u32, b: u32) -> &PairParams {
         &self.pair[a as usize * self.materials + b as usize]

@@ -69,7 +69,7 @@ impl PairScratch {
 }
 
 /// Overwrites `force` (and `torque`) with the contact forces of this step. The rows must
-/// carry pair ids (as [`rebuild`](super::neighbours::rebuild) leaves them).
+/// carry pair ids (as [`rebuild`](crate::neighbours::rebuild) leaves them).
 pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch) -> Breaks {
     macro_rules! go {
         ($n:ty, $t:ty) => {

@@ -1,6 +1,6 @@
 //! Stage 3 on the GPU: particle–particle contact forces (shaders/contact_forces.wgsl). Each
 //! invocation walks its own row, so there are no float atomics and the sums are the same in
-//! every run. One kernel per slab of rows. CPU twin: [`crate::backend::cpu::contact_forces`].
+//! every run. One kernel per slab of rows. CPU twin: `backend/cpu/contact_forces.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};

@@ -1,5 +1,5 @@
 //! Stages 4–5 on the GPU: body forces, damping and leapfrog integration
-//! (shaders/integrate.wgsl). CPU twin: [`crate::backend::cpu::integrate`].
+//! (shaders/integrate.wgsl). CPU twin: `backend/cpu/integrate.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, groups_for, Kernel};

@@ -1,5 +1,5 @@
 //! Stage 2 on the GPU: neighbour rows built on the device when the drift says so, with the
-//! content and order of the CPU's [`rebuild`](crate::backend::cpu::neighbours::rebuild), so
+//! content and order of the host's [`rebuild`](crate::neighbours::rebuild), so
 //! a rebuild costs no trip through the host. A build is a cell list (shaders/cell_list.wgsl:
 //! cells hashed into a table, counted, scanned into starts by shaders/scan.wgsl, filled)
 //! and one invocation per particle collecting, sorting and carrying its row

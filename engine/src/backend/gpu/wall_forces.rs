@@ -1,6 +1,6 @@
 //! Stage 3b on the GPU: particle–wall contacts and per-workgroup wall loads
 //! (shaders/wall_forces.wgsl), one kernel per slab. Built only when the scene has walls.
-//! CPU twin: [`crate::backend::cpu::wall_forces`].
+//! CPU twin: `backend/cpu/wall_forces.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
