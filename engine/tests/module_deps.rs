@@ -116,3 +116,33 @@ fn the_engine_never_imports_the_host() {
         assert!(!deps.iter().any(|d| d == dep), "the engine depends on the host's `{dep}`: {deps:?}");
     }
 }
+
+/// Where a stage's CPU twin may live: the CPU backend's file, or the engine-level module both
+/// backends share.
+fn cpu_twin(src: &Path, name: &str) -> Option<PathBuf> {
+    [format!("backend/cpu/{name}.rs"), format!("{name}.rs"), format!("{name}/mod.rs")]
+        .into_iter()
+        .map(|p| src.join(p))
+        .find(|p| p.is_file())
+}
+
+#[test]
+fn every_stage_has_a_wgsl_file_a_gpu_kernel_file_and_a_cpu_twin_of_its_name() {
+    let engine = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = engine.join("src");
+    let mut missing = Vec::new();
+    for stage in matdem_engine::plan::Stage::ALL {
+        let name = stage.name();
+        let wgsl = engine.join(format!("../shaders/{name}.wgsl"));
+        let kernel = src.join(format!("backend/gpu/{name}.rs"));
+        for p in [wgsl, kernel] {
+            if !p.is_file() {
+                missing.push(format!("{name}: {}", p.display()));
+            }
+        }
+        if cpu_twin(&src, name).is_none() {
+            missing.push(format!("{name}: no backend/cpu/{name}.rs, src/{name}.rs or src/{name}/mod.rs"));
+        }
+    }
+    assert!(missing.is_empty(), "stages without their files:\n{}", missing.join("\n"));
+}

@@ -1,4 +1,4 @@
-//! Neighbour rows (stage 2 of a step), the engine's and not one backend's: the CPU backend
+//! Neighbour rows (the `neighbours` stage), the engine's and not one backend's: the CPU backend
 //! steps on them, the GPU backend uploads them (and rebuilds them on the device with the same
 //! content and order, falling back to [`rebuild`] when a row outgrows its slots), and the
 //! model, the observers and the bench build them before anything reads a contact.

@@ -1,5 +1,5 @@
-//! Stage 3: contact forces between particles, in two passes over particle blocks, so that
-//! no two tasks write the same memory and sums never depend on the thread count:
+//! The `contact_forces` stage: contact forces between particles, in two passes over particle
+//! blocks, so that no two tasks write the same memory and sums never depend on the thread count:
 //!
 //! 1. *pairs*: each particle evaluates the pairs it owns (its higher-id neighbours, the
 //!    tail of its row) once, and leaves the force, the new pair state, the normal and the

@@ -59,25 +59,46 @@ pub use device::{select, BackendChoice, Compute};
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
 
+/// Label of the compute pass that runs a batch of steps (walls → contact_forces →
+/// wall_forces → integrate, each step; then the neighbours stage's drift measure and, at a
+/// guard step, the guard).
+const STEP_BATCH: &str = "step_batch";
+
+/// The plan's pipelines, one field per stage (the wall stages only with walls).
 struct Pipelines {
+    /// The neighbours stage: the drift measure, and the rows built on the device.
     drift: wgpu::ComputePipeline,
     rows: rows::Pipelines,
-    contact: wgpu::ComputePipeline,
-    /// Walls (loads summed, then moved), wall forces, loads summed alone: only with walls.
-    walls: Option<[wgpu::ComputePipeline; 3]>,
+    contact_forces: wgpu::ComputePipeline,
+    walls: Option<WallPipelines>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
+}
+
+/// The pipelines of the walls and wall_forces stages.
+struct WallPipelines {
+    /// Last step's loads summed, then the walls moved.
+    advance: wgpu::ComputePipeline,
+    forces: wgpu::ComputePipeline,
+    /// The loads summed alone (before a download).
+    sum_loads: wgpu::ComputePipeline,
 }
 
 /// Kernels bound to one upload; those that read per-entry lanes, one per slab.
 struct Kernels {
     drift: Kernel,
     rows: rows::Kernels,
-    contact: Vec<Kernel>,
-    /// Walls (loads summed, then moved), wall forces, loads summed alone.
-    walls: Option<(Kernel, Vec<Kernel>, Kernel)>,
+    contact_forces: Vec<Kernel>,
+    walls: Option<WallKernels>,
     integrate: Kernel,
     guard: Vec<Kernel>,
+}
+
+/// [`WallPipelines`] bound to one upload; the wall forces one per slab.
+struct WallKernels {
+    advance: Kernel,
+    forces: Vec<Kernel>,
+    sum_loads: Kernel,
 }
 
 /// The model on the device, from an upload to the next download.
@@ -153,13 +174,11 @@ impl GpuBackend {
         let pipelines = Pipelines {
             drift: neighbours::pipeline(device, &constants),
             rows: rows::pipelines(device, &constants),
-            contact: contact_forces::pipeline(device, &constants),
-            walls: (plan.walls > 0).then(|| {
-                [
-                    walls::pipeline(device, &constants),
-                    wall_forces::pipeline(device, &constants),
-                    walls::sum_pipeline(device, &constants),
-                ]
+            contact_forces: contact_forces::pipeline(device, &constants),
+            walls: (plan.walls > 0).then(|| WallPipelines {
+                advance: walls::pipeline(device, &constants),
+                forces: wall_forces::pipeline(device, &constants),
+                sum_loads: walls::sum_pipeline(device, &constants),
             }),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
@@ -274,13 +293,11 @@ impl GpuBackend {
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
             rows: rows::kernels(device, &p.rows, &lanes),
-            contact: contact_forces::kernels(device, &p.contact, &lanes),
-            walls: p.walls.as_ref().map(|[a, f, l]| {
-                (
-                    walls::kernel(device, a, &lanes),
-                    wall_forces::kernels(device, f, &lanes),
-                    walls::kernel(device, l, &lanes),
-                )
+            contact_forces: contact_forces::kernels(device, &p.contact_forces, &lanes),
+            walls: p.walls.as_ref().map(|w| WallKernels {
+                advance: walls::kernel(device, &w.advance, &lanes),
+                forces: wall_forces::kernels(device, &w.forces, &lanes),
+                sum_loads: walls::kernel(device, &w.sum_loads, &lanes),
             }),
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
@@ -328,17 +345,18 @@ impl GpuBackend {
         ctx.queue.write_buffer(&s.lanes.counters, (C_DRIFT * 4) as u64, bytemuck::cast_slice(&reset));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
-            let mut pass = enc.begin_compute_pass(&Default::default());
+            let mut pass = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
             let kr = &s.kernels;
             for _ in 0..k {
-                if let Some((advance, _, _)) = &kr.walls {
-                    advance.dispatch(&mut pass);
+                if let Some(w) = &kr.walls {
+                    w.advance.dispatch(&mut pass);
                 }
-                for slab in &kr.contact {
+                for slab in &kr.contact_forces {
                     slab.dispatch(&mut pass);
                 }
-                if let Some((_, forces, _)) = &kr.walls {
-                    for slab in forces {
+                if let Some(w) = &kr.walls {
+                    for slab in &w.forces {
                         slab.dispatch(&mut pass);
                     }
                 }
@@ -360,10 +378,12 @@ impl GpuBackend {
     /// Brings the device's state into the model, appends the bonds that broke (in step and
     /// particle order, as the CPU backend records them) and advances the clock.
     fn download(&self, m: &mut Model, s: Session) -> Result<()> {
-        if let (Some((_, _, loads)), true) = (&s.kernels.walls, s.steps > 0) {
+        if let (Some(w), true) = (&s.kernels.walls, s.steps > 0) {
             // The walls hold the loads of the step before the last: sum the last step's.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-            loads.dispatch(&mut enc.begin_compute_pass(&Default::default()));
+            let label = Some("walls: sum_wall_loads");
+            w.sum_loads
+                .dispatch(&mut enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None }));
             self.ctx.queue.submit([enc.finish()]);
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;

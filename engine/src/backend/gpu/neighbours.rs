@@ -1,13 +1,14 @@
-//! Stage 2 on the GPU: the drift measure that decides when neighbour rows are rebuilt
-//! (shaders/neighbours.wgsl). The rows themselves are built on the device ([`super::rows`]);
-//! how many steps may pass before the next measure is the engine's drift rule
+//! The `neighbours` stage on the GPU: the drift measure that decides when neighbour rows are
+//! rebuilt (shaders/neighbours.wgsl). The rows themselves are built on the device
+//! ([`super::rows`]); how many steps may pass before the next measure is the engine's drift rule
 //! ([`crate::neighbours::steps_until_rebuild`]).
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, groups_for, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "neighbours", shaders::NEIGHBOURS, "measure_drift", constants)
+    shaders::pipeline(device, Stage::Neighbours.name(), shaders::NEIGHBOURS, "measure_drift", constants)
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
