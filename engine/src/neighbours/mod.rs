@@ -3,8 +3,8 @@
 //! content and order, falling back to [`rebuild`] when a row outgrows its slots), and the
 //! model, the observers and the bench build them before anything reads a contact.
 //!
-//! Rows come from a cell list with a skin (Verlet lists, [`cell_list`]), rebuilt only when
-//! some particle has drifted more than half the skin since the last build ([`drift`]).
+//! Rows come from a cell list with a skin (Verlet lists, `cell_list.rs`), rebuilt only when
+//! some particle has drifted more than half the skin since the last build ([`is_stale`]).
 //! Each pair is found once, by its larger particle searching a reach of 2·r + skin, so a
 //! wide gradation costs the small particles no more than a mono-size packing; the pairs
 //! are then mirrored into both rows. Pair state is carried across rebuilds, and bonded

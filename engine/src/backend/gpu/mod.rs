@@ -417,7 +417,7 @@ impl GpuBackend {
 
 impl Backend for GpuBackend {
     /// Steps the chunk in batches of command buffers, each as long as the drift allows
-    /// (at most [`MAX_BATCH`]) and none across a sampled step; the last batch runs the guard's
+    /// (at most `MAX_BATCH`, 64) and none across a sampled step; the last batch runs the guard's
     /// checks. After each batch the host reads the largest drift and speed, and the rows are
     /// rebuilt (on the device, or through the host when they outgrow their slots) when the
     /// drift rule says so. A sampled step brings the model back to the host, measures it
