@@ -1,9 +1,9 @@
-// Stage 2 on the GPU, first half: the cell list the rows are built from, without host
-// bounds: cells hashed into a power-of-two table. Each particle counts itself into its
-// bucket (integer atomics), the counts are scanned into bucket starts (scan.wgsl), and each
-// particle takes a place in its bucket. The order inside a bucket depends on the atomics;
-// harmless, as every row is sorted after it is collected (rows.wgsl).
-// CPU twin: find_pairs in backend/cpu/neighbours.rs.
+// The `neighbours` stage on the GPU, first half of a row build: the cell list the rows are built
+// from, without host bounds: cells hashed into a power-of-two table. Each particle counts itself
+// into its bucket (integer atomics), the counts are scanned into bucket starts (scan.wgsl), and
+// each particle takes a place in its bucket. The order inside a bucket depends on the atomics;
+// harmless, as every row is sorted after it is collected (rows.wgsl). CPU twin: find_pairs in
+// backend/cpu/neighbours.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;

@@ -1,6 +1,6 @@
-// Stage 3 on the GPU: particle–particle contact forces. One invocation per particle walks
-// its own neighbour row, evaluates every contact from its side, updates the row's pair state
-// and writes its summed force (and torque): no atomics on floats, so the sums are
+// The `contact_forces` stage on the GPU: particle–particle contact forces. One invocation per
+// particle walks its own neighbour row, evaluates every contact from its side, updates the row's
+// pair state and writes its summed force (and torque): no atomics on floats, so the sums are
 // deterministic. Runs once per slab of rows. CPU twin: backend/cpu/contact_forces.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;

@@ -1,7 +1,7 @@
-// Stage 7 on the GPU: the stability guard's checks (non-finite state, a particle moving more
-// than half its radius per step, deep overlaps, a particle pushed through a wall). Each kind
-// keeps the lowest particle id that fails it; the host then words the same message as the
-// CPU guard. Runs once per slab of rows. CPU twin: guard.rs.
+// The `guard` stage on the GPU: the stability guard's checks (non-finite state, a particle moving
+// more than half its radius per step, deep overlaps, a particle pushed through a wall). Each kind
+// keeps the lowest particle id that fails it; the host then words the same message as the CPU
+// guard. Runs once per slab of rows. CPU twin: guard.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;

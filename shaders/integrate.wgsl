@@ -1,5 +1,5 @@
-// Stages 4–5 on the GPU: gravity, MatDEM's viscous damping (semi-implicit), Cundall's local
-// damping, blocked degrees of freedom and leapfrog integration; rotation when the plan has
+// The `integrate` stage on the GPU: gravity, MatDEM's viscous damping (semi-implicit), Cundall's
+// local damping, blocked degrees of freedom and leapfrog integration; rotation when the plan has
 // it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;

@@ -1,8 +1,8 @@
-// Stage 2 on the GPU: how far the particles have drifted since the neighbour rows were built,
-// and how fast the fastest moves, so the host knows when the rows must be rebuilt (drift over
-// half the skin) and how many steps it may run before it must look again. Non-negative f32s
-// order like their bits, so an integer atomicMax finds the largest.
-// CPU twin: neighbours::is_stale in backend/cpu/neighbours.rs.
+// The `neighbours` stage on the GPU: how far the particles have drifted since the neighbour rows
+// were built, and how fast the fastest moves, so the host knows when the rows must be rebuilt
+// (drift over half the skin) and how many steps it may run before it must look again. Non-negative
+// f32s order like their bits, so an integer atomicMax finds the largest. CPU twin:
+// neighbours::is_stale in backend/cpu/neighbours.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> disp: array<vec4<f32>>;

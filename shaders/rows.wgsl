@@ -1,8 +1,8 @@
-// Stage 2 on the GPU, second half: each particle builds its own neighbour row from the cell
-// list, with the content and order of the CPU's rebuild: every j != i closer than
-// r_i + r_j + skin, plus every pair bonded in the old row however far, sorted by j, each
-// with the state and dashpot force the old row held for it (zero when new), as the CPU
-// carries the whole PairState. Runs once per slab of rows.
+// The `neighbours` stage on the GPU, second half of a row build: each particle builds its own
+// neighbour row from the cell list, with the content and order of the CPU's rebuild: every j != i
+// closer than r_i + r_j + skin, plus every pair bonded in the old row however far, sorted by j,
+// each with the state and dashpot force the old row held for it (zero when new), as the CPU carries
+// the whole PairState. Runs once per slab of rows.
 //
 // Rows are written in place, so the build runs twice: a counting pass (WRITE_ROWS off) finds
 // the longest new row and the rows with more set states than MAX_CARRY, and the writing pass

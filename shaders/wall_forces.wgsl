@@ -1,8 +1,9 @@
-// Stage 3b on the GPU: particle–wall contacts. Each particle tests every wall (a scene has at
-// most eight) and adds the contact forces to its own force; each workgroup sums its
-// particles' loads on each wall in a fixed tree order and leaves one partial per wall, which
-// the walls stage of the next step adds up (walls.wgsl). Runs once per slab; a slab starts on a workgroup boundary, so the partials
-// are the same however the particles are split. CPU twin: backend/cpu/wall_forces.rs.
+// The `wall_forces` stage on the GPU: particle–wall contacts. Each particle tests every wall (a
+// scene has at most eight) and adds the contact forces to its own force; each workgroup sums its
+// particles' loads on each wall in a fixed tree order and leaves one partial per wall, which the
+// walls stage of the next step adds up (walls.wgsl). Runs once per slab; a slab starts on a
+// workgroup boundary, so the partials are the same however the particles are split. CPU twin:
+// backend/cpu/wall_forces.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;

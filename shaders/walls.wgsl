@@ -1,8 +1,8 @@
-// Stage 1 on the GPU: walls. One workgroup sums the wall-force partials the workgroups of
-// the last step's wall pass left (in a fixed order: deterministic) into each wall's load, then
-// moves each wall by one step: a prescribed velocity, or a servo that closes 20% of the
-// stress error per step with a gain from the contact stiffness. At the first step after an
-// upload the partials hold the model's last loads. CPU twin: Wall::advance in walls.rs.
+// The `walls` stage on the GPU. One workgroup sums the wall-force partials the workgroups of the
+// last step's wall pass left (in a fixed order: deterministic) into each wall's load, then moves
+// each wall by one step: a prescribed velocity, or a servo that closes 20% of the stress error per
+// step with a gain from the contact stiffness. At the first step after an upload the partials hold
+// the model's last loads. CPU twin: Wall::advance in walls.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> walls: array<Wall>;

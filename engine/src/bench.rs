@@ -117,7 +117,7 @@ impl LatticeScene {
             m.particles.enable_rotation();
         }
         m.set_dt(self.dt)?;
-        crate::backend::cpu::neighbours::rebuild(&mut m);
+        crate::neighbours::rebuild(&mut m);
         Ok(m)
     }
 }

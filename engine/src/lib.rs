@@ -11,8 +11,12 @@
 //!   Mindlin, dashpots from restitution, time-step estimates.
 //! - [`materials`] converts macro properties (E, ν, Tu, Cu, μi) to micro parameters and back.
 //! - [`plan::StepPlan`] decides once which effects a scene needs.
-//! - [`backend::cpu::CpuBackend`] runs one step as named stages; [`simulation::Simulation`]
-//!   runs many, with MatDEM's `balance` and the stability [`guard`].
+//! - [`neighbours`] builds the neighbour rows both backends step on (cell list, skin, the
+//!   drift rule that says when to rebuild).
+//! - [`backend`] steps the model: each [`backend::Backend`] (the CPU reference, f64; the GPU,
+//!   f32) runs one step as named stages, a chunk of steps at a time, ending with the guard.
+//! - [`simulation::Simulation`] runs many steps on either, with one run loop (chunks, the
+//!   stability [`guard`]'s cadence, sampling, observers, cancellation) and MatDEM's `balance`.
 //! - [`status`] measures energies, heat, coordination number and porosity.
 //! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
 //!   later run continues it bit for bit.
@@ -29,6 +33,7 @@ pub mod guard;
 pub mod materials;
 pub mod memory_budget;
 pub mod model;
+pub mod neighbours;
 pub mod physics;
 pub mod plan;
 pub mod simulation;

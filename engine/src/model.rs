@@ -303,7 +303,7 @@ impl Model {
             }
         }
         self.contacts = Contacts { stale: true, skin: self.contacts.skin, ..Contacts::default() };
-        crate::backend::cpu::neighbours::rebuild(self);
+        crate::neighbours::rebuild(self);
         for (a, b) in bonds {
             self.contacts.set_bond(a as usize, b as usize, true);
         }
@@ -324,7 +324,7 @@ impl Model {
         let skin_needed = tolerance;
         if self.contacts.skin < skin_needed || self.contacts.stale {
             self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
-            crate::backend::cpu::neighbours::rebuild(self);
+            crate::neighbours::rebuild(self);
         }
         let p = &self.particles;
         let c = &mut self.contacts;

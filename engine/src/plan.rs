@@ -9,6 +9,51 @@ use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
 use crate::walls::WallMotion;
 use std::fmt;
 
+/// The named stages of one time step, in the order they run. A stage's name is its files':
+/// `shaders/<name>.wgsl` and `backend/gpu/<name>.rs` (where it also labels the pipeline),
+/// and its CPU twin `backend/cpu/<name>.rs` for the force and integration stages (which the
+/// CPU runs as one fused pass on unobserved steps) or the engine-level `<name>.rs` or
+/// `<name>/` that both backends share (walls, neighbours, guard).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Walls move: prescribed velocity, or servo control on the last step's load.
+    Walls,
+    /// Neighbour rows, rebuilt when the drift since the last build exceeds half the skin.
+    Neighbours,
+    /// Particle–particle contact forces (and torques), bonds and their breakage.
+    ContactForces,
+    /// Particle–wall contact forces and the loads the walls carry.
+    WallForces,
+    /// Body forces, damping and leapfrog integration (rotation when on).
+    Integrate,
+    /// The stability guard's checks, every `guard_every` steps.
+    Guard,
+}
+
+impl Stage {
+    /// Every stage, in step order.
+    pub const ALL: [Stage; 6] =
+        [Stage::Walls, Stage::Neighbours, Stage::ContactForces, Stage::WallForces, Stage::Integrate, Stage::Guard];
+
+    /// The stage's name, as its files are named.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Stage::Walls => "walls",
+            Stage::Neighbours => "neighbours",
+            Stage::ContactForces => "contact_forces",
+            Stage::WallForces => "wall_forces",
+            Stage::Integrate => "integrate",
+            Stage::Guard => "guard",
+        }
+    }
+}
+
+impl fmt::Display for Stage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct StepPlan {
     pub normal: NormalKind,
@@ -68,6 +113,23 @@ impl StepPlan {
             materials: nm,
             pair,
             wall,
+        }
+    }
+
+    /// The stages a step of this plan runs, in order: the wall stages only with walls.
+    pub fn stages(&self) -> Vec<Stage> {
+        let walls = self.walls > 0;
+        Stage::ALL.into_iter().filter(|s| walls || !matches!(s, Stage::Walls | Stage::WallForces)).collect()
+    }
+
+    /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
+    /// (N·s/m) with k_i the element's stiffness; empty when the plan has no viscous damping.
+    /// Both backends take theirs from here (the GPU as c_i/m_i).
+    pub fn damping_coefficients(&self, m: &Model) -> Vec<f64> {
+        if self.damping > 0.0 {
+            (0..m.len()).map(|i| 2.0 * self.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt()).collect()
+        } else {
+            Vec::new()
         }
     }
 
@@ -188,5 +250,23 @@ impl fmt::Display for StepPlan {
         }
         off.extend(["heat", "fluid", "rolling resistance"]);
         write!(f, "not simulated: {}", off.join(", "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::walls::Wall;
+    use crate::Vec3;
+
+    #[test]
+    fn a_plan_runs_the_wall_stages_only_with_walls() {
+        let mut m = Model::new();
+        let k = m.add_material(Material::from_micro("m", 2650.0, 1e6, 1e5, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
+        m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+        let names = |m: &Model| StepPlan::build(m).stages().iter().map(|s| s.name()).collect::<Vec<_>>().join(" ");
+        assert_eq!(names(&m), "neighbours contact_forces integrate guard");
+        m.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -1e-3), Vec3::z(), 1e-4).unwrap()).unwrap();
+        assert_eq!(names(&m), "walls neighbours contact_forces wall_forces integrate guard");
     }
 }

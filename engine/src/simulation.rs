@@ -1,21 +1,18 @@
-//! Running a model: prepared plans, runs of many steps with periodic stability checks,
-//! MatDEM's `balance`, and sampled energy histories.
+//! Running a model: the run loop, once for every backend — chunks that end on the guard's
+//! cadence and on observer steps, energy sampling, progress, cancellation — MatDEM's
+//! `balance` with its resume points, and sampled energy histories.
+//!
+//! A [`Backend`] only steps: it advances a chunk and ends it with the stability guard. What
+//! happens between chunks is decided here, the same way on the CPU and on a GPU.
 
-use crate::backend::cpu::CpuBackend;
-use crate::backend::RunControl;
+use crate::backend::{Backend, RunControl, Sampling, Target};
 use crate::error::{Error, Result};
-use crate::guard::{check_state, check_time_step};
+use crate::guard::check_time_step;
 use crate::model::Model;
 use crate::plan::StepPlan;
 use crate::status::{contact_stats, kinetic_energy, potential_energies, ContactStats, Energies};
 
-/// One energy sample of a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EnergySample {
-    pub step: u64,
-    pub time: f64,
-    pub energies: Energies,
-}
+pub use crate::status::EnergySample;
 
 /// How long `balance` runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,18 +30,22 @@ pub enum Balance {
 /// A model and the backend that steps it. The plan is rebuilt when the model changes.
 pub struct Simulation {
     pub model: Model,
-    backend: Option<(PlanKey, CpuBackend)>,
     /// Called whenever the step count reaches a multiple of its period (snapshots).
     pub observer: Option<Observer>,
-    /// Set when the model runs on a GPU: the device and the pipelines for the current plan.
-    #[cfg(feature = "gpu")]
-    gpu: Option<GpuRunner>,
+    /// Where the steps run.
+    target: Target,
+    /// The plan for the model's current revision, and the backend prepared for it once a
+    /// run needed one.
+    prepared: Option<Prepared>,
 }
 
-#[cfg(feature = "gpu")]
-struct GpuRunner {
-    ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>,
-    prepared: Option<(PlanKey, crate::backend::gpu::GpuBackend)>,
+/// A plan and what was derived from it for one revision of the model.
+struct Prepared {
+    key: PlanKey,
+    plan: StepPlan,
+    /// Each particle's viscous damping coefficient, fixed with the plan.
+    damping: Vec<f64>,
+    backend: Option<Box<dyn Backend>>,
 }
 
 /// A host callback run at every `every`-th step of the model's clock, between steps, with
@@ -75,45 +76,31 @@ pub struct RunReport {
 impl Simulation {
     /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation {
-            model,
-            backend: None,
-            observer: None,
-            #[cfg(feature = "gpu")]
-            gpu: None,
-        }
+        Simulation { model, observer: None, target: Target::Cpu, prepared: None }
     }
 
     /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
     /// contact statistics, scripts' arrays) read the model, which each run brings up to date.
     #[cfg(feature = "gpu")]
     pub fn with_gpu(model: Model, ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>) -> Self {
-        Simulation { gpu: Some(GpuRunner { ctx, prepared: None }), ..Self::new(model) }
+        Simulation { target: Target::Gpu(ctx), ..Self::new(model) }
     }
 
     /// Puts `model` in place of the current one (a loaded checkpoint), on the same backend;
     /// prepared plans are dropped, so nothing of the old model's per-pair state carries over.
     pub fn replace_model(&mut self, model: Model) {
         self.model = model;
-        self.backend = None;
-        #[cfg(feature = "gpu")]
-        if let Some(g) = &mut self.gpu {
-            g.prepared = None;
-        }
+        self.prepared = None;
     }
 
     /// The backend in words: `cpu (f64)` or `gpu (f32) on <adapter>`.
     pub fn backend_name(&self) -> String {
-        #[cfg(feature = "gpu")]
-        if let Some(g) = &self.gpu {
-            return format!("gpu (f32) on {}", g.ctx.describe());
-        }
-        "cpu (f64)".to_string()
+        self.target.describe()
     }
 
     /// The plan for the model as it is now.
     pub fn plan(&mut self) -> &StepPlan {
-        &prepared(&mut self.backend, &self.model).plan
+        &prepared(&mut self.prepared, &self.model).plan
     }
 
     /// Runs `steps` steps, checking stability every `guard_every` steps and honouring
@@ -135,64 +122,13 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
-        #[cfg(feature = "gpu")]
-        if let Some(g) = &mut self.gpu {
-            let Some(o) = self.observer.as_mut().filter(|o| o.every > 0) else {
-                return run_on_gpu(g, &mut self.model, steps, every, ctl, progress, sample);
-            };
-            // Observed runs go in pieces that end on the observer's steps; each piece brings
-            // the model back from the device, which the observer then reads.
-            let mut done = 0;
-            while done < steps {
-                let piece = (o.every - self.model.clock.step % o.every).min(steps - done);
-                run_on_gpu(g, &mut self.model, piece, every, ctl, &mut |k| progress(done + k), sample).map_err(
-                    |e| match e {
-                        Error::Cancelled { completed_steps } => {
-                            Error::Cancelled { completed_steps: done + completed_steps }
-                        }
-                        other => other,
-                    },
-                )?;
-                done += piece;
-                if self.model.clock.step % o.every == 0 {
-                    (o.call)(&self.model).map_err(Error::Observer)?;
-                }
-            }
-            return Ok(RunReport { steps, unbalanced_ratio: None });
-        }
-        let guard_every = self.model.settings.guard_every.max(1);
-        let Simulation { model, backend, observer, .. } = self;
-        let backend = prepared(backend, model);
-        let mut samples = Vec::new();
-        let mut done = 0;
-        while done < steps {
-            let mut chunk = guard_every.min(steps - done);
-            if let Some(o) = observer.as_ref().filter(|o| o.every > 0) {
-                chunk = chunk.min(o.every - model.clock.step % o.every);
-            }
-            // Step a chunk on a pool thread: the stages' parallel loops then join within
-            // the pool instead of waking it from outside several times per step.
-            rayon::scope(|_| {
-                for k in done..done + chunk {
-                    let observe = every > 0 && k % every == 0;
-                    let (step, time) = (model.clock.step, model.clock.time);
-                    if let Some(energies) = backend.step(model, observe) {
-                        samples.push(EnergySample { step, time, energies });
-                    }
-                }
-            });
-            done += chunk;
-            samples.drain(..).for_each(&mut *sample);
-            check_state(model)?;
-            if let Some(o) = observer.as_mut().filter(|o| o.every > 0 && model.clock.step % o.every == 0) {
-                (o.call)(model).map_err(Error::Observer)?;
-            }
-            progress(done);
-            if ctl.is_cancelled() {
-                return Err(Error::Cancelled { completed_steps: done });
-            }
-        }
-        Ok(RunReport { steps, unbalanced_ratio: None })
+        let Simulation { model, observer, target, prepared: cache } = self;
+        let p = prepared(cache, model);
+        let backend = match &mut p.backend {
+            Some(b) => b,
+            slot => slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?),
+        };
+        run_loop(backend.as_mut(), model, observer.as_mut(), steps, every, ctl, progress, sample)
     }
 
     /// MatDEM's `balance`: lets the model settle under the current loads.
@@ -268,49 +204,46 @@ impl Simulation {
     /// Heap bytes of the prepared backend's own buffers (0 before the first run); on the GPU
     /// the bytes of all device buffers.
     pub fn backend_bytes(&self) -> usize {
-        #[cfg(feature = "gpu")]
-        if let Some(g) = &self.gpu {
-            return g.prepared.as_ref().map_or(0, |(_, b)| b.device_bytes() as usize);
-        }
-        self.backend.as_ref().map_or(0, |(_, b)| b.scratch_bytes())
+        self.prepared.as_ref().and_then(|p| p.backend.as_ref()).map_or(0, |b| b.bytes())
     }
 
     /// Energies now (kinetic from the stored half-step velocities).
     pub fn energies(&mut self) -> Energies {
         self.refresh_rows();
-        let plan = self.plan().clone();
-        let mut e = potential_energies(&self.model, &plan);
+        let plan = &prepared(&mut self.prepared, &self.model).plan;
+        let mut e = potential_energies(&self.model, plan);
         e.kinetic = kinetic_energy(&self.model);
         e
     }
 
     pub fn contact_stats(&mut self) -> ContactStats {
         self.refresh_rows();
-        let plan = self.plan().clone();
-        contact_stats(&self.model, &plan)
+        let plan = &prepared(&mut self.prepared, &self.model).plan;
+        contact_stats(&self.model, plan)
     }
 
     /// The normal contact load each particle carries (N), with rows covering every contact.
     pub fn contact_loads(&mut self) -> Vec<f64> {
         self.refresh_rows();
-        let plan = self.plan().clone();
-        crate::status::contact_loads(&self.model, &plan)
+        let plan = &prepared(&mut self.prepared, &self.model).plan;
+        crate::status::contact_loads(&self.model, plan)
     }
 
     /// Rebuilds the neighbour rows if they do not cover the current positions (never built,
     /// particles added, or drifted past half the skin), so observers see every contact.
     fn refresh_rows(&mut self) {
-        use crate::backend::cpu::neighbours::{is_stale, rebuild};
+        use crate::neighbours::{is_stale, rebuild};
         if is_stale(&self.model.contacts, &self.model.particles.pos) {
             rebuild(&mut self.model);
         }
     }
 }
 
-/// A run on the GPU, with the pipelines prepared for the model's current revision.
-#[cfg(feature = "gpu")]
-fn run_on_gpu(
-    g: &mut GpuRunner,
+/// Runs `steps` steps of `model` on a backend prepared for its plan: the loop of
+/// [`Simulation::run_sampled`] (without an observer), for programs and tests that hold a
+/// backend of their own. Checks the time step first; an empty model runs no step.
+pub fn run_steps(
+    backend: &mut dyn Backend,
     model: &mut Model,
     steps: u64,
     every: u64,
@@ -318,33 +251,71 @@ fn run_on_gpu(
     progress: &mut dyn FnMut(u64),
     sample: &mut dyn FnMut(EnergySample),
 ) -> Result<RunReport> {
-    if !g.prepared.as_ref().is_some_and(|(key, _)| is_current(key, model)) {
-        let backend = crate::backend::gpu::GpuBackend::prepare(g.ctx.clone(), model)?;
-        g.prepared = Some((plan_key(model), backend));
+    if model.is_empty() {
+        return Ok(RunReport { steps: 0, unbalanced_ratio: None });
     }
-    let backend = &mut g.prepared.as_mut().expect("prepared above").1;
-    let plan = backend.plan.clone();
-    backend.run(model, steps, every, ctl, progress, &mut |m| {
-        let mut energies = potential_energies(m, &plan);
-        energies.kinetic = kinetic_energy(m);
-        sample(EnergySample { step: m.clock.step, time: m.clock.time, energies });
-    })?;
+    check_time_step(model)?;
+    run_loop(backend, model, None, steps, every, ctl, progress, sample)
+}
+
+/// The run loop. Chunks end every `guard_every` steps of the run (where the backend's guard
+/// checks the state), on the observer's steps of the model's clock, and at the end; between
+/// chunks come the observer (with the model brought up to date), `progress(done)`, and the
+/// cancellation check, which also brings the model up to date. Energies of every `every`-th
+/// step of the run go to `sample`.
+fn run_loop(
+    backend: &mut dyn Backend,
+    model: &mut Model,
+    observer: Option<&mut Observer>,
+    steps: u64,
+    every: u64,
+    ctl: &RunControl,
+    progress: &mut dyn FnMut(u64),
+    sample: &mut dyn FnMut(EnergySample),
+) -> Result<RunReport> {
+    let guard_every = model.settings.guard_every.max(1);
+    let mut observer = observer.filter(|o| o.every > 0);
+    // The clock at the run's start: a backend that keeps the state on a device advances the
+    // model's clock only when it syncs.
+    let step0 = model.clock.step;
+    let mut done = 0;
+    while done < steps {
+        let mut chunk = (guard_every - done % guard_every).min(steps - done);
+        if let Some(o) = &observer {
+            chunk = chunk.min(o.every - (step0 + done) % o.every);
+        }
+        backend.run_chunk(model, chunk, Sampling { every, first: done }, sample)?;
+        done += chunk;
+        if let Some(o) = observer.as_mut().filter(|o| (step0 + done) % o.every == 0) {
+            backend.sync(model)?;
+            (o.call)(model).map_err(Error::Observer)?;
+        }
+        progress(done);
+        if ctl.is_cancelled() {
+            backend.sync(model)?;
+            return Err(Error::Cancelled { completed_steps: done });
+        }
+    }
+    backend.sync(model)?;
     Ok(RunReport { steps, unbalanced_ratio: None })
 }
 
-/// The backend prepared for the model's current revision (rebuilt when it changed).
-fn prepared<'a>(cache: &'a mut Option<(PlanKey, CpuBackend)>, model: &Model) -> &'a mut CpuBackend {
-    if !cache.as_ref().is_some_and(|(key, _)| is_current(key, model)) {
-        *cache = Some((plan_key(model), CpuBackend::prepare(model)));
+/// The plan (and what derives from it) for the model's current revision, rebuilt when it
+/// changed; the backend prepared for an older plan goes with it.
+fn prepared<'a>(cache: &'a mut Option<Prepared>, model: &Model) -> &'a mut Prepared {
+    if !cache.as_ref().is_some_and(|p| is_current(&p.key, model)) {
+        let plan = StepPlan::build(model);
+        let damping = plan.damping_coefficients(model);
+        *cache = Some(Prepared { key: plan_key(model), plan, damping, backend: None });
     }
-    &mut cache.as_mut().expect("prepared above").1
+    cache.as_mut().expect("prepared above")
 }
 
 fn plan_key(model: &Model) -> PlanKey {
     (model.revision, model.settings.clone())
 }
 
-/// Whether a backend prepared under `key` still fits the model (same revision and settings).
+/// Whether a plan prepared under `key` still fits the model (same revision and settings).
 fn is_current((rev, settings): &PlanKey, model: &Model) -> bool {
     *rev == model.revision && *settings == model.settings
 }

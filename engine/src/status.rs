@@ -24,6 +24,14 @@ pub struct Energies {
     pub wall_work: f64,
 }
 
+/// One energy sample of a run: the account at the start of step `step` (time `time`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergySample {
+    pub step: u64,
+    pub time: f64,
+    pub energies: Energies,
+}
+
 impl Energies {
     pub fn mechanical(&self) -> f64 {
         self.kinetic + self.normal_elastic + self.shear_elastic + self.gravity

@@ -15,12 +15,13 @@ use common::{
     damped_glass_pair, gpu, material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres,
     HertzImpact,
 };
-use matdem_engine::backend::cpu::neighbours::{is_stale, rebuild};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::gpu::{GpuBackend, RowStats};
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::Rng;
+use matdem_engine::neighbours::{is_stale, rebuild};
 use matdem_engine::physics::contact_law::BreakKind;
+use matdem_engine::simulation::run_steps;
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Material, Model, NormalKind, Simulation, TangentialKind, Vec3, Wall, WallMotion};
 use std::sync::Arc;
@@ -364,7 +365,7 @@ fn run_backend(ctx: &Arc<GpuContext>, m: &mut Model, steps: u64, binding_limit: 
     if let Some(b) = binding_limit {
         backend.limit_bindings(b);
     }
-    backend.run(m, steps, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
+    run_steps(&mut backend, m, steps, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
     backend.row_stats().clone()
 }
 

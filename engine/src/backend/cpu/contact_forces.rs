@@ -1,5 +1,5 @@
-//! Stage 3: contact forces between particles, in two passes over particle blocks, so that
-//! no two tasks write the same memory and sums never depend on the thread count:
+//! The `contact_forces` stage: contact forces between particles, in two passes over particle
+//! blocks, so that no two tasks write the same memory and sums never depend on the thread count:
 //!
 //! 1. *pairs*: each particle evaluates the pairs it owns (its higher-id neighbours, the
 //!    tail of its row) once, and leaves the force, the new pair state, the normal and the
@@ -69,7 +69,7 @@ impl PairScratch {
 }
 
 /// Overwrites `force` (and `torque`) with the contact forces of this step. The rows must
-/// carry pair ids (as [`rebuild`](super::neighbours::rebuild) leaves them).
+/// carry pair ids (as [`rebuild`](crate::neighbours::rebuild) leaves them).
 pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch) -> Breaks {
     macro_rules! go {
         ($n:ty, $t:ty) => {

@@ -1,6 +1,6 @@
-//! Stages 3–5 of an unobserved step in two passes instead of four: the contacts' pair pass
-//! (contact_forces.rs), then one pass in which each particle gathers its row, meets the
-//! walls in its mask and moves (integrate.rs).
+//! The `contact_forces`, `wall_forces` and `integrate` stages of an unobserved step in two passes
+//! instead of four: the contacts' pair pass (contact_forces.rs), then one pass in which each
+//! particle gathers its row, meets the walls in its mask and moves (integrate.rs).
 //!
 //! Once the pair pass is done, what is left of the step reads nothing of any other particle
 //! (the pair results are in the scratch), so a particle can finish its step as soon as it has
@@ -126,14 +126,14 @@ where
                     let w = near[i + WALL_AHEAD].trailing_zeros() as usize;
                     prefetch(&wall_state.items[ahead * nw + w]);
                 }
-                // Stage 3: the row's forces.
+                // contact_forces: the row's forces.
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
                 let rows = &mut state[start - base..end - base];
                 let row = gather_row::<ROT>(scratch, &pair[start..end], own - start, ri, rows);
                 let (mut f, mut t) = (row.force, row.torque);
                 book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
-                // Stage 3b: the walls in reach (most particles have none).
+                // wall_forces: the walls in reach (most particles have none).
                 let wall_st = &mut wall_state.items[li * nw..(li + 1) * nw];
                 #[cfg(debug_assertions)]
                 super::wall_forces::check_mask(walls, i, near[i], &pos[li], ri, wall_st);
@@ -156,7 +156,7 @@ where
                     particle_walls::<N, T, DASHPOT>(walls, plan, k.dt, near[i], &body, wall_st, &mut out, &mut loads);
                 }
                 force[li] = f;
-                // Stages 4–5: body forces, damping and the move.
+                // integrate: body forces, damping and the move.
                 let c = if DAMP { damping_c[i] } else { 0.0 };
                 let b = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: f };
                 advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], &mut h_visc[li], &mut unobserved);

@@ -1,4 +1,5 @@
-//! Stages 4–5: body forces, global viscous damping and leapfrog integration, in one pass.
+//! The `integrate` stage: body forces, global viscous damping and leapfrog integration, in one
+//! pass.
 //!
 //! Velocities live at half steps. MatDEM's viscous damping −c·v is applied semi-implicitly
 //! (with the mean of the old and new velocity), which is stable for any damping ratio and

@@ -1,17 +1,22 @@
 //! The CPU reference backend (f64, rayon). One step is a sequence of named stages; each
-//! has a file of its own and, on the GPU, a kernel of the same name.
+//! has a file of its own and, on the GPU, a kernel of the same name. The neighbour rows it
+//! steps on are the engine's ([`crate::neighbours`]); the run loop around its chunks is the
+//! simulation's ([`crate::simulation`]).
 
 pub mod blocks;
 pub mod contact_forces;
 pub mod fused;
 pub mod integrate;
-pub mod neighbours;
 mod prefetch;
 pub mod wall_forces;
 
+use super::{Backend, Sampling};
+use crate::error::Result;
+use crate::guard::check_state;
 use crate::model::{Breakage, Model};
+use crate::neighbours;
 use crate::plan::StepPlan;
-use crate::status::{potential_energies, Energies};
+use crate::status::{potential_energies, Energies, EnergySample};
 use contact_forces::{compute_contact_forces, Breaks, PairScratch};
 use integrate::integrate;
 use wall_forces::compute_wall_forces;
@@ -26,13 +31,16 @@ pub struct CpuBackend {
 }
 
 impl CpuBackend {
+    /// The backend for the model's plan as it is now.
     pub fn prepare(m: &Model) -> Self {
         let plan = StepPlan::build(m);
-        let damping_c = if plan.damping > 0.0 {
-            (0..m.len()).map(|i| 2.0 * plan.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt()).collect()
-        } else {
-            Vec::new()
-        };
+        let damping_c = plan.damping_coefficients(m);
+        Self::with_plan(plan, damping_c)
+    }
+
+    /// The backend for `plan`, with the particles' viscous damping coefficients
+    /// ([`StepPlan::damping_coefficients`]).
+    pub fn with_plan(plan: StepPlan, damping_c: Vec<f64>) -> Self {
         CpuBackend { plan, damping_c, pairs: PairScratch::default() }
     }
 
@@ -87,6 +95,38 @@ impl CpuBackend {
         m.clock.step += 1;
         m.clock.time += dt;
         Some(e)
+    }
+}
+
+impl Backend for CpuBackend {
+    fn run_chunk(
+        &mut self,
+        m: &mut Model,
+        steps: u64,
+        sampling: Sampling,
+        sample: &mut dyn FnMut(EnergySample),
+    ) -> Result<()> {
+        let mut samples = Vec::new();
+        // Step the chunk on a pool thread: the stages' parallel loops then join within the
+        // pool instead of waking it from outside several times per step.
+        rayon::scope(|_| {
+            for k in 0..steps {
+                let (step, time) = (m.clock.step, m.clock.time);
+                if let Some(energies) = self.step(m, sampling.at(k)) {
+                    samples.push(EnergySample { step, time, energies });
+                }
+            }
+        });
+        samples.into_iter().for_each(sample);
+        check_state(m)
+    }
+
+    fn sync(&mut self, _: &mut Model) -> Result<()> {
+        Ok(())
+    }
+
+    fn bytes(&self) -> usize {
+        self.scratch_bytes()
     }
 }
 

@@ -1,7 +1,8 @@
-//! Stage 3b: particle–wall contacts. Walls are few analytic shapes; each particle tests the
-//! walls its mask says are in reach ([`Contacts::wall_near`](crate::state::contacts::Contacts::wall_near),
-//! kept with the neighbour rows), so the many particles far from every wall cost one byte.
-//! The wall loads are summed per block in a fixed tree order (deterministic).
+//! The `wall_forces` stage: particle–wall contacts. Walls are few analytic shapes; each particle
+//! tests the walls its mask says are in reach
+//! ([`Contacts::wall_near`](crate::state::contacts::Contacts::wall_near), kept with the neighbour
+//! rows), so the many particles far from every wall cost one byte. The wall loads are summed per
+//! block in a fixed tree order (deterministic).
 
 use super::blocks::{for_blocks, Reduce, Rows};
 use crate::model::{Model, NormalKind, TangentialKind};

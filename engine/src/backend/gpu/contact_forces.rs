@@ -1,12 +1,14 @@
-//! Stage 3 on the GPU: particle–particle contact forces (shaders/contact_forces.wgsl). Each
-//! invocation walks its own row, so there are no float atomics and the sums are the same in
-//! every run. One kernel per slab of rows. CPU twin: [`crate::backend::cpu::contact_forces`].
+//! The `contact_forces` stage on the GPU: particle–particle contact forces
+//! (shaders/contact_forces.wgsl). Each invocation walks its own row, so there are no float atomics
+//! and the sums are the same in every run. One kernel per slab of rows. CPU twin:
+//! `backend/cpu/contact_forces.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "contact_forces", shaders::CONTACT_FORCES, "compute_contact_forces", constants)
+    shaders::pipeline(device, Stage::ContactForces.name(), shaders::CONTACT_FORCES, "compute_contact_forces", constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {

@@ -1,12 +1,13 @@
-//! Stage 7 on the GPU: the stability guard's checks (shaders/guard.wgsl), run every
+//! The `guard` stage on the GPU: the stability guard's checks (shaders/guard.wgsl), run every
 //! `guard_every` steps. When one fails the host brings the state back and words the
 //! CPU guard's message ([`crate::guard`]), so both backends stop with the same text.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "guard", shaders::GUARD, "check_state", constants)
+    shaders::pipeline(device, Stage::Guard.name(), shaders::GUARD, "check_state", constants)
 }
 
 /// One kernel per slab of rows.

@@ -1,11 +1,12 @@
-//! Stages 4–5 on the GPU: body forces, damping and leapfrog integration
-//! (shaders/integrate.wgsl). CPU twin: [`crate::backend::cpu::integrate`].
+//! The `integrate` stage on the GPU: body forces, damping and leapfrog integration
+//! (shaders/integrate.wgsl). CPU twin: `backend/cpu/integrate.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, groups_for, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "integrate", shaders::INTEGRATE, "integrate", constants)
+    shaders::pipeline(device, Stage::Integrate.name(), shaders::INTEGRATE, "integrate", constants)
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {

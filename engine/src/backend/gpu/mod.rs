@@ -40,12 +40,13 @@ pub mod shaders;
 pub mod wall_forces;
 pub mod walls;
 
-use crate::backend::cpu::neighbours::{is_stale, rebuild, rebuild_wall_mask};
-use crate::backend::RunControl;
+use super::{Backend, Sampling};
 use crate::error::{Error, GpuError, Result};
 use crate::model::{Breakage, Model};
+use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
 use crate::plan::StepPlan;
+use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST, C_SPEED,
 };
@@ -58,25 +59,46 @@ pub use device::{select, BackendChoice, Compute};
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
 
+/// Label of the compute pass that runs a batch of steps (walls → contact_forces →
+/// wall_forces → integrate, each step; then the neighbours stage's drift measure and, at a
+/// guard step, the guard).
+const STEP_BATCH: &str = "step_batch";
+
+/// The plan's pipelines, one field per stage (the wall stages only with walls).
 struct Pipelines {
+    /// The neighbours stage: the drift measure, and the rows built on the device.
     drift: wgpu::ComputePipeline,
     rows: rows::Pipelines,
-    contact: wgpu::ComputePipeline,
-    /// Walls (loads summed, then moved), wall forces, loads summed alone: only with walls.
-    walls: Option<[wgpu::ComputePipeline; 3]>,
+    contact_forces: wgpu::ComputePipeline,
+    walls: Option<WallPipelines>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
+}
+
+/// The pipelines of the walls and wall_forces stages.
+struct WallPipelines {
+    /// Last step's loads summed, then the walls moved.
+    advance: wgpu::ComputePipeline,
+    forces: wgpu::ComputePipeline,
+    /// The loads summed alone (before a download).
+    sum_loads: wgpu::ComputePipeline,
 }
 
 /// Kernels bound to one upload; those that read per-entry lanes, one per slab.
 struct Kernels {
     drift: Kernel,
     rows: rows::Kernels,
-    contact: Vec<Kernel>,
-    /// Walls (loads summed, then moved), wall forces, loads summed alone.
-    walls: Option<(Kernel, Vec<Kernel>, Kernel)>,
+    contact_forces: Vec<Kernel>,
+    walls: Option<WallKernels>,
     integrate: Kernel,
     guard: Vec<Kernel>,
+}
+
+/// [`WallPipelines`] bound to one upload; the wall forces one per slab.
+struct WallKernels {
+    advance: Kernel,
+    forces: Vec<Kernel>,
+    sum_loads: Kernel,
 }
 
 /// The model on the device, from an upload to the next download.
@@ -118,12 +140,24 @@ pub struct GpuBackend {
     /// A storage binding limit below the device's (tests of the split into slabs).
     binding_limit: Option<u64>,
     rows: RowStats,
+    /// The model on the device between a run's first chunk and the next sync.
+    session: Option<Session>,
+    /// Steps the next batch may hold, from the drift of the last (1 after an upload or a
+    /// row build).
+    batch: u64,
 }
 
 impl GpuBackend {
     /// Builds the pipelines the model's plan needs.
     pub fn prepare(ctx: Arc<GpuContext>, m: &Model) -> Result<Self> {
         let plan = StepPlan::build(m);
+        let damping = plan.damping_coefficients(m);
+        Self::with_plan(ctx, m, plan, &damping)
+    }
+
+    /// Builds the pipelines `plan` needs; `damping` holds the particles' viscous damping
+    /// coefficients ([`StepPlan::damping_coefficients`]).
+    pub fn with_plan(ctx: Arc<GpuContext>, m: &Model, plan: StepPlan, damping: &[f64]) -> Result<Self> {
         let errors = Arc::new(Mutex::new(None::<String>));
         let sink = errors.clone();
         ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -140,27 +174,17 @@ impl GpuBackend {
         let pipelines = Pipelines {
             drift: neighbours::pipeline(device, &constants),
             rows: rows::pipelines(device, &constants),
-            contact: contact_forces::pipeline(device, &constants),
-            walls: (plan.walls > 0).then(|| {
-                [
-                    walls::pipeline(device, &constants),
-                    wall_forces::pipeline(device, &constants),
-                    walls::sum_pipeline(device, &constants),
-                ]
+            contact_forces: contact_forces::pipeline(device, &constants),
+            walls: (plan.walls > 0).then(|| WallPipelines {
+                advance: walls::pipeline(device, &constants),
+                forces: wall_forces::pipeline(device, &constants),
+                sum_loads: walls::sum_pipeline(device, &constants),
             }),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
         };
-        let damping_rate = if plan.damping > 0.0 {
-            (0..m.len())
-                .map(|i| {
-                    let mass = m.particles.mass[i];
-                    2.0 * plan.damping * (mass * m.element_stiffness(i)).sqrt() / mass
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
+        // The kernels scale velocities, so they take c_i/m_i.
+        let damping_rate = damping.iter().zip(&m.particles.mass).map(|(c, mass)| c / mass).collect();
         let backend = GpuBackend {
             ctx,
             plan,
@@ -171,6 +195,8 @@ impl GpuBackend {
             ledger,
             binding_limit: None,
             rows: RowStats::default(),
+            session: None,
+            batch: 1,
         };
         backend.check_device()?;
         Ok(backend)
@@ -211,76 +237,6 @@ impl GpuBackend {
             Some(e) => Err(GpuError::Device(e).into()),
             None => Ok(()),
         }
-    }
-
-    /// Runs `steps` steps on the device: the guard every `guard_every` steps,
-    /// `progress(done)` and cancellation between guard chunks, and `sample(model)` at the
-    /// start of every `every`-th step (0 = never), with the model brought up to date.
-    pub fn run(
-        &mut self,
-        m: &mut Model,
-        steps: u64,
-        every: u64,
-        ctl: &RunControl,
-        progress: &mut dyn FnMut(u64),
-        sample: &mut dyn FnMut(&mut Model),
-    ) -> Result<()> {
-        let guard_every = m.settings.guard_every.max(1);
-        let mut session = self.upload(m)?;
-        let mut done = 0;
-        let mut batch = 1;
-        while done < steps {
-            if every > 0 && done % every == 0 {
-                self.download(m, session)?;
-                sample(m);
-                session = self.upload(m)?;
-            }
-            let until_guard = guard_every - done % guard_every;
-            let until_sample = if every > 0 { every - done % every } else { u64::MAX };
-            let k = batch.min(until_guard).min(until_sample).min(steps - done);
-            let guard_now = (done + k) % guard_every == 0 || done + k == steps;
-            let counters = self.step_batch(&session, k, guard_now)?;
-            done += k;
-            session.steps += k;
-            if guard_now {
-                let failed = (0..4).find(|&s| counters[C_GUARD + s] != u32::MAX);
-                if let Some(slot) = failed {
-                    let particle = counters[C_GUARD + slot] as usize;
-                    self.download(m, session)?;
-                    // The CPU guard words it (and finds the same particle, unless f32 and
-                    // f64 disagree at the threshold: then the device's finding stands).
-                    crate::guard::check_state(m)?;
-                    return Err(crate::guard::unstable(m, particle, guard::FAILURES[slot].to_string()));
-                }
-                progress(done);
-                if ctl.is_cancelled() {
-                    self.download(m, session)?;
-                    return Err(Error::Cancelled { completed_steps: done });
-                }
-            }
-            let drift = f64::from(f32::from_bits(counters[C_DRIFT])).sqrt();
-            let speed = f64::from(f32::from_bits(counters[C_SPEED])).sqrt();
-            if !(drift.is_finite() && speed.is_finite()) {
-                self.download(m, session)?;
-                crate::guard::check_state(m)?;
-                return Err(crate::guard::unstable(m, 0, guard::FAILURES[0].to_string()));
-            }
-            match neighbours::steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
-                Some(k) => batch = k,
-                None => {
-                    if let Err(why) = self.build_rows(&session)? {
-                        // The rows did not fit: the host builds them and widens the slots.
-                        self.download(m, session)?;
-                        rebuild(m);
-                        self.rows.host_builds += 1;
-                        self.rows.host_reason = Some(why);
-                        session = self.upload(m)?;
-                    }
-                    batch = 1;
-                }
-            }
-        }
-        self.download(m, session)
     }
 
     /// Puts the model on the device (rows rebuilt first if they do not cover it).
@@ -337,13 +293,11 @@ impl GpuBackend {
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
             rows: rows::kernels(device, &p.rows, &lanes),
-            contact: contact_forces::kernels(device, &p.contact, &lanes),
-            walls: p.walls.as_ref().map(|[a, f, l]| {
-                (
-                    walls::kernel(device, a, &lanes),
-                    wall_forces::kernels(device, f, &lanes),
-                    walls::kernel(device, l, &lanes),
-                )
+            contact_forces: contact_forces::kernels(device, &p.contact_forces, &lanes),
+            walls: p.walls.as_ref().map(|w| WallKernels {
+                advance: walls::kernel(device, &w.advance, &lanes),
+                forces: wall_forces::kernels(device, &w.forces, &lanes),
+                sum_loads: walls::kernel(device, &w.sum_loads, &lanes),
             }),
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
@@ -391,17 +345,18 @@ impl GpuBackend {
         ctx.queue.write_buffer(&s.lanes.counters, (C_DRIFT * 4) as u64, bytemuck::cast_slice(&reset));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
-            let mut pass = enc.begin_compute_pass(&Default::default());
+            let mut pass = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
             let kr = &s.kernels;
             for _ in 0..k {
-                if let Some((advance, _, _)) = &kr.walls {
-                    advance.dispatch(&mut pass);
+                if let Some(w) = &kr.walls {
+                    w.advance.dispatch(&mut pass);
                 }
-                for slab in &kr.contact {
+                for slab in &kr.contact_forces {
                     slab.dispatch(&mut pass);
                 }
-                if let Some((_, forces, _)) = &kr.walls {
-                    for slab in forces {
+                if let Some(w) = &kr.walls {
+                    for slab in &w.forces {
                         slab.dispatch(&mut pass);
                     }
                 }
@@ -423,10 +378,12 @@ impl GpuBackend {
     /// Brings the device's state into the model, appends the bonds that broke (in step and
     /// particle order, as the CPU backend records them) and advances the clock.
     fn download(&self, m: &mut Model, s: Session) -> Result<()> {
-        if let (Some((_, _, loads)), true) = (&s.kernels.walls, s.steps > 0) {
+        if let (Some(w), true) = (&s.kernels.walls, s.steps > 0) {
             // The walls hold the loads of the step before the last: sum the last step's.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-            loads.dispatch(&mut enc.begin_compute_pass(&Default::default()));
+            let label = Some("walls: sum_wall_loads");
+            w.sum_loads
+                .dispatch(&mut enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None }));
             self.ctx.queue.submit([enc.finish()]);
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
@@ -455,5 +412,90 @@ impl GpuBackend {
         // The rows came back as the device last built them; the host's wall mask goes with them.
         rebuild_wall_mask(m);
         self.check_device()
+    }
+}
+
+impl Backend for GpuBackend {
+    /// Steps the chunk in batches of command buffers, each as long as the drift allows
+    /// (at most `MAX_BATCH`, 64) and none across a sampled step; the last batch runs the guard's
+    /// checks. After each batch the host reads the largest drift and speed, and the rows are
+    /// rebuilt (on the device, or through the host when they outgrow their slots) when the
+    /// drift rule says so. A sampled step brings the model back to the host, measures it
+    /// there and puts it back.
+    fn run_chunk(
+        &mut self,
+        m: &mut Model,
+        steps: u64,
+        sampling: Sampling,
+        sample: &mut dyn FnMut(EnergySample),
+    ) -> Result<()> {
+        // Taken out for the chunk: an error drops the device's state, as it stands.
+        let mut session = match self.session.take() {
+            Some(s) => s,
+            None => {
+                self.batch = 1;
+                self.upload(m)?
+            }
+        };
+        let mut done = 0;
+        while done < steps {
+            if sampling.at(done) {
+                self.download(m, session)?;
+                let mut energies = potential_energies(m, &self.plan);
+                energies.kinetic = kinetic_energy(m);
+                sample(EnergySample { step: m.clock.step, time: m.clock.time, energies });
+                session = self.upload(m)?;
+            }
+            let k = self.batch.min(sampling.gap(done)).min(steps - done);
+            let guard_now = done + k == steps;
+            let counters = self.step_batch(&session, k, guard_now)?;
+            done += k;
+            session.steps += k;
+            if guard_now {
+                let failed = (0..4).find(|&s| counters[C_GUARD + s] != u32::MAX);
+                if let Some(slot) = failed {
+                    let particle = counters[C_GUARD + slot] as usize;
+                    self.download(m, session)?;
+                    // The CPU guard words it (and finds the same particle, unless f32 and
+                    // f64 disagree at the threshold: then the device's finding stands).
+                    crate::guard::check_state(m)?;
+                    return Err(crate::guard::unstable(m, particle, guard::FAILURES[slot].to_string()));
+                }
+            }
+            let drift = f64::from(f32::from_bits(counters[C_DRIFT])).sqrt();
+            let speed = f64::from(f32::from_bits(counters[C_SPEED])).sqrt();
+            if !(drift.is_finite() && speed.is_finite()) {
+                self.download(m, session)?;
+                crate::guard::check_state(m)?;
+                return Err(crate::guard::unstable(m, 0, guard::FAILURES[0].to_string()));
+            }
+            match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
+                Some(k) => self.batch = k,
+                None => {
+                    if let Err(why) = self.build_rows(&session)? {
+                        // The rows did not fit: the host builds them and widens the slots.
+                        self.download(m, session)?;
+                        rebuild(m);
+                        self.rows.host_builds += 1;
+                        self.rows.host_reason = Some(why);
+                        session = self.upload(m)?;
+                    }
+                    self.batch = 1;
+                }
+            }
+        }
+        self.session = Some(session);
+        Ok(())
+    }
+
+    fn sync(&mut self, m: &mut Model) -> Result<()> {
+        match self.session.take() {
+            Some(s) => self.download(m, s),
+            None => Ok(()),
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.device_bytes as usize
     }
 }

@@ -1,11 +1,10 @@
-//! Stage 2 on the GPU: neighbour rows built on the device when the drift says so, with the
-//! content and order of the CPU's [`rebuild`](crate::backend::cpu::neighbours::rebuild), so
-//! a rebuild costs no trip through the host. A build is a cell list (shaders/cell_list.wgsl:
-//! cells hashed into a table, counted, scanned into starts by shaders/scan.wgsl, filled)
-//! and one invocation per particle collecting, sorting and carrying its row
-//! (shaders/rows.wgsl), in a counting pass and a writing pass. When a new row would not fit
-//! its slots, or carries more set states than the kernel holds, nothing is written and the
-//! host builds the rows instead (and lays the slots out wider).
+//! The `neighbours` stage on the GPU: neighbour rows built on the device when the drift says so,
+//! with the content and order of the host's [`rebuild`](crate::neighbours::rebuild), so a rebuild
+//! costs no trip through the host. A build is a cell list (shaders/cell_list.wgsl: cells hashed
+//! into a table, counted, scanned into starts by shaders/scan.wgsl, filled) and one invocation per
+//! particle collecting, sorting and carrying its row (shaders/rows.wgsl), in a counting pass and a
+//! writing pass. When a new row would not fit its slots, or carries more set states than the kernel
+//! holds, nothing is written and the host builds the rows instead (and lays the slots out wider).
 //!
 //! Also the conversions between the host's CSR rows and the device's fixed-width slots.
 
@@ -181,10 +180,11 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels
 impl Kernels {
     /// Encodes one build. The counters C_LONGEST and C_CROWDED must be zero before it.
     pub fn encode(&self, enc: &mut wgpu::CommandEncoder, d: &DeviceLanes) {
-        self.bin.dispatch(&mut enc.begin_compute_pass(&Default::default()));
+        let pass = |label| wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None };
+        self.bin.dispatch(&mut enc.begin_compute_pass(&pass("neighbours: bin_particles")));
         // The scan runs in place on a copy of the counts, which fill_cells counts back down.
         enc.copy_buffer_to_buffer(&d.bucket_count, 0, &d.scan, 0, d.bucket_count.size());
-        let mut pass = enc.begin_compute_pass(&Default::default());
+        let mut pass = enc.begin_compute_pass(&pass("neighbours: scan, fill_cells, build_rows"));
         for k in &self.scan {
             k.dispatch(&mut pass);
         }

@@ -1,12 +1,13 @@
-//! Stage 3b on the GPU: particle–wall contacts and per-workgroup wall loads
+//! The `wall_forces` stage on the GPU: particle–wall contacts and per-workgroup wall loads
 //! (shaders/wall_forces.wgsl), one kernel per slab. Built only when the scene has walls.
-//! CPU twin: [`crate::backend::cpu::wall_forces`].
+//! CPU twin: `backend/cpu/wall_forces.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "wall_forces", shaders::WALL_FORCES, "compute_wall_forces", constants)
+    shaders::pipeline(device, Stage::WallForces.name(), shaders::WALL_FORCES, "compute_wall_forces", constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {

@@ -1,13 +1,14 @@
-//! Stage 1 on the GPU: the wall loads of the last step are summed and the walls move
+//! The `walls` stage on the GPU: the wall loads of the last step are summed and the walls move
 //! (prescribed velocity or servo), in one single-workgroup dispatch (shaders/walls.wgsl),
 //! so a servo platen runs without a round trip to the host. Built only when the scene has
 //! walls. CPU twin: [`crate::walls::Wall::advance`].
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
+use crate::plan::Stage;
 
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "walls", shaders::WALLS, "advance_walls", constants)
+    shaders::pipeline(device, Stage::Walls.name(), shaders::WALLS, "advance_walls", constants)
 }
 
 /// The loads alone (no move), so the host reads the loads of the run's last step.

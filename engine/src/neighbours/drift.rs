@@ -1,0 +1,75 @@
+//! The drift rule: rows (and wall masks) hold until something has moved half the skin since
+//! they were built; the GPU backend also asks how many steps it may run before it must look.
+
+use crate::physics::Vec3;
+use crate::state::contacts::Contacts;
+use crate::walls::{Wall, WallShape};
+use rayon::prelude::*;
+
+/// Whether some particle moved more than half the skin since the rows were built.
+pub fn is_stale(c: &Contacts, pos: &[Vec3]) -> bool {
+    if c.stale || c.built_at.len() != pos.len() || !c.has_pair_ids() {
+        return true;
+    }
+    let limit = 0.25 * c.skin * c.skin;
+    let moved = |(a, b): (&Vec3, &Vec3)| (a - b).norm_squared() > limit;
+    // Small models: waking the thread pool every step costs more than the check.
+    if pos.len() < 16_384 {
+        return pos.iter().zip(&c.built_at).any(moved);
+    }
+    pos.par_iter().zip(c.built_at.par_iter()).with_min_len(4096).any(moved)
+}
+
+/// Whether the wall mask no longer covers the walls: one was added, removed, reshaped, or
+/// has moved more than half the skin since the mask was built.
+pub fn walls_stale(c: &Contacts, walls: &[Wall], particles: usize) -> bool {
+    if c.wall_near.len() != particles || c.walls_at_build.len() != walls.len() {
+        return true;
+    }
+    let limit = 0.5 * c.skin;
+    walls.iter().zip(&c.walls_at_build).any(|(w, old)| {
+        let moved = match (&w.shape, old) {
+            (WallShape::Plane { point, normal }, WallShape::Plane { point: p0, normal: n0 }) if normal == n0 => {
+                (point - p0).norm()
+            }
+            (WallShape::Cylinder { center, radius }, WallShape::Cylinder { center: c0, radius: r0 }) => {
+                (center - c0).xy().norm() + (radius - r0).abs()
+            }
+            _ => f64::INFINITY,
+        };
+        // A NaN move (a wall sent to infinity) counts as stale too.
+        moved.is_nan() || moved > limit
+    })
+}
+
+/// Steps the host may run before it must measure the drift again, or `None` when the rows
+/// must be rebuilt now. `drift` is the largest move since the build and `speed` the largest
+/// speed: the next steps may move a particle by speed·dt each, counted twice for safety
+/// against acceleration.
+pub fn steps_until_rebuild(drift: f64, speed: f64, skin: f64, dt: f64, most: u64) -> Option<u64> {
+    let margin = 0.5 * skin - drift;
+    let per_step = 2.0 * speed * dt;
+    // NaN (a diverged state) must rebuild too, hence no `margin <= per_step`.
+    if margin.partial_cmp(&per_step) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    if per_step == 0.0 {
+        return Some(most);
+    }
+    Some(((margin / per_step) as u64).clamp(1, most))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_are_rebuilt_before_a_particle_can_drift_half_a_skin() {
+        // 0.4 of 1 mm skin: 0.2 mm margin; at 1 m/s and dt 1 µs, 2 µm per step counted.
+        assert_eq!(steps_until_rebuild(0.0, 1.0, 0.4e-3, 1e-6, 1000), Some(100));
+        assert_eq!(steps_until_rebuild(0.0, 1.0, 0.4e-3, 1e-6, 64), Some(64));
+        assert_eq!(steps_until_rebuild(0.199e-3, 1.0, 0.4e-3, 1e-6, 64), None);
+        assert_eq!(steps_until_rebuild(0.0, 0.0, 0.4e-3, 1e-6, 64), Some(64));
+        assert_eq!(steps_until_rebuild(f64::NAN, 0.0, 0.4e-3, 1e-6, 64), None);
+    }
+}
