@@ -25,6 +25,7 @@ const C_SPEED: u32 = 3u;
 const C_GUARD: u32 = 4u; // four slots: non-finite, too fast, overlap, through a wall
 const C_LONGEST: u32 = 8u; // the longest row a device build found
 const C_CROWDED: u32 = 9u; // rows with more set states than a device build carries
+const C_STIFF: u32 = 10u; // the lowest particle in a contact too stiff for dt (guard.wgsl)
 
 struct Params {
     n: u32,

@@ -62,6 +62,8 @@ pub struct Instability {
     pub dt: f64,
     pub critical_dt: f64,
     pub standard_dt: f64,
+    /// The fix, when the check that stopped the run knows it better than the general one.
+    pub fix: Option<String>,
 }
 
 impl std::fmt::Display for Instability {
@@ -72,7 +74,9 @@ impl std::fmt::Display for Instability {
              (standard {:.3e} s). ",
             self.step, self.particle, self.what, self.dt, self.critical_dt, self.standard_dt
         )?;
-        if self.dt > self.critical_dt || !self.critical_dt.is_finite() {
+        if let Some(fix) = &self.fix {
+            f.write_str(fix)
+        } else if self.dt > self.critical_dt || !self.critical_dt.is_finite() {
             write!(
                 f,
                 "Fix: use the standard time step (set_standard_dt) or a dt below {:.3e} s, or soften the stiffest \
@@ -160,7 +164,15 @@ mod tests {
     use super::*;
 
     fn instability(dt: f64) -> Instability {
-        Instability { step: 7, particle: 3, what: "overlaps".into(), dt, critical_dt: 1e-6, standard_dt: 1e-7 }
+        Instability {
+            step: 7,
+            particle: 3,
+            what: "overlaps".into(),
+            dt,
+            critical_dt: 1e-6,
+            standard_dt: 1e-7,
+            fix: None,
+        }
     }
 
     #[test]

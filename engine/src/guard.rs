@@ -1,8 +1,21 @@
 //! The stability guard: cheap periodic checks that stop a run before it produces NaNs, with
 //! a message naming the particle, the critical time step and the fix.
+//!
+//! Before a run: dt against the stiffest element's critical step, and gravity against the
+//! smallest radius. At every chunk end (`guard_every` steps, both backends): non-finite
+//! state, runaway speeds, deep overlaps, and dt against the critical step of the stiffest
+//! current contact — Hertz's tangent stiffness at its overlap, a bond or shear spring, a
+//! wall contact — so that a step too long for the loaded sample stops (or warns once) with
+//! the contact named, instead of finishing with wrong physics.
 
 use crate::error::{Error, Instability, Result};
-use crate::model::Model;
+use crate::model::{Model, NormalKind, TangentialKind};
+use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams, TangentialLaw};
+use crate::physics::timestep::critical_step;
+use crate::plan::StepPlan;
+use crate::state::particles::dof;
+use serde::{Deserialize, Serialize};
+use std::str::FromStr;
 
 /// Refuses a time step above the critical step of the stiffest element.
 pub fn check_time_step(m: &Model) -> Result<()> {
@@ -20,6 +33,33 @@ pub fn check_time_step(m: &Model) -> Result<()> {
                 format!("(the stiffest element) cannot be integrated: dt is {:.1}× its critical step", dt / crit),
             ));
         }
+    }
+    check_gravity(m)
+}
+
+/// Refuses a gravity that by itself moves a free particle more than
+/// [`GRAVITY_STEP_FRACTION`] of its radius further each step: the cause is gravity's value,
+/// not dt, and the message says so.
+pub fn check_gravity(m: &Model) -> Result<()> {
+    let g = m.settings.gravity.norm();
+    let dt = m.clock.dt;
+    let p = &m.particles;
+    let smallest = (0..p.len())
+        .filter(|&i| p.fixed[i] & dof::ALL != dof::ALL)
+        .min_by(|&a, &b| p.radius[a].total_cmp(&p.radius[b]));
+    let Some(i) = smallest else { return Ok(()) };
+    let r = p.radius[i];
+    if g * dt * dt > GRAVITY_STEP_FRACTION * r {
+        let sensible = GRAVITY_STEP_FRACTION * r / (dt * dt);
+        return Err(Error::InvalidScene(format!(
+            "gravity is the cause: |g| = {g:.3e} m/s² moves a free particle |g|·dt² = {:.3e} m further every step, \
+             {:.0}% of the smallest radius ({r:.3e} m, particle {i}), so the run would fly apart whatever the contacts. \
+             A sensible gravity is 9.81 m/s² (up to a few hundred for an accelerated deposition); at this dt \
+             ({dt:.3e} s) it must stay under {sensible:.3e} m/s². Fix: set d.gravity to a sensible value; \
+             halving dt is not the fix",
+            g * dt * dt,
+            100.0 * g * dt * dt / r,
+        )));
     }
     Ok(())
 }
@@ -80,5 +120,295 @@ pub(crate) fn unstable(m: &Model, particle: usize, what: String) -> Error {
         dt: m.clock.dt,
         critical_dt,
         standard_dt: m.standard_dt().unwrap_or(f64::NAN),
+        fix: None,
     }))
+}
+
+/// What the guard does when a contact is too stiff for the time step: stop the run (the
+/// default) or warn once on stderr and go on (`d.guard = "warn"`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GuardMode {
+    #[default]
+    Stop,
+    Warn,
+}
+
+impl FromStr for GuardMode {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "stop" => Ok(GuardMode::Stop),
+            "warn" => Ok(GuardMode::Warn),
+            _ => Err(Error::unknown("guard mode", s, &["stop", "warn"])),
+        }
+    }
+}
+
+/// The guard stops a run whose dt exceeds this fraction of the critical step of its stiffest
+/// current contact, `critical_step(m, k)` = √(2·m/k) with k the contact's larger tangent
+/// stiffness (normal or shear) and m the lighter free element's mass — the convention of
+/// [`Model::critical_dt`], so that a contact as stiff as an element's own estimate has the
+/// same critical step.
+///
+/// NOTE: why less than 1. √(2·m/k) is the limit of one element between two such springs; a
+/// grain in a packing meets Z ≈ 4–8 of them at once, and its stiffness in one direction is
+/// roughly their sum over Z/2, so the packing's limit is about √(4/Z) ≈ 0.7–1 of a contact's.
+/// MatDEM's standard step is 2π/50/√2 ≈ 0.089 of an element's critical step; measured on the
+/// quick oedometer (examples/oedometer, Hertz + Ks, ring walls) the loaded sample's stiffest
+/// contact (a small grain's shear spring on the ring wall) puts the standard step at 0.21 of
+/// its critical step, 3× at 0.63 (results as at 1×), 4× at 0.84 and 5× at 1.05 (void ratio
+/// 0.69 against 1.04). 0.7 passes the first two and stops the others. The GPU kernel uses the
+/// same number (`shaders/guard.wgsl`, `STIFFNESS_FRACTION`).
+pub const STIFFNESS_FRACTION: f64 = 0.7;
+
+/// Gravity alone moves a free particle |g|·dt² further each step; above this fraction of
+/// the smallest radius the run is refused and gravity, not dt, is named.
+///
+/// NOTE: the guard stops a particle that moves half its radius per step; free fall at
+/// |g|·dt² = 0.05·r gets there within ten steps, so such a run cannot settle anything. A
+/// deposition at 100 g with the standard step is around 1e-8·r.
+pub const GRAVITY_STEP_FRACTION: f64 = 0.05;
+
+/// The other body of a contact the guard names.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ContactWith {
+    Particle(usize),
+    Wall(String),
+}
+
+/// The contact with the shortest critical step, as the guard found it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StiffContact {
+    /// The lighter free element (the one whose mass enters the critical step).
+    pub particle: usize,
+    pub with: ContactWith,
+    /// Which spring: "hertz normal", "linear normal", "bond", "shear spring", "mindlin shear".
+    pub spring: &'static str,
+    /// Its tangent stiffness now (N/m).
+    pub stiffness: f64,
+    /// Overlap now (m; negative for a stretched bond).
+    pub overlap: f64,
+    /// The mass in the critical step (kg).
+    pub mass: f64,
+    /// √(2·m/k) (s).
+    pub critical_dt: f64,
+}
+
+impl StiffContact {
+    /// The largest dt the guard accepts for this contact.
+    pub fn limit(&self) -> f64 {
+        STIFFNESS_FRACTION * self.critical_dt
+    }
+}
+
+/// Normal and shear tangent stiffness of a contact at overlap δ (bonded pairs in tension:
+/// the bond's linear spring), under the plan's laws.
+pub fn contact_stiffness(plan: &StepPlan, p: &PairParams, r_star: f64, overlap: f64) -> [(f64, &'static str); 2] {
+    let normal = if overlap > 0.0 {
+        match plan.normal {
+            NormalKind::Linear => (Linear::stiffness(p, r_star, overlap), "linear normal spring"),
+            NormalKind::Hertz => (Hertz::stiffness(p, r_star, overlap), "hertz normal stiffness"),
+        }
+    } else {
+        (p.kn, "bond normal spring")
+    };
+    let shear = match plan.tangential {
+        TangentialKind::Linear => (LinearShear::stiffness(p, r_star, overlap), "shear spring"),
+        TangentialKind::Mindlin => (MindlinShear::stiffness(p, r_star, overlap), "mindlin shear stiffness"),
+    };
+    [normal, shear]
+}
+
+/// The current contact (particle pair in the rows, bonded or touching, or particle–wall)
+/// with the shortest critical step √(2·m/k), or `None` when nothing touches. Reads the rows
+/// as they are (the backends call it at a chunk end, where they are current). O(contacts).
+pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
+    let p = &m.particles;
+    let c = &m.contacts;
+    let free = |i: usize| p.fixed[i] & dof::ALL != dof::ALL;
+    let mut best: Option<StiffContact> = None;
+    let mut consider = |particle: usize, with: ContactWith, pp: &PairParams, r_star: f64, overlap: f64, mass: f64| {
+        for (k, spring) in contact_stiffness(plan, pp, r_star, overlap) {
+            if k > 0.0 {
+                let critical_dt = critical_step(mass, k);
+                if best.as_ref().is_none_or(|b| critical_dt < b.critical_dt) {
+                    best = Some(StiffContact {
+                        particle,
+                        with: with.clone(),
+                        spring,
+                        stiffness: k,
+                        overlap,
+                        mass,
+                        critical_dt,
+                    });
+                }
+            }
+        }
+    };
+    for i in 0..p.len().min(c.row_start.len().saturating_sub(1)) {
+        for e in c.row(i) {
+            let j = c.other[e] as usize;
+            // Each pair once, from its lower id.
+            if j < i || !(free(i) || free(j)) {
+                continue;
+            }
+            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+            if overlap <= 0.0 && !c.state[e].bonded {
+                continue;
+            }
+            let light = match (free(i), free(j)) {
+                (true, true) if p.mass[j] < p.mass[i] => j,
+                (true, _) => i,
+                _ => j,
+            };
+            let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
+            let pp = plan.pair(p.material[i], p.material[j]);
+            let with = ContactWith::Particle(if light == i { j } else { i });
+            consider(light, with, pp, r_star, overlap, p.mass[light]);
+        }
+    }
+    for i in (0..p.len()).filter(|&i| free(i)) {
+        for (w, wall) in m.walls.iter().enumerate() {
+            let overlap = p.radius[i] - wall.normal_and_distance(&p.pos[i]).1;
+            if overlap > 0.0 {
+                let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
+                consider(i, ContactWith::Wall(wall.name.clone()), pp, p.radius[i], overlap, p.mass[i]);
+            }
+        }
+    }
+    best
+}
+
+/// The stiffest contact if dt exceeds its limit ([`STIFFNESS_FRACTION`] of its critical step).
+pub fn too_stiff(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
+    stiffest_contact(m, plan).filter(|c| m.clock.dt > c.limit())
+}
+
+/// The error (or, with [`GuardMode::Warn`], the warning) for a contact too stiff for dt.
+pub fn stiff_contact_error(m: &Model, c: &StiffContact) -> Error {
+    let with = match &c.with {
+        ContactWith::Particle(j) => format!("particle {j}"),
+        ContactWith::Wall(name) => format!("wall `{name}`"),
+    };
+    let what = format!(
+        "is in the stiffest contact, with {with}: its {} is {:.3e} N/m at an overlap of {:.3e} m ({:.2}% of its \
+         radius), which with its mass {:.3e} kg gives a critical step √(2m/k) of {:.3e} s; dt is {:.2} of it (the \
+         guard allows {STIFFNESS_FRACTION}: a grain meets several such springs at once)",
+        c.spring,
+        c.stiffness,
+        c.overlap,
+        100.0 * c.overlap / m.particles.radius[c.particle],
+        c.mass,
+        c.critical_dt,
+        m.clock.dt / c.critical_dt,
+    );
+    let fix = format!(
+        "Fix: set dt ≤ {:.3e} s (d.dt = {:.3e}) or call set_standard_dt() after loading; the standard step comes \
+         from each element's own stiffness, and loaded contacts (or stiff shear springs and walls) can be stiffer; \
+         or soften the stiffest material. d.guard = \"warn\" warns instead of stopping",
+        c.limit(),
+        c.limit()
+    );
+    let mut e = unstable(m, c.particle, what);
+    if let Error::Unstable(inst) = &mut e {
+        inst.critical_dt = c.critical_dt;
+        inst.fix = Some(fix);
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::Material;
+    use crate::neighbours::rebuild;
+    use crate::physics::Vec3;
+
+    fn material(name: &str, young: f64, poisson: f64, ks: f64) -> Material {
+        Material {
+            name: name.into(),
+            density: 2650.0,
+            kn: 1e6,
+            ks,
+            xb: 0.0,
+            fs0: 0.0,
+            mu_p: 0.0,
+            young,
+            poisson,
+            restitution: 1.0,
+        }
+    }
+
+    // Hertz's tangent stiffness k = dF/dδ = 2·E*·√(R*·δ) for F = (4/3)·E*·√R*·δ^(3/2)
+    // (Johnson 1985 §4), E* and R* of two unlike spheres, and the critical step √(2·m/k)
+    // with m the lighter sphere's mass: the guard's numbers against the formulas, to 1e-12.
+    #[test]
+    fn hertz_tangent_stiffness_critical_step_matches_the_formula() {
+        let mut m = Model::new();
+        m.settings.normal = NormalKind::Hertz;
+        let a = m.add_material(material("a", 7.0e9, 0.25, 0.0)).unwrap();
+        let b = m.add_material(material("b", 3.0e9, 0.1, 0.0)).unwrap();
+        let (r1, r2, overlap) = (1.0e-3, 0.6e-3, 2.0e-6);
+        m.add_particle(Vec3::zeros(), r1, a).unwrap();
+        m.add_particle(Vec3::new(r1 + r2 - overlap, 0.0, 0.0), r2, b).unwrap();
+        m.set_standard_dt().unwrap();
+        rebuild(&mut m);
+        let plan = StepPlan::build(&m);
+        let c = stiffest_contact(&m, &plan).expect("the spheres touch");
+
+        let e_star = 1.0 / ((1.0 - 0.25f64.powi(2)) / 7.0e9 + (1.0 - 0.1f64.powi(2)) / 3.0e9);
+        let r_star = r1 * r2 / (r1 + r2);
+        let k = 2.0 * e_star * (r_star * overlap).sqrt();
+        let light = 2650.0 * 4.0 / 3.0 * std::f64::consts::PI * r2.powi(3);
+        let expected = (2.0 * light / k).sqrt();
+        let rel = |x: f64, y: f64| (x - y).abs() / y.abs();
+        assert_eq!(c.particle, 1, "the lighter sphere");
+        assert_eq!(c.with, ContactWith::Particle(0));
+        assert_eq!(c.spring, "hertz normal stiffness");
+        assert!(rel(c.overlap, overlap) < 1e-9, "overlap {} vs {overlap}", c.overlap);
+        // The overlap comes from positions (round-off ~1e-10 of it): compare the formula at
+        // the guard's own overlap to 1e-12, and the analytic value at δ to the round-off.
+        let k_at = 2.0 * e_star * (r_star * c.overlap).sqrt();
+        assert!(rel(c.stiffness, k_at) < 1e-12, "k {} vs {k_at}", c.stiffness);
+        assert!(rel(c.critical_dt, (2.0 * light / k_at).sqrt()) < 1e-12);
+        assert!(rel(c.critical_dt, expected) < 1e-9, "critical step {} vs {expected}", c.critical_dt);
+        assert!(rel(c.mass, light) < 1e-12);
+        // The standard step of this pair is far from the limit; 10× the critical step is not.
+        assert!(too_stiff(&m, &plan).is_none());
+        m.clock.dt = 0.71 * c.critical_dt;
+        assert_eq!(too_stiff(&m, &plan).map(|c| c.particle), Some(1));
+    }
+
+    // The same contact seen by a single element's estimate (a rigid wall at 5% of r) has the
+    // same critical step: the contact convention agrees with `Model::critical_dt`.
+    #[test]
+    fn a_wall_contact_at_five_percent_overlap_has_the_elements_critical_step() {
+        let mut m = Model::new();
+        m.settings.normal = NormalKind::Hertz;
+        let k = m.add_material(material("a", 5.0e8, 0.2, 0.0)).unwrap();
+        let r = 1e-3;
+        m.add_wall(crate::walls::Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap()).unwrap();
+        m.add_particle(Vec3::new(0.0, 0.0, 0.95 * r), r, k).unwrap();
+        m.set_standard_dt().unwrap();
+        rebuild(&mut m);
+        let c = stiffest_contact(&m, &StepPlan::build(&m)).unwrap();
+        assert_eq!(c.with, ContactWith::Wall("floor".into()));
+        let (_, element) = m.critical_dt().unwrap();
+        assert!((c.critical_dt - element).abs() < 1e-9 * element, "{} vs {element}", c.critical_dt);
+    }
+
+    #[test]
+    fn gravity_that_outruns_the_radius_is_named_not_dt() {
+        let mut m = Model::new();
+        let k = m.add_material(material("a", 5.0e8, 0.2, 0.0)).unwrap();
+        m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+        m.set_standard_dt().unwrap();
+        m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
+        check_time_step(&m).unwrap();
+        m.settings.gravity = Vec3::new(0.0, 0.0, -1e12);
+        let msg = check_time_step(&m).unwrap_err().to_string();
+        assert!(msg.starts_with("gravity is the cause: |g| = 1.000e12 m/s²"), "{msg}");
+        assert!(msg.contains("9.81 m/s²") && msg.contains("must stay under"), "{msg}");
+        assert!(!msg.contains("halve dt"), "{msg}");
+    }
 }

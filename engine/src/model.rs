@@ -73,6 +73,9 @@ pub struct Settings {
     pub guard_every: u64,
     /// Largest overlap the guard accepts, as a fraction of the smaller radius.
     pub max_overlap_ratio: f64,
+    /// What the guard does when dt is too long for the stiffest current contact.
+    #[serde(default)]
+    pub guard: crate::guard::GuardMode,
 }
 
 impl Default for Settings {
@@ -87,6 +90,7 @@ impl Default for Settings {
             skin_ratio: 0.4,
             guard_every: 100,
             max_overlap_ratio: 0.5,
+            guard: crate::guard::GuardMode::Stop,
         }
     }
 }

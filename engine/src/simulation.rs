@@ -7,7 +7,7 @@
 
 use crate::backend::{Backend, RunControl, Sampling, Target};
 use crate::error::{Error, Result};
-use crate::guard::check_time_step;
+use crate::guard::{check_time_step, stiff_contact_error, GuardMode};
 use crate::model::Model;
 use crate::plan::StepPlan;
 use crate::status::{contact_stats, kinetic_energy, potential_energies, ContactStats, Energies};
@@ -37,6 +37,8 @@ pub struct Simulation {
     /// The plan for the model's current revision, and the backend prepared for it once a
     /// run needed one.
     prepared: Option<Prepared>,
+    /// The guard warned of a contact too stiff for dt (`GuardMode::Warn`): it warns once.
+    stiff_warned: bool,
 }
 
 /// A plan and what was derived from it for one revision of the model.
@@ -76,7 +78,7 @@ pub struct RunReport {
 impl Simulation {
     /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation { model, observer: None, target: Target::Cpu, prepared: None }
+        Simulation { model, observer: None, target: Target::Cpu, prepared: None, stiff_warned: false }
     }
 
     /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
@@ -91,6 +93,7 @@ impl Simulation {
     pub fn replace_model(&mut self, model: Model) {
         self.model = model;
         self.prepared = None;
+        self.stiff_warned = false;
     }
 
     /// The backend in words: `cpu (f64)` or `gpu (f32) on <adapter>`.
@@ -122,13 +125,14 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
-        let Simulation { model, observer, target, prepared: cache } = self;
+        let Simulation { model, observer, target, prepared: cache, stiff_warned } = self;
         let p = prepared(cache, model);
         let backend = match &mut p.backend {
             Some(b) => b,
             slot => slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?),
         };
-        run_loop(backend.as_mut(), model, observer.as_mut(), steps, every, ctl, progress, sample)
+        let observer = observer.as_mut();
+        run_loop(backend.as_mut(), model, observer, stiff_warned, steps, every, ctl, progress, sample)
     }
 
     /// MatDEM's `balance`: lets the model settle under the current loads.
@@ -255,18 +259,22 @@ pub fn run_steps(
         return Ok(RunReport { steps: 0, unbalanced_ratio: None });
     }
     check_time_step(model)?;
-    run_loop(backend, model, None, steps, every, ctl, progress, sample)
+    run_loop(backend, model, None, &mut false, steps, every, ctl, progress, sample)
 }
 
 /// The run loop. Chunks end every `guard_every` steps of the run (where the backend's guard
-/// checks the state), on the observer's steps of the model's clock, and at the end; between
-/// chunks come the observer (with the model brought up to date), `progress(done)`, and the
-/// cancellation check, which also brings the model up to date. Energies of every `every`-th
-/// step of the run go to `sample`.
+/// checks the state), on the observer's steps of the model's clock, and at the end; each
+/// chunk end also compares dt with the stiffest current contact (stop, or warn once when
+/// `stiff_warned` is still false and the model's guard mode is `warn`); between chunks come
+/// the observer (with the model brought up to date), `progress(done)`, and the cancellation
+/// check, which also brings the model up to date. Energies of every `every`-th step of the
+/// run go to `sample`.
+#[allow(clippy::too_many_arguments, reason = "the run loop's inputs, each used once; a struct would only rename them")]
 fn run_loop(
     backend: &mut dyn Backend,
     model: &mut Model,
     observer: Option<&mut Observer>,
+    stiff_warned: &mut bool,
     steps: u64,
     every: u64,
     ctl: &RunControl,
@@ -286,6 +294,20 @@ fn run_loop(
         }
         backend.run_chunk(model, chunk, Sampling { every, first: done }, sample)?;
         done += chunk;
+        if !*stiff_warned {
+            if let Some(c) = backend.too_stiff(model)? {
+                let e = stiff_contact_error(model, &c);
+                match model.settings.guard {
+                    GuardMode::Stop => return Err(e),
+                    GuardMode::Warn => {
+                        // NOTE: the engine's only warning; a host that wants it elsewhere sets
+                        // the mode to stop and catches the error instead.
+                        eprintln!("warning: {e}");
+                        *stiff_warned = true;
+                    }
+                }
+            }
+        }
         if let Some(o) = observer.as_mut().filter(|o| (step0 + done) % o.every == 0) {
             backend.sync(model)?;
             (o.call)(model).map_err(Error::Observer)?;

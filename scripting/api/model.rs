@@ -309,6 +309,10 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             d.model().settings.normal = s.parse().map_err(raise)?;
             Ok(())
         })
+        .register_set("guard", |d: &mut ModelHandle, s: &str| -> RhaiResult<()> {
+            d.model().settings.guard = s.parse().map_err(raise)?;
+            Ok(())
+        })
         .register_set("shear_law", |d: &mut ModelHandle, s: &str| -> RhaiResult<()> {
             d.model().settings.tangential = s.parse().map_err(raise)?;
             Ok(())

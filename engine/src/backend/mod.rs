@@ -13,6 +13,7 @@ pub mod cpu;
 pub mod gpu;
 
 use crate::error::Result;
+use crate::guard::StiffContact;
 use crate::model::Model;
 use crate::plan::StepPlan;
 use crate::status::EnergySample;
@@ -51,6 +52,12 @@ pub trait Backend {
         sampling: Sampling,
         sample: &mut dyn FnMut(EnergySample),
     ) -> Result<()>;
+
+    /// The current contact too stiff for dt ([`crate::guard::too_stiff`]) as of the end of the
+    /// last chunk, or `None`. The run loop asks after every chunk until the guard has warned;
+    /// a backend that keeps its state elsewhere checks there and brings the model up to date
+    /// only when it found one, so that the host can name the contact.
+    fn too_stiff(&mut self, m: &mut Model) -> Result<Option<StiffContact>>;
 
     /// Brings the model up to date with the backend's state (nothing to do where the model
     /// is the state), before an observer reads it and at the end of a run.

@@ -12,7 +12,7 @@ pub mod wall_forces;
 
 use super::{Backend, Sampling};
 use crate::error::Result;
-use crate::guard::check_state;
+use crate::guard::{check_state, too_stiff, StiffContact};
 use crate::model::{Breakage, Model};
 use crate::neighbours;
 use crate::plan::StepPlan;
@@ -119,6 +119,11 @@ impl Backend for CpuBackend {
         });
         samples.into_iter().for_each(sample);
         check_state(m)
+    }
+
+    /// The model is the state: the stiffest contact is found on it directly, O(contacts).
+    fn too_stiff(&mut self, m: &mut Model) -> Result<Option<StiffContact>> {
+        Ok(too_stiff(m, &self.plan))
     }
 
     fn sync(&mut self, _: &mut Model) -> Result<()> {

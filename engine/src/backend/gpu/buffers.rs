@@ -63,7 +63,9 @@ pub const C_SPEED: usize = 3;
 pub const C_GUARD: usize = 4;
 pub const C_LONGEST: usize = 8;
 pub const C_CROWDED: usize = 9;
-pub const COUNTERS: usize = 10;
+/// The guard's fifth finding: the lowest particle in a contact too stiff for dt.
+pub const C_STIFF: usize = 10;
+pub const COUNTERS: usize = 11;
 
 fn v4(v: &Vec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
@@ -284,6 +286,7 @@ impl DeviceLanes {
         let (cap, nw) = (plan.cap, h.walls.len());
         let mut counters = [0u32; COUNTERS];
         counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
+        counters[C_STIFF] = u32::MAX;
         let mut slabs = Vec::new();
         for r in plan.slabs() {
             slabs.push(SlabLanes {

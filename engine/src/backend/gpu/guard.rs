@@ -1,6 +1,9 @@
-//! The `guard` stage on the GPU: the stability guard's checks (shaders/guard.wgsl), run every
-//! `guard_every` steps. When one fails the host brings the state back and words the
-//! CPU guard's message ([`crate::guard`]), so both backends stop with the same text.
+//! The `guard` stage on the GPU: the stability guard's checks (shaders/guard.wgsl), run at
+//! every chunk end (`guard_every` steps). When one fails the host brings the state back and
+//! words the CPU guard's message ([`crate::guard`]), so both backends stop with the same text.
+//! The stiffness check (a contact too stiff for dt) costs one pass over the rows per chunk on
+//! the device and one counter in the read-back the batch makes anyway; the state comes back
+//! only when it fires.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
@@ -13,7 +16,23 @@ pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::Compu
 /// One kernel per slab of rows.
 pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
     d.per_slab(device, p, |s| {
-        vec![&d.params, &d.origin, &d.disp, &d.vel, &d.force, &d.row_len, &s.other, &d.walls, &d.counters, &s.uniform]
+        vec![
+            &d.params,
+            &d.origin,
+            &d.disp,
+            &d.vel,
+            &d.force,
+            &d.row_len,
+            &s.other,
+            &d.walls,
+            &d.counters,
+            &s.uniform,
+            &d.body,
+            &d.kind,
+            &d.pairs,
+            &d.wall_pairs,
+            &s.state,
+        ]
     })
 }
 

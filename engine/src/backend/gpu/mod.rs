@@ -42,13 +42,15 @@ pub mod walls;
 
 use super::{Backend, Sampling};
 use crate::error::{Error, GpuError, Result};
+use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
 use crate::plan::StepPlan;
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
-    download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST, C_SPEED,
+    download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
+    C_SPEED, C_STIFF,
 };
 use device::GpuContext;
 use shaders::Kernel;
@@ -145,6 +147,8 @@ pub struct GpuBackend {
     /// Steps the next batch may hold, from the drift of the last (1 after an upload or a
     /// row build).
     batch: u64,
+    /// The last guard found a contact too stiff for dt (its lowest particle id).
+    stiff: Option<u32>,
 }
 
 impl GpuBackend {
@@ -197,6 +201,7 @@ impl GpuBackend {
             rows: RowStats::default(),
             session: None,
             batch: 1,
+            stiff: None,
         };
         backend.check_device()?;
         Ok(backend)
@@ -343,6 +348,9 @@ impl GpuBackend {
         let mut reset = [0u32; C_GUARD + 4 - C_DRIFT];
         reset[C_GUARD - C_DRIFT..].fill(u32::MAX);
         ctx.queue.write_buffer(&s.lanes.counters, (C_DRIFT * 4) as u64, bytemuck::cast_slice(&reset));
+        if guard {
+            ctx.queue.write_buffer(&s.lanes.counters, (C_STIFF * 4) as u64, bytemuck::cast_slice(&[u32::MAX]));
+        }
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc
@@ -452,6 +460,7 @@ impl Backend for GpuBackend {
             done += k;
             session.steps += k;
             if guard_now {
+                self.stiff = (counters[C_STIFF] != u32::MAX).then_some(counters[C_STIFF]);
                 let failed = (0..4).find(|&s| counters[C_GUARD + s] != u32::MAX);
                 if let Some(slot) = failed {
                     let particle = counters[C_GUARD + slot] as usize;
@@ -486,6 +495,17 @@ impl Backend for GpuBackend {
         }
         self.session = Some(session);
         Ok(())
+    }
+
+    /// The guard kernel flagged a contact too stiff for dt in the chunk's last batch: the
+    /// state comes back and the host finds the contact in f64 (should f32 and f64 disagree
+    /// at the threshold, the stiffest contact of the model stands for the device's finding).
+    fn too_stiff(&mut self, m: &mut Model) -> Result<Option<StiffContact>> {
+        if self.stiff.take().is_none() {
+            return Ok(None);
+        }
+        self.sync(m)?;
+        Ok(crate::guard::too_stiff(m, &self.plan).or_else(|| crate::guard::stiffest_contact(m, &self.plan)))
     }
 
     fn sync(&mut self, m: &mut Model) -> Result<()> {
