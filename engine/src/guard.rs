@@ -151,14 +151,17 @@ impl FromStr for GuardMode {
 /// same critical step.
 ///
 /// NOTE: why less than 1. √(2·m/k) is the limit of one element between two such springs; a
-/// grain in a packing meets Z ≈ 4–8 of them at once, and its stiffness in one direction is
-/// roughly their sum over Z/2, so the packing's limit is about √(4/Z) ≈ 0.7–1 of a contact's.
-/// MatDEM's standard step is 2π/50/√2 ≈ 0.089 of an element's critical step; measured on the
-/// quick oedometer (examples/oedometer, Hertz + Ks, ring walls) the loaded sample's stiffest
-/// contact (a small grain's shear spring on the ring wall) puts the standard step at 0.21 of
-/// its critical step, 3× at 0.63 (results as at 1×), 4× at 0.84 and 5× at 1.05 (void ratio
-/// 0.69 against 1.04). 0.7 passes the first two and stops the others. The GPU kernel uses the
-/// same number (`shaders/guard.wgsl`, `STIFFNESS_FRACTION`).
+/// grain in a packing meets several at once (Z ≈ 4–8), two on a side already bring it to
+/// 1/√2 ≈ 0.7 of a contact's limit, and well before the limit the step resolves the contact's
+/// oscillation too coarsely for quasi-static loading. MatDEM's standard step is 2π/50/√2 ≈
+/// 0.089 of an element's own critical step. Measured on the quick oedometer
+/// (examples/oedometer, sample 1, Hertz with E = Kn/(πR) and a shear spring Ks, ring walls):
+/// the loaded sample's stiffest contact is a small grain's shear spring on a wall (2·Ks =
+/// 8.4e5 N/m, critical step 4.6e-7 s); the standard step is 0.21 of its critical step, 3× is
+/// 0.63 (void ratio, strain and coordination as at 1×), 4× is 0.83 (strain at 3.2 MPa 13.9 %
+/// against 10.2 %, coordination 3.2 against 4.4) and 5× is 1.05 (void ratio 0.69 against
+/// 1.04). 0.7 lets the first two run and stops the others. The GPU kernel uses the same
+/// number (`shaders/guard.wgsl`, `STIFFNESS_FRACTION`).
 pub const STIFFNESS_FRACTION: f64 = 0.7;
 
 /// Gravity alone moves a free particle |g|·dt² further each step; above this fraction of
@@ -395,6 +398,14 @@ mod tests {
         assert_eq!(c.with, ContactWith::Wall("floor".into()));
         let (_, element) = m.critical_dt().unwrap();
         assert!((c.critical_dt - element).abs() < 1e-9 * element, "{} vs {element}", c.critical_dt);
+    }
+
+    // The GPU guard kernel tests the same limit.
+    #[test]
+    fn the_gpu_kernel_uses_the_same_stiffness_fraction() {
+        let wgsl = include_str!("../../shaders/guard.wgsl");
+        let line = format!("const STIFFNESS_FRACTION: f32 = {STIFFNESS_FRACTION:?};");
+        assert!(wgsl.contains(&line), "shaders/guard.wgsl must hold `{line}`");
     }
 
     #[test]

@@ -74,7 +74,6 @@ pub struct Settings {
     /// Largest overlap the guard accepts, as a fraction of the smaller radius.
     pub max_overlap_ratio: f64,
     /// What the guard does when dt is too long for the stiffest current contact.
-    #[serde(default)]
     pub guard: crate::guard::GuardMode,
 }
 

@@ -15,7 +15,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("set_group_mat", "d.set_group_mat(group, material)", "gives a group a material (MatDEM d.setGroupMat)"),
     ("set_standard_dt", "d.set_standard_dt() -> dt", "sets MatDEM's standard time step, 1/50 of the smallest element period"),
     ("standard_dt", "d.standard_dt() -> dt", "MatDEM's standard time step, without setting it"),
-    ("critical_dt", "d.critical_dt() -> dt", "the critical time step of the stiffest element: beyond it a run is unstable"),
+    ("critical_dt", "d.critical_dt() -> dt", "the critical time step of the stiffest element: beyond it a run is unstable (the guard also checks the stiffest loaded contact at every chunk; d.guard = \"warn\" warns once instead of stopping)"),
     ("run", "d.run(steps) -> map", "runs a number of steps; Ctrl-C in the REPL cancels it"),
     ("balance", "d.balance() / d.balance(\"standard\", n) / d.balance(steps)", "runs until the unbalanced force falls under the tolerance or the standard number of steps passes (MatDEM d.balance)"),
     ("balance_until", "d.balance_until(ratio, max_steps) -> map", "balances until the unbalanced force ratio falls under `ratio`"),
