@@ -163,7 +163,7 @@ impl Simulation {
             Balance::Tolerance { ratio, max_steps } => {
                 let mut done = done;
                 // Cancelled exactly at the end of a chunk, its check is still due.
-                let check_due = done > 0 && (done % TOLERANCE_CHUNK == 0 || done == max_steps);
+                let check_due = done > 0 && (done.is_multiple_of(TOLERANCE_CHUNK) || done == max_steps);
                 if check_due {
                     let r = self.contact_stats().unbalanced_ratio;
                     if r < ratio || done >= max_steps {
@@ -286,7 +286,7 @@ fn run_loop(
         }
         backend.run_chunk(model, chunk, Sampling { every, first: done }, sample)?;
         done += chunk;
-        if let Some(o) = observer.as_mut().filter(|o| (step0 + done) % o.every == 0) {
+        if let Some(o) = observer.as_mut().filter(|o| (step0 + done).is_multiple_of(o.every)) {
             backend.sync(model)?;
             (o.call)(model).map_err(Error::Observer)?;
         }

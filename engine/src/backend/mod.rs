@@ -75,7 +75,7 @@ impl Sampling {
     /// Whether the chunk's `k`-th step (0-based) is sampled.
     #[inline]
     pub fn at(&self, k: u64) -> bool {
-        self.every > 0 && (self.first + k) % self.every == 0
+        self.every > 0 && (self.first + k).is_multiple_of(self.every)
     }
 
     /// Steps from the chunk's `k`-th step to the next sampled one after it (`u64::MAX` when
