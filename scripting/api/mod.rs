@@ -12,6 +12,7 @@ pub mod materials;
 pub mod metrics;
 pub mod model;
 pub mod plot;
+pub mod reference;
 pub mod snapshots;
 pub mod table;
 pub mod training;
