@@ -230,6 +230,37 @@ impl Model {
         Ok(())
     }
 
+    /// Sets particles' radii (`radii[k]` for particle `ids[k]`); mass follows the material's
+    /// density, and with it the moment of inertia (2/5·m·r²). Every id and radius is checked
+    /// before anything changes; the rows are rebuilt before the next force pass.
+    pub fn set_radii(&mut self, ids: &[u32], radii: &[f64]) -> Result<()> {
+        self.check_ids(ids)?;
+        if ids.len() != radii.len() {
+            return Err(Error::InvalidScene(format!("{} ids but {} radii", ids.len(), radii.len())));
+        }
+        if let Some((k, r)) = radii.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
+            return Err(Error::InvalidScene(format!(
+                "the radius of particle {} must be a finite number > 0 m, got {r}",
+                ids[k]
+            )));
+        }
+        for (&i, &r) in ids.iter().zip(radii) {
+            let i = i as usize;
+            self.particles.radius[i] = r;
+            self.particles.mass[i] = self.sphere_mass(self.particles.material[i] as usize, r);
+        }
+        self.positions_changed();
+        self.touch();
+        Ok(())
+    }
+
+    /// Marks the neighbour rows stale after positions (or radii) were written directly, so
+    /// the next force pass rebuilds them; contact and bond state of pairs that stay in reach
+    /// is kept, as in a rebuild after drift.
+    pub fn positions_changed(&mut self) {
+        self.contacts.stale = true;
+    }
+
     /// Blocks (or frees) translational degrees of freedom; blocked components keep their
     /// current velocity (zero unless a script sets one).
     pub fn fix(&mut self, ids: &[u32], dofs: u8, fixed: bool) -> Result<()> {

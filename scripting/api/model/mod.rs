@@ -3,8 +3,9 @@
 //!
 //! One file per concept: `lanes` (whole arrays), `settings` (time step, gravity, damping,
 //! laws, effects), `groups` (groups, materials, fixities, bonds), `boundaries` (walls and
-//! servos), `running` (run and balance, journaled for resume) and `observation` (records,
-//! energies, porosity).
+//! servos), `running` (run and balance, journaled for resume), `observation` (records,
+//! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
+//! `regions` (masks from geometry, layers).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -18,9 +19,11 @@ macro_rules! observed {
 }
 
 mod boundaries;
+mod elements;
 mod groups;
 mod lanes;
 mod observation;
+mod regions;
 mod running;
 mod settings;
 
@@ -117,6 +120,14 @@ fn vec3(v: &Dynamic, what: &str) -> RhaiResult<Vec3> {
 }
 
 fn dofs(s: &str) -> RhaiResult<u8> {
+    // NOTE: the integrators (CPU and WGSL) block translation only; blocking rotation would
+    // need new dof bits honoured by both, so rx/ry/rz are refused with what to do instead.
+    if s.contains(['r', 'R']) {
+        return Err(err(format!(
+            "cannot fix rotation (\"{s}\"): only translation (x, y, z) can be fixed; a particle's rotation \
+             is free whenever rotation is on (d.enable(\"rotation\")), and absent otherwise"
+        )));
+    }
     s.chars().try_fold(0u8, |acc, c| match c {
         'x' | 'X' => Ok(acc | dof::X),
         'y' | 'Y' => Ok(acc | dof::Y),
@@ -141,4 +152,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     boundaries::register(engine, &host);
     running::register(engine, &host);
     observation::register(engine, &host);
+    elements::register(engine, &host);
+    regions::register(engine, &host);
 }
