@@ -24,9 +24,10 @@ pub(super) fn register(engine: &mut Engine, _host: &Rc<Host>) {
             }
             let mut keep = vec![false; m.len()];
             for name in &names {
-                let name = name.clone().into_string().map_err(|t| {
-                    err(format!("keep_groups: expected an array of group names, got a {t} in it"))
-                })?;
+                let name = name
+                    .clone()
+                    .into_string()
+                    .map_err(|t| err(format!("keep_groups: expected an array of group names, got a {t} in it")))?;
                 for &i in m.groups.get(&name).map_err(raise)? {
                     keep[i as usize] = true;
                 }
@@ -90,7 +91,14 @@ pub(super) fn finite(v: &Dynamic, what: &str) -> RhaiResult<f64> {
 /// row is checked before any element is added. Returns the number added.
 fn add_elements(m: &mut Model, t: &Table, mat: &Dynamic, group: &str) -> RhaiResult<INT> {
     let data = t.0.borrow();
-    let cols = ["x", "y", "z", "r"].map(|c| data.column(c).map_err(|e| err(format!("add_elements: {e}"))));
+    let cols = ["x", "y", "z", "r"].map(|c| {
+        data.column(c).map_err(|e| match *e {
+            EvalAltResult::ErrorRuntime(msg, _) => {
+                err(format!("add_elements: {msg}; give a table with columns x, y, z, r"))
+            }
+            other => Box::new(other),
+        })
+    });
     let [x, y, z, r] = cols;
     let (x, y, z, r) = (x?, y?, z?, r?);
     let rows = x.len();
@@ -108,7 +116,11 @@ fn add_elements(m: &mut Model, t: &Table, mat: &Dynamic, group: &str) -> RhaiRes
         }
     }
     let material = if let Some(name) = mat.clone().try_cast::<rhai::ImmutableString>() {
-        m.material_index(&name).map_err(|e| err(format!("add_elements: {e}; give it to a group first with d.set_group_mat, or pass the material itself")))?
+        m.material_index(&name).map_err(|e| {
+            err(format!(
+                "add_elements: {e}; give it to a group first with d.set_group_mat, or pass the material itself"
+            ))
+        })?
     } else if let Some(mat) = mat.clone().try_cast::<Material>() {
         m.add_material(mat).map_err(raise)?
     } else {

@@ -32,16 +32,15 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     lo[k], hi[k]
                 )));
             }
-            h.observe("in_box", || {
-                Ok(Dynamic::from(mask_where(d, |p| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]))))
-            })
+            h.observe("in_box", || Ok(Dynamic::from(mask_where(d, |p| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k])))))
         },
     );
     let h = host.clone();
     engine.register_fn(
         "in_sphere",
         move |d: &mut ModelHandle, cx: Dynamic, cy: Dynamic, cz: Dynamic, r: Dynamic| -> RhaiResult<Dynamic> {
-            let c = Vec3::new(finite(&cx, "in_sphere: cx")?, finite(&cy, "in_sphere: cy")?, finite(&cz, "in_sphere: cz")?);
+            let c =
+                Vec3::new(finite(&cx, "in_sphere: cx")?, finite(&cy, "in_sphere: cy")?, finite(&cz, "in_sphere: cz")?);
             let r = positive("in_sphere: the radius", finite(&r, "in_sphere: r")?)?;
             h.observe("in_sphere", || Ok(Dynamic::from(mask_where(d, |p| (p - c).norm_squared() <= r * r))))
         },
