@@ -406,6 +406,7 @@ mod tests {
             metric: "m".into(),
             reference: None,
             backend: "cpu".into(),
+            control: Default::default(),
         };
         let text = to_csv(&study, &cfg);
         assert!(text.starts_with("run,x,wall_s,m,rel_error,reference,note\n"), "{text}");
