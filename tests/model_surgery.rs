@@ -5,6 +5,7 @@
 
 mod common;
 use common::{bin, gpu_required, run_script, stderr, stdout, temp_dir};
+use matdem_engine::physics::contact_law::PairState;
 use matdem_rs::api::model::ModelHandle;
 use matdem_rs::api::Host;
 use rhai::{Dynamic, Engine, Scope};
@@ -166,6 +167,19 @@ fn a_radius_write_scales_mass_by_the_cube_and_inertia_follows() {
     }
 }
 
+/// The state of every pair (i, j) as seen from row i.
+fn pair_states(d: &ModelHandle) -> std::collections::BTreeMap<(u32, u32), PairState> {
+    let data = d.data();
+    let c = &data.sim.model.contacts;
+    let mut out = std::collections::BTreeMap::new();
+    for i in 0..c.row_start.len().saturating_sub(1) {
+        for e in c.row(i) {
+            out.insert((i as u32, c.other[e]), c.state[e]);
+        }
+    }
+    out
+}
+
 /// Bonded pairs (i < j) of the model.
 fn bonds(d: &ModelHandle) -> BTreeSet<(u32, u32)> {
     let data = d.data();
@@ -187,12 +201,14 @@ fn delete_keeps_groups_rows_and_the_bonds_among_survivors() {
         "surgery_delete",
         &format!(
             "{SMALL_BOX} d.gravity = [0.0, 0.0, -9.81]; d.local_damping = 0.5; d.balance(1500); \
-             let made = d.connect(\"all\", 2e-5); d.add_group(\"low\", d.z < 0.0012);"
+             d.set_group_mat(\"sample\", material_micro(\"rock\", #{{ kn: 2e5, ks: 8e4, xb: 1e-4, fs0: 5.0, mu_p: 0.3, r: 0.4e-3, restitution: 0.3 }})); \
+             let made = d.connect(\"all\", 2e-5); d.gravity = [0.3, 0.0, -9.81]; d.run(50); d.add_group(\"low\", d.z < 0.0012);"
         ),
     );
     let made: i64 = s.eval("made");
     let before = bonds(&s.d());
     assert!(made > 20 && before.len() as i64 == made, "{made} bonds made, {} found", before.len());
+    let states = pair_states(&s.d());
     let doomed: Vec<bool> = s
         .eval::<matdem_rs::api::field::Mask>("let doomed = d.in_sphere(0.002, 0.002, 0.001, 0.0012); doomed")
         .0
@@ -217,6 +233,17 @@ fn delete_keeps_groups_rows_and_the_bonds_among_survivors() {
     assert!(want.len() < before.len(), "the cut must cross some bonds");
     let d = s.d();
     assert_eq!(bonds(&d), want, "exactly the bonds whose both ends survived remain");
+    // Every pair between survivors keeps its state: bond, shear spring, dashpot.
+    let after = pair_states(&d);
+    let (mut carried, mut sheared) = (0, 0);
+    for (&(i, j), st) in &states {
+        if let (Some(a), Some(b)) = (map[i as usize], map[j as usize]) {
+            assert_eq!(after.get(&(a, b)), Some(st), "pair ({i}, {j}) → ({a}, {b}) lost its state");
+            carried += 1;
+            sheared += usize::from(st.shear.norm() > 0.0);
+        }
+    }
+    assert!(carried > 100 && sheared > 0, "{carried} pairs carried, {sheared} with a shear spring");
     let count: i64 = s.eval("d.bonds");
     assert_eq!(count as usize, want.len());
     {
