@@ -9,8 +9,12 @@
 //! annulus at its target porosity. They are placed at random without overlap while shrunk
 //! (random sequential addition at a loose solid fraction, each grain's centre inside its own
 //! annulus), then grown back to full size in place, frictionless, inside the closed chamber
-//! (bottom, ring and a top platen), as [`crate::training::sample`] packs its samples: every
-//! region jams at once with its own solid fraction, instead of a deposition sorting the sizes.
+//! (bottom, ring and a top platen), as [`crate::training::sample`] packs its samples, each
+//! grain kept inside its own annulus while it grows: every region jams at once with its own
+//! solid fraction, instead of a deposition sorting the sizes. A region can hold a porosity only down to what its grains reach when they jam
+//! (random close packing, ≈ 0.36 for one size with a 10% spread; lower for two sizes that
+//! differ enough for the fine ones to sit in the coarse ones' pores); a region filled
+//! denser than that is left overlapping and spreads into its neighbours under load.
 //! The model comes back with the grains' real materials, at rest, without gravity: deposit
 //! and confine it next.
 
@@ -100,8 +104,8 @@ pub struct ZoneReport {
     pub r_out: f64,
     /// Grains whose centre lies in the annulus.
     pub count: usize,
-    /// Porosity by volume: the parts of every sphere inside the annulus, over its volume,
-    /// between `z0` and `z1`.
+    /// Bulk porosity by volume: the parts of every sphere inside the annulus over its volume,
+    /// away from the platens and the ring (see [`zone_report`]).
     pub porosity: f64,
     /// Target porosity.
     pub target_porosity: f64,
@@ -112,6 +116,10 @@ pub struct ZoneReport {
 /// The most grains a zoned build makes (as the box builder's cap).
 pub const MAX_ZONED_PARTICLES: usize = crate::builder::MAX_BOX_PARTICLES;
 
+/// Width of the empty layer that stands for the looser packing against a wall, in grain
+/// diameters: packed beds of spheres in cylinders (Benenati & Brosilow 1962; Jeschar 1975:
+/// mean porosity ≈ bulk + 0.22…0.34·d/D) give 0.09…0.14·d.
+const WALL_GAP: f64 = 0.12;
 /// Solid fraction at which the shrunk grains are placed.
 const START_SOLID_FRACTION: f64 = 0.3;
 const GROWTH_INCREMENTS: u64 = 40;
@@ -119,6 +127,8 @@ const GROWTH_STEPS: u64 = 250;
 /// Unbalanced force ratio that ends the frictionless packing.
 const PACK_BALANCE_RATIO: f64 = 0.05;
 const PACK_MAX_STEPS: u64 = 20_000;
+/// Steps between putting strayed grains back in their regions while packing.
+const CLAMP_EVERY: u64 = 50;
 
 impl ZoneSpec {
     /// Refuses what cannot be built, saying what to give instead.
@@ -278,7 +288,16 @@ impl ZoneSpec {
         self.regions()
             .into_iter()
             .map(|reg| {
-                let solid = PI * (reg.r_out.powi(2) - reg.r_in.powi(2)) * self.height * (1.0 - reg.porosity);
+                // The packing is looser against a wall in every random packing; the bulk
+                // reaches the target when each wall takes a layer WALL_GAP·d wide out of the
+                // volume to fill (bottom, top platen, and the ring for the outer zone).
+                let d = reg.sizes.iter().map(|&(k, share)| share * self.grain_d[k]).sum::<f64>();
+                let gap = WALL_GAP * d;
+                let area = PI * (reg.r_out.powi(2) - reg.r_in.powi(2));
+                let outer = reg.r_out >= self.radius[self.radius.len() - 1];
+                let ring = if outer { 2.0 * PI * reg.r_out * self.height } else { 0.0 };
+                let volume = (area * (self.height - 2.0 * gap) - ring * gap).max(0.0);
+                let solid = volume * (1.0 - reg.porosity);
                 let c = reg
                     .sizes
                     .iter()
@@ -368,9 +387,21 @@ impl ZoneSpec {
                 m.particles.mass[i] = density * 4.0 / 3.0 * PI * r * r * r;
             }
             m.contacts.stale = true;
-            sim.run(GROWTH_STEPS, ctl, &mut |_| {})?;
+            for _ in 0..GROWTH_STEPS / CLAMP_EVERY {
+                sim.run(CLAMP_EVERY, ctl, &mut |_| {})?;
+                keep_in_regions(&mut sim.model, &grains, &regions);
+            }
         }
-        sim.balance(Balance::Tolerance { ratio: PACK_BALANCE_RATIO, max_steps: PACK_MAX_STEPS }, ctl, &mut |_| {})?;
+        let mut settled = 0;
+        while settled < PACK_MAX_STEPS {
+            let how = Balance::Tolerance { ratio: PACK_BALANCE_RATIO, max_steps: 500 };
+            let rep = sim.balance(how, ctl, &mut |_| {})?;
+            settled += rep.steps.max(1);
+            keep_in_regions(&mut sim.model, &grains, &regions);
+            if rep.unbalanced_ratio.unwrap_or(1.0) < PACK_BALANCE_RATIO {
+                break;
+            }
+        }
         let mut model = sim.model;
         // The real materials (same order, so the particles' indices hold), at rest.
         model.materials.clear();
@@ -396,6 +427,28 @@ impl ZoneSpec {
             model.groups.set(&reg.name, ids);
         }
         Ok((model, regions))
+    }
+}
+
+/// Puts every grain whose centre has left its own annulus back on its edge and stops its
+/// radial motion. The shrunk grains start loose, and without this fine grains wander
+/// between the coarse ones of the next zone while they grow, and a region filled denser
+/// than its neighbours spreads into them. The ring holds the outer zone.
+fn keep_in_regions(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[ZoneRegion]) {
+    let r_chamber = regions.iter().map(|r| r.r_out).fold(0.0, f64::max);
+    let p = &mut m.particles;
+    for (i, &(g, _, _)) in grains.iter().enumerate() {
+        let reg = &regions[g];
+        let hi = if reg.r_out >= r_chamber { f64::INFINITY } else { reg.r_out };
+        let x = p.pos[i];
+        let rho = (x.x * x.x + x.y * x.y).sqrt();
+        let target = rho.clamp(reg.r_in, hi);
+        if target != rho {
+            let dir = if rho > 0.0 { Vec3::new(x.x / rho, x.y / rho, 0.0) } else { Vec3::x() };
+            p.pos[i] = Vec3::new(dir.x * target, dir.y * target, x.z);
+            let v = p.vel[i];
+            p.vel[i] = v - dir * v.dot(&dir);
+        }
     }
 }
 
@@ -561,12 +614,16 @@ pub fn annulus_porosity(m: &Model, axis: &Vec3, r_in: f64, r_out: f64, z0: f64, 
     1.0 - solid / v
 }
 
-/// Count, porosity and coordination of each region, over the height the grains fill now
-/// (the lowest sphere bottom to the highest sphere top).
-pub fn zone_report(m: &Model, regions: &[ZoneRegion]) -> Vec<ZoneReport> {
+/// Count, porosity and coordination of each region. The porosity is the bulk's: between
+/// one coarsest grain above the lowest sphere bottom and one below the highest sphere top,
+/// and, for the outer zone, one of its grains inside the ring, since every random packing
+/// is looser against a wall (the builder allows for that).
+pub fn zone_report(m: &Model, regions: &[ZoneRegion], grain_d: &[f64]) -> Vec<ZoneReport> {
     let p = &m.particles;
-    let z0 = (0..p.len()).map(|i| p.pos[i].z - p.radius[i]).fold(f64::INFINITY, f64::min);
-    let z1 = (0..p.len()).map(|i| p.pos[i].z + p.radius[i]).fold(f64::NEG_INFINITY, f64::max);
+    let d_max = grain_d.iter().copied().fold(0.0, f64::max);
+    let z0 = (0..p.len()).map(|i| p.pos[i].z - p.radius[i]).fold(f64::INFINITY, f64::min) + d_max;
+    let z1 = (0..p.len()).map(|i| p.pos[i].z + p.radius[i]).fold(f64::NEG_INFINITY, f64::max) - d_max;
+    let r_chamber = regions.iter().map(|r| r.r_out).fold(0.0, f64::max);
     let c = &m.contacts;
     let built = c.row_start.len() == p.len() + 1;
     let contacts_of = |i: usize| -> usize {
@@ -591,12 +648,16 @@ pub fn zone_report(m: &Model, regions: &[ZoneRegion]) -> Vec<ZoneReport> {
                 })
                 .collect();
             let links: usize = ids.iter().map(|&i| contacts_of(i)).sum();
+            let d = reg.sizes.iter().map(|&(k, _)| grain_d.get(k).copied().unwrap_or(0.0)).fold(0.0, f64::max);
+            let r_out = if reg.r_out >= r_chamber { (reg.r_out - d).max(reg.r_in) } else { reg.r_out };
+            let porosity =
+                if p.is_empty() || z1 <= z0 { f64::NAN } else { annulus_porosity(m, &axis, reg.r_in, r_out, z0, z1) };
             ZoneReport {
                 name: reg.name.clone(),
                 r_in: reg.r_in,
                 r_out: reg.r_out,
                 count: ids.len(),
-                porosity: if p.is_empty() { f64::NAN } else { annulus_porosity(m, &axis, reg.r_in, reg.r_out, z0, z1) },
+                porosity,
                 target_porosity: reg.porosity,
                 coordination: if ids.is_empty() { 0.0 } else { links as f64 / ids.len() as f64 },
             }
