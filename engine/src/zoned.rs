@@ -711,7 +711,8 @@ mod tests {
 
     #[test]
     fn bad_zones_are_refused_with_what_to_do() {
-        let cases: Vec<(Box<dyn Fn(&mut ZoneSpec)>, &str)> = vec![
+        type Change = Box<dyn Fn(&mut ZoneSpec)>;
+        let cases: Vec<(Change, &str)> = vec![
             (Box::new(|s| s.radius[1] = -0.1), "must be > 0"),
             (Box::new(|s| s.radius[1] = f64::NAN), "finite"),
             (Box::new(|s| s.radius = vec![0.1, 0.09, 0.15]), "must increase outwards"),
