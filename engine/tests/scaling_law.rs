@@ -10,7 +10,7 @@ use matdem_engine::scaling::scaled_model;
 use matdem_engine::simulation::{Balance, Simulation};
 use matdem_engine::state::particles::dof;
 use matdem_engine::training::{PackedSample, SampleSpec};
-use matdem_engine::{Material, Model, Vec3, Wall, WallMotion, WallShape};
+use matdem_engine::{Material, Model, NormalKind, Vec3, Wall, WallMotion, WallShape};
 
 /// Paper 001 Table 1 #1: 10 mm grains, Kn 8e7 N/m, Ks = Kn/100, μ 0.8, linear contacts.
 fn table1(name: &str, d: f64, kn: f64) -> Material {
@@ -183,6 +183,13 @@ fn scaled_fabric_keeps_small_strain_elasticity_paper_001_table_1() {
 /// scaled copy has the same contact pairs, and every force is the original's × λ².
 #[test]
 fn scaled_copy_has_the_same_contacts_and_forces_times_lambda_squared() {
+    // Linear springs (Kn, Ks × λ) and Hertz (E, ν unchanged: (4/3)·E*·√(λR)·(λδ)^(3/2) = λ²·F).
+    for normal in [NormalKind::Linear, NormalKind::Hertz] {
+        same_contacts_and_forces_times_lambda_squared(normal);
+    }
+}
+
+fn same_contacts_and_forces_times_lambda_squared(normal: NormalKind) {
     let d = 2e-3;
     let mut m = Model::new();
     let mat = Material::from_micro("rock", 2650.0, 1e7, 4e6, 1e-5, 5.0, 0.5, 0.5 * d).unwrap();
@@ -191,6 +198,7 @@ fn scaled_copy_has_the_same_contacts_and_forces_times_lambda_squared() {
         m.add_particle(x, 0.5 * d * (1.0 + 1e-9), k).unwrap();
     }
     m.connect(None, 1e-9).unwrap();
+    m.settings.normal = normal;
     // Prescribed strain: 1e-3 shortening along z, 3e-4 extension along x, a 2e-4 shear.
     for x in &mut m.particles.pos {
         *x = Vec3::new(x.x * (1.0 + 3e-4) + 2e-4 * x.z, x.y, x.z * (1.0 - 1e-3));
@@ -225,8 +233,8 @@ fn scaled_copy_has_the_same_contacts_and_forces_times_lambda_squared() {
     assert!(f_max > 0.0);
     for (i, (fa, fb)) in a.model.particles.force.iter().zip(&b.model.particles.force).enumerate() {
         let err = (fb - fa * lambda * lambda).norm();
-        assert!(err <= 1e-9 * f_max * lambda * lambda, "particle {i}: {fb:?} vs λ²·{fa:?}");
+        assert!(err <= 1e-9 * f_max * lambda * lambda, "{normal:?}, particle {i}: {fb:?} vs λ²·{fa:?}");
     }
     let (ea, eb) = (a.energies().normal_elastic, b.energies().normal_elastic);
-    assert!(((eb / ea) - lambda.powi(3)).abs() < 1e-9 * lambda.powi(3), "elastic energy × λ³: {ea} → {eb}");
+    assert!(((eb / ea) - lambda.powi(3)).abs() < 1e-9 * lambda.powi(3), "{normal:?}: elastic energy × λ³: {ea} → {eb}");
 }
