@@ -118,6 +118,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Print the script reference (Markdown): every function, property and stdlib procedure
+    /// scripts can use, from what this binary registers.
+    #[command(after_help = "Example:\n  matdem-rs doc > docs/script-reference.md")]
+    Doc,
     /// Run a script at every combination of parameter values and chart the metric it reports
     /// against wall time: what accuracy costs.
     #[command(after_help = "The script reports its metric with `report(\"NAME\", value)`. Each setting runs in\n\
@@ -329,6 +333,11 @@ fn main() -> ExitCode {
             };
         }
         Command::Pack { package, output } => return pack_command(&package, output),
+        Command::Doc => {
+            let host = std::rc::Rc::new(matdem_rs::api::Host::new(PathBuf::from("out/doc")));
+            print!("{}", matdem_rs::api::reference::markdown(&matdem_rs::new_engine(host)));
+            return ExitCode::SUCCESS;
+        }
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json, gpu: None });
         }

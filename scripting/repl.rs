@@ -77,7 +77,7 @@ impl Session {
             .filter(|n| n.chars().all(|c| c.is_alphanumeric() || c == '_'))
             .map(String::from)
             .collect();
-        let stdlib_docs = stdlib_docs(&engine);
+        let stdlib_docs = crate::api::reference::stdlib_docs(&engine);
         names.extend(stdlib_docs.iter().map(|(n, _)| n.clone()));
         names.extend(docs::DOCS.iter().map(|(n, _, _)| n.to_string()));
         names.extend([":help", ":vars", ":load", ":quit"].map(String::from));
@@ -189,27 +189,6 @@ impl Session {
 }
 
 /// (name, doc comment) of each stdlib procedure, from the scripts' `///` comments.
-fn stdlib_docs(engine: &Engine) -> Vec<(String, String)> {
-    let mut out = Vec::new();
-    for (_, source) in crate::stdlib::SCRIPTS {
-        let Ok(ast) = engine.compile(*source) else { continue };
-        for f in ast.iter_functions() {
-            let doc: Vec<&str> = f
-                .comments
-                .iter()
-                .flat_map(|c| c.lines())
-                .map(|l| {
-                    let l = l.trim().trim_start_matches("///");
-                    l.strip_prefix(' ').unwrap_or(l)
-                })
-                .collect();
-            let usage = format!("{}({})", f.name, f.params.join(", "));
-            out.push((f.name.to_string(), format!("{usage}  (stdlib)\n  {}", doc.join("\n  "))));
-        }
-    }
-    out
-}
-
 /// True when `text` still needs lines: open brackets, an open string, or a trailing `\`.
 pub fn needs_more(text: &str) -> bool {
     if text.trim_end().ends_with('\\') {

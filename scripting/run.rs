@@ -227,7 +227,7 @@ fn evaluate(
     let host = Rc::new(host);
     let mut engine = crate::new_engine(host.clone());
     // A signal in a script loop stops the script at its next operation; a balance sees the
-    // flag first and saves a resume point (see api::model::run_steps).
+    // flag first and saves a resume point (see api::model::running::run_steps).
     let control = cfg.control.clone();
     engine.on_progress(move |_| control.is_cancelled().then(|| Dynamic::from(STOPPED)));
     let sources = Sources { main_path: path, main_text: text };

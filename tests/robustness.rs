@@ -129,6 +129,26 @@ const CALLS: &[&str] = &[
     "let t = new_table(); t.last(A)",
     "load_table(A)",
     "read_text(A)",
+    "d.x = A; d.run(20)",
+    "d.r = A; d.run(20)",
+    "d.set(A, B, 1e-3)",
+    "d.set(\"r\", A, B); d.run(20)",
+    "d.set(\"z\", A, B); d.run(20)",
+    "d.set(\"vx\", \"sample\", A)",
+    "d.wx = A",
+    "d.delete(A); d.run(20)",
+    "d.keep_groups(A)",
+    "d.keep_groups([A, B]); d.run(20)",
+    "d.move_group(A, B, 0.0, 0.0); d.run(20)",
+    "d.freeze(A); d.unfreeze(B); d.run(20)",
+    "d.in_box(A, B, 0, 1, 0, 1).count()",
+    "d.in_sphere(A, 0, 0, B)",
+    "d.in_cylinder(0, 0, A, B, 1)",
+    "d.above_plane(A, B)",
+    "d.layers_between(A)",
+    "d.layers_between(A, B)",
+    "d.add_elements(new_table(), A, B)",
+    "let t = new_table(); t.add_row(#{ x: A, y: 0.0, z: 0.001, r: B }); d.add_elements(t, \"m\", \"n\"); d.run(20)",
     "sediment(d, #{ accel: A, max_steps: B })",
     "stage_load(d, A, B, #{ max_steps: 50 })",
     "compact(d, A, #{ max_steps: 50 })",
@@ -139,21 +159,28 @@ fn random_bad_values_give_script_errors_never_panics() {
     let dir = common::temp_dir("robustness");
     let host = Rc::new(Host::new(dir));
     // A run asked for a huge number of steps does the first chunk and stops: the test is
-    // about the values reaching the engine, not about running a long simulation.
-    host.control.cancel.store(true, Ordering::Relaxed);
+    // about the values reaching the engine, not about running a long simulation. The flag
+    // is raised only for the call: the box build of the scene stops on it too.
+    let cancel = host.control.cancel.clone();
     let engine = matdem_rs::new_engine(host);
     let scene = engine.compile(SCENE).unwrap();
+    let run = |call: &rhai::AST| -> Result<(), Box<rhai::EvalAltResult>> {
+        cancel.store(false, Ordering::Relaxed);
+        let mut scope = rhai::Scope::new();
+        engine.run_ast_with_scope(&mut scope, &scene)?;
+        cancel.store(true, Ordering::Relaxed);
+        engine.run_ast_with_scope(&mut scope, call)
+    };
     // The harness tells a refusal from success: the scene and a sound call run.
-    engine.run_ast(&scene).unwrap();
-    engine.run_ast(&scene.merge(&engine.compile("d.add_group(\"g\", d.z > 0.0); zeros(3).sum()").unwrap())).unwrap();
+    run(&engine.compile("d.add_group(\"g\", d.z > 0.0); zeros(3).sum()").unwrap()).unwrap();
     let mut runner = TestRunner::new(Config { cases: 4000, failure_persistence: None, ..Config::default() });
     let strategy = (0..CALLS.len(), 0..VALUES.len(), 0..VALUES.len());
     let (ok, errors) = (std::cell::Cell::new(0u32), std::cell::Cell::new(0u32));
     let start = std::time::Instant::now();
     let result = runner.run(&strategy, |(c, a, b)| {
         let call = CALLS[c].replace('A', VALUES[a]).replace('B', VALUES[b]);
-        let ast = scene.merge(&engine.compile(&call).map_err(|e| TestCaseError::fail(format!("{call}: {e}")))?);
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| engine.run_ast(&ast)));
+        let ast = engine.compile(&call).map_err(|e| TestCaseError::fail(format!("{call}: {e}")))?;
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&ast)));
         match outcome {
             Ok(Ok(())) => ok.set(ok.get() + 1),
             Ok(Err(_)) => errors.set(errors.get() + 1),

@@ -252,7 +252,8 @@ impl BoxSpec {
         let mut cells: std::collections::HashMap<(usize, usize, usize), Vec<u32>> = Default::default();
         let mut placed: Vec<Vec3> = Vec::with_capacity(grains.len());
         for (k, &(_, r)) in grains.iter().enumerate() {
-            if k % 1024 == 0 && control.is_cancelled() {
+            // After every 1024 grains placed: a small box always builds.
+            if k % 1024 == 1023 && control.is_cancelled() {
                 return Err(Error::Cancelled { completed_steps: 0 });
             }
             let mut tries = 0;

@@ -20,6 +20,8 @@
 //! - [`status`] measures energies, heat, coordination number and porosity.
 //! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
 //!   later run continues it bit for bit.
+//! - [`zoned`] packs concentric zones of growing grain size with mixing layers (paper 001);
+//!   [`scaling`] makes scaled copies of a packing and scales materials by its law.
 //! - [`bench`] builds the standard throughput scene and times it.
 //!
 //! Units are SI; particle ids are 0-based.
@@ -36,11 +38,13 @@ pub mod model;
 pub mod neighbours;
 pub mod physics;
 pub mod plan;
+pub mod scaling;
 pub mod simulation;
 pub mod state;
 pub mod status;
 pub mod training;
 pub mod walls;
+pub mod zoned;
 
 pub use error::{Error, GpuError, Result};
 pub use materials::{MacroProperties, Material};

@@ -233,6 +233,37 @@ impl Model {
         Ok(())
     }
 
+    /// Sets particles' radii (`radii[k]` for particle `ids[k]`); mass follows the material's
+    /// density, and with it the moment of inertia (2/5·m·r²). Every id and radius is checked
+    /// before anything changes; the rows are rebuilt before the next force pass.
+    pub fn set_radii(&mut self, ids: &[u32], radii: &[f64]) -> Result<()> {
+        self.check_ids(ids)?;
+        if ids.len() != radii.len() {
+            return Err(Error::InvalidScene(format!("{} ids but {} radii", ids.len(), radii.len())));
+        }
+        if let Some((k, r)) = radii.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
+            return Err(Error::InvalidScene(format!(
+                "the radius of particle {} must be a finite number > 0 m, got {r}",
+                ids[k]
+            )));
+        }
+        for (&i, &r) in ids.iter().zip(radii) {
+            let i = i as usize;
+            self.particles.radius[i] = r;
+            self.particles.mass[i] = self.sphere_mass(self.particles.material[i] as usize, r);
+        }
+        self.positions_changed();
+        self.touch();
+        Ok(())
+    }
+
+    /// Marks the neighbour rows stale after positions (or radii) were written directly, so
+    /// the next force pass rebuilds them; contact and bond state of pairs that stay in reach
+    /// is kept, as in a rebuild after drift.
+    pub fn positions_changed(&mut self) {
+        self.contacts.stale = true;
+    }
+
     /// Blocks (or frees) translational degrees of freedom; blocked components keep their
     /// current velocity (zero unless a script sets one).
     pub fn fix(&mut self, ids: &[u32], dofs: u8, fixed: bool) -> Result<()> {
@@ -277,7 +308,9 @@ impl Model {
         Ok(&mut self.walls[k])
     }
 
-    /// Removes particles (ids refer to the current numbering); groups are renumbered.
+    /// Removes particles (ids refer to the current numbering); groups are renumbered. Every
+    /// pair between two survivors keeps its state (bond, shear spring, dashpot), bonded pairs
+    /// whatever their distance; the pairs of a removed particle go with it.
     pub fn remove_particles(&mut self, ids: &[u32]) -> Result<()> {
         self.check_ids(ids)?;
         let mut keep = vec![true; self.len()];
@@ -293,23 +326,26 @@ impl Model {
         });
         let map = self.particles.retain(&keep);
         self.groups.remap(&map);
-        // Rows refer to old ids: rebuild, keeping bonds between survivors.
-        let mut bonds = Vec::new();
-        for i in 0..self.contacts.row_start.len().saturating_sub(1) {
-            for e in self.contacts.row(i) {
-                let j = self.contacts.other[e] as usize;
-                if i < j && self.contacts.state[e].bonded {
-                    if let (Some(a), Some(b)) = (map[i], map[j]) {
-                        bonds.push((a, b));
+        // Rows refer to old ids: renumber the survivors' rows (the map keeps the order, so
+        // rows stay sorted), then rebuild from them, which carries each pair's state over and
+        // keeps bonded pairs however far apart. Rows built before particles were added cover
+        // only the first ones; the rest start empty.
+        let old = std::mem::take(&mut self.contacts);
+        let built = old.row_start.len().saturating_sub(1);
+        let mut kept = Contacts { stale: true, skin: old.skin, row_start: vec![0], ..Contacts::default() };
+        for (i, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
+            if i < built {
+                for e in old.row(i) {
+                    if let Some(b) = map[old.other[e] as usize] {
+                        kept.other.push(b);
+                        kept.state.push(old.state[e]);
                     }
                 }
             }
+            kept.row_start.push(kept.other.len() as u32);
         }
-        self.contacts = Contacts { stale: true, skin: self.contacts.skin, ..Contacts::default() };
+        self.contacts = kept;
         crate::neighbours::rebuild(self);
-        for (a, b) in bonds {
-            self.contacts.set_bond(a as usize, b as usize, true);
-        }
         self.touch();
         Ok(())
     }

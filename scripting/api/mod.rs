@@ -1,7 +1,7 @@
 //! What scripts see: one file per concept, each with a `register` function.
 //!
 //! MatDEM's nouns in snake_case (see the glossary in the README): `new_box` (obj_Box),
-//! the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
+//! `new_zoned` (paper 001's zones), the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
 pub mod box_builder;
 pub mod checkpoint;
@@ -12,9 +12,11 @@ pub mod materials;
 pub mod metrics;
 pub mod model;
 pub mod plot;
+pub mod reference;
 pub mod snapshots;
 pub mod table;
 pub mod training;
+pub mod zones;
 
 use crate::resume::{Entry, Session, Value};
 use crate::sandbox::{output_path, Limits, ReadRoot};
@@ -202,5 +204,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     snapshots::register(engine, host.clone());
     training::register(engine, host.clone());
     files::register(engine, host.clone());
+    zones::register(engine, host.clone());
     plot::register(engine, host);
 }

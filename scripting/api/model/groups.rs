@@ -1,0 +1,85 @@
+//! Groups (MatDEM `d.GROUP`), materials, fixed degrees of freedom, removal and bonds.
+
+use super::*;
+
+pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
+    engine
+        .register_fn("add_group", |d: &mut ModelHandle, name: &str, sel: Dynamic| -> RhaiResult<INT> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            let n = ids.len();
+            m.groups.set(name, ids);
+            Ok(n as INT)
+        })
+        .register_fn("group_where", |d: &mut ModelHandle, name: &str, mask: Mask| -> RhaiResult<INT> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &Dynamic::from(mask))?;
+            let n = ids.len();
+            m.groups.set(name, ids);
+            Ok(n as INT)
+        })
+        .register_fn("group", |d: &mut ModelHandle, name: &str| -> RhaiResult<Array> {
+            let m = d.model();
+            Ok(m.groups.get(name).map_err(raise)?.iter().map(|&i| Dynamic::from_int(i as INT)).collect())
+        })
+        .register_fn("in_group", |d: &mut ModelHandle, name: &str| -> RhaiResult<Mask> {
+            let m = d.model();
+            let mut mask = vec![false; m.len()];
+            for &i in m.groups.get(name).map_err(raise)? {
+                mask[i as usize] = true;
+            }
+            Ok(Mask(Rc::new(mask)))
+        })
+        .register_get("groups", |d: &mut ModelHandle| {
+            d.model().groups.names().map(|s| Dynamic::from(s.to_string())).collect::<Array>()
+        })
+        .register_fn("set_group_mat", |d: &mut ModelHandle, sel: Dynamic, mat: Material| -> RhaiResult<()> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            let k = m.add_material(mat).map_err(raise)?;
+            m.set_material(&ids, k).map_err(raise)
+        })
+        .register_fn("fix", |d: &mut ModelHandle, sel: Dynamic, axes: &str| -> RhaiResult<()> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            m.fix(&ids, dofs(axes)?, true).map_err(raise)
+        })
+        .register_fn("free", |d: &mut ModelHandle, sel: Dynamic, axes: &str| -> RhaiResult<()> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            m.fix(&ids, dofs(axes)?, false).map_err(raise)
+        })
+        .register_fn("set_velocity", |d: &mut ModelHandle, sel: Dynamic, v: Array| -> RhaiResult<()> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            let v = vec3(&Dynamic::from_array(v), "velocity")?;
+            for i in ids {
+                m.particles.vel[i as usize] = v;
+            }
+            Ok(())
+        })
+        .register_fn("remove", |d: &mut ModelHandle, sel: Dynamic| -> RhaiResult<INT> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            m.remove_particles(&ids).map_err(raise)?;
+            Ok(ids.len() as INT)
+        })
+        .register_fn(
+            "connect",
+            observed!(host, "connect", |d, sel: Dynamic, tol: FLOAT| {
+                let mut m = d.model();
+                let ids = resolve_ids(&m, &sel)?;
+                m.connect(Some(&ids), tol).map_err(raise)? as INT
+            }),
+        )
+        .register_fn(
+            "break_bonds",
+            observed!(host, "break_bonds", |d, sel: Dynamic| {
+                let mut m = d.model();
+                let ids = resolve_ids(&m, &sel)?;
+                m.break_bonds(Some(&ids)).map_err(raise)? as INT
+            }),
+        )
+        .register_get("bonds", observed!(host, "bonds", |d| d.model().bond_count() as INT))
+        .register_get("broken_bonds", observed!(host, "broken_bonds", |d| d.model().breakages.len() as INT));
+}

@@ -1,0 +1,157 @@
+//! The model `d` as scripts see it (MatDEM: `d = B.d`): whole-array state, groups,
+//! materials, boundaries, balance and records.
+//!
+//! One file per concept: `lanes` (whole arrays), `settings` (time step, gravity, damping,
+//! laws, effects), `groups` (groups, materials, fixities, bonds), `boundaries` (walls and
+//! servos), `running` (run and balance, journaled for resume), `observation` (records,
+//! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
+//! `regions` (masks from geometry, layers).
+
+/// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
+/// replays the script with these answers. `$body` may use `?`.
+macro_rules! observed {
+    ($host:expr, $call:literal, |$d:ident $(, $a:ident : $t:ty)*| $body:expr) => {{
+        let h = $host.clone();
+        move |$d: &mut ModelHandle $(, $a: $t)*| -> RhaiResult<Dynamic> {
+            h.observe($call, || Ok(Dynamic::from($body)))
+        }
+    }};
+}
+
+mod boundaries;
+mod elements;
+mod groups;
+mod lanes;
+mod observation;
+mod regions;
+mod running;
+mod settings;
+
+use super::field::{number, to_numbers, Field, Mask};
+use super::table::{row_from_map, Table};
+use super::{err, raise, Host, RhaiResult, PLAN_DONE};
+use crate::resume::{self, SavedBalance, INTERRUPTED};
+use matdem_engine::backend::gpu::device::GpuContext;
+use matdem_engine::simulation::Balance;
+use matdem_engine::state::particles::dof;
+use matdem_engine::status::{porosity, Region};
+use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
+use rhai::{Array, Dynamic, Engine, EvalAltResult, Map, FLOAT, INT};
+use std::cell::{RefCell, RefMut};
+use std::rc::Rc;
+use std::sync::Arc;
+
+pub struct ModelData {
+    pub name: String,
+    pub sim: Simulation,
+    pub status: Table,
+    /// Creation number within the run (see [`Host::adopt`]).
+    pub number: usize,
+    /// The ParaView series `snapshot_every` set up (shared with the simulation's observer).
+    pub snapshots: Rc<RefCell<super::snapshots::SnapshotLog>>,
+    plan_printed: bool,
+}
+
+/// A shared handle: every script variable that holds the model refers to the same model.
+#[derive(Clone)]
+pub struct ModelHandle(pub Rc<RefCell<ModelData>>);
+
+impl ModelHandle {
+    /// A handle for model number `number`, stepping on `gpu` when given, else on the CPU
+    /// backend; scripts get theirs through [`Host::adopt`].
+    pub fn new(name: &str, model: Model, number: usize, gpu: Option<Arc<GpuContext>>) -> Self {
+        let sim = match gpu {
+            Some(ctx) => Simulation::with_gpu(model, ctx),
+            None => Simulation::new(model),
+        };
+        ModelHandle(Rc::new(RefCell::new(ModelData {
+            name: name.to_string(),
+            sim,
+            status: Table::default(),
+            number,
+            snapshots: Rc::default(),
+            plan_printed: false,
+        })))
+    }
+
+    pub fn data(&self) -> RefMut<'_, ModelData> {
+        self.0.borrow_mut()
+    }
+
+    fn model(&self) -> RefMut<'_, Model> {
+        RefMut::map(self.0.borrow_mut(), |d| &mut d.sim.model)
+    }
+}
+
+/// Particle ids named by a group, `"all"`, an array of ids or a mask.
+pub fn resolve_ids(m: &Model, sel: &Dynamic) -> RhaiResult<Vec<u32>> {
+    if let Some(name) = sel.clone().try_cast::<rhai::ImmutableString>() {
+        if name == "all" {
+            return Ok((0..m.len() as u32).collect());
+        }
+        return m.groups.get(&name).map(|g| g.to_vec()).map_err(raise);
+    }
+    if let Some(mask) = sel.clone().try_cast::<Mask>() {
+        if mask.0.len() != m.len() {
+            return Err(err(format!("mask has {} entries but the model has {} particles", mask.0.len(), m.len())));
+        }
+        return Ok(mask.0.iter().enumerate().filter(|(_, b)| **b).map(|(i, _)| i as u32).collect());
+    }
+    if let Some(a) = sel.clone().try_cast::<Array>() {
+        let ids = a
+            .iter()
+            .map(|v| match v.as_int() {
+                Ok(i) if i >= 0 => Ok(i as u32),
+                _ => Err(err(format!("particle ids must be integers ≥ 0, got {v}"))),
+            })
+            .collect::<RhaiResult<Vec<u32>>>()?;
+        m.check_ids(&ids).map_err(raise)?;
+        return Ok(ids);
+    }
+    Err(err(format!("expected a group name, \"all\", an array of ids or a mask, got {}", sel.type_name())))
+}
+
+fn vec3(v: &Dynamic, what: &str) -> RhaiResult<Vec3> {
+    let n = to_numbers(v, what)?;
+    if n.len() != 3 || !n.iter().all(|x| x.is_finite()) {
+        return Err(err(format!("{what}: expected [x, y, z] with 3 finite numbers")));
+    }
+    Ok(Vec3::new(n[0], n[1], n[2]))
+}
+
+fn dofs(s: &str) -> RhaiResult<u8> {
+    // NOTE: the integrators (CPU and WGSL) block translation only; blocking rotation would
+    // need new dof bits honoured by both, so rx/ry/rz are refused with what to do instead.
+    if s.contains(['r', 'R']) {
+        return Err(err(format!(
+            "cannot fix rotation (\"{s}\"): only translation (x, y, z) can be fixed; a particle's rotation \
+             is free whenever rotation is on (d.enable(\"rotation\")), and absent otherwise"
+        )));
+    }
+    s.chars().try_fold(0u8, |acc, c| match c {
+        'x' | 'X' => Ok(acc | dof::X),
+        'y' | 'Y' => Ok(acc | dof::Y),
+        'z' | 'Z' => Ok(acc | dof::Z),
+        _ => Err(err(format!("unknown degree of freedom `{c}` in \"{s}\": use a combination of x, y, z"))),
+    })
+}
+
+fn positive(name: &str, v: f64) -> RhaiResult<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(err(format!("{name} must be a finite number > 0, got {v}")))
+    }
+}
+
+pub fn register(engine: &mut Engine, host: Rc<Host>) {
+    engine.register_type_with_name::<ModelHandle>("Model");
+    lanes::register(engine, &host);
+    settings::register(engine, &host);
+    groups::register(engine, &host);
+    boundaries::register(engine, &host);
+    running::register(engine, &host);
+    observation::register(engine, &host);
+    elements::register(engine, &host);
+    regions::register(engine, &host);
+}
