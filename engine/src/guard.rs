@@ -224,62 +224,123 @@ pub fn contact_stiffness(plan: &StepPlan, p: &PairParams, r_star: f64, overlap: 
 
 /// The current contact (particle pair in the rows, bonded or touching, or particle–wall)
 /// with the shortest critical step √(2·m/k), or `None` when nothing touches. Reads the rows
-/// as they are (the backends call it at a chunk end, where they are current). O(contacts).
+/// as they are (the backends call it at a chunk end, where they are current) and only the
+/// walls in each particle's wall mask. O(contacts), in parallel; the result is the minimum
+/// under a total order (m/k, then ids), so it does not depend on the thread count.
 pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
+    use rayon::prelude::*;
     let p = &m.particles;
     let c = &m.contacts;
-    let free = |i: usize| p.fixed[i] & dof::ALL != dof::ALL;
-    let mut best: Option<StiffContact> = None;
-    let mut consider = |particle: usize, with: ContactWith, pp: &PairParams, r_star: f64, overlap: f64, mass: f64| {
-        for (k, spring) in contact_stiffness(plan, pp, r_star, overlap) {
-            if k > 0.0 {
-                let critical_dt = critical_step(mass, k);
-                if best.as_ref().is_none_or(|b| critical_dt < b.critical_dt) {
-                    best = Some(StiffContact {
-                        particle,
-                        with: with.clone(),
+    let rows = p.len().min(c.row_start.len().saturating_sub(1));
+    let near = |i: usize| if c.wall_near.len() == p.len() { c.wall_near[i] } else { u8::MAX };
+    let best = (0..p.len())
+        .into_par_iter()
+        .with_min_len(1024)
+        .filter_map(|i| {
+            let mut best: Option<Candidate> = None;
+            // A spring of no stiffness (Ks = 0, Mindlin at δ = 0) has no critical step.
+            let mut consider = |cand: Candidate| {
+                if cand.k > 0.0 && best.as_ref().is_none_or(|b| cand.before(b)) {
+                    best = Some(cand);
+                }
+            };
+            let free_i = is_free(p, i);
+            for e in if i < rows { c.row(i) } else { 0..0 } {
+                let j = c.other[e] as usize;
+                // Each pair once, from its lower id.
+                let free_j = is_free(p, j);
+                if j < i || !(free_i || free_j) {
+                    continue;
+                }
+                let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+                if overlap <= 0.0 && !c.state[e].bonded {
+                    continue;
+                }
+                let (light, other) = match (free_i, free_j) {
+                    (true, true) if p.mass[j] < p.mass[i] => (j, i),
+                    (true, _) => (i, j),
+                    _ => (j, i),
+                };
+                let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
+                let pp = plan.pair(p.material[i], p.material[j]);
+                for (k, spring) in contact_stiffness(plan, pp, r_star, overlap) {
+                    consider(Candidate {
+                        light,
+                        other: Other::Particle(other),
                         spring,
-                        stiffness: k,
+                        k,
                         overlap,
-                        mass,
-                        critical_dt,
+                        mass: p.mass[light],
                     });
                 }
             }
-        }
-    };
-    for i in 0..p.len().min(c.row_start.len().saturating_sub(1)) {
-        for e in c.row(i) {
-            let j = c.other[e] as usize;
-            // Each pair once, from its lower id.
-            if j < i || !(free(i) || free(j)) {
-                continue;
+            if free_i {
+                for (w, wall) in m.walls.iter().enumerate().filter(|(w, _)| near(i) & (1 << w) != 0) {
+                    let overlap = p.radius[i] - wall.normal_and_distance(&p.pos[i]).1;
+                    if overlap > 0.0 {
+                        let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
+                        for (k, spring) in contact_stiffness(plan, pp, p.radius[i], overlap) {
+                            consider(Candidate {
+                                light: i,
+                                other: Other::Wall(w),
+                                spring,
+                                k,
+                                overlap,
+                                mass: p.mass[i],
+                            });
+                        }
+                    }
+                }
             }
-            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
-            if overlap <= 0.0 && !c.state[e].bonded {
-                continue;
-            }
-            let light = match (free(i), free(j)) {
-                (true, true) if p.mass[j] < p.mass[i] => j,
-                (true, _) => i,
-                _ => j,
-            };
-            let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
-            let pp = plan.pair(p.material[i], p.material[j]);
-            let with = ContactWith::Particle(if light == i { j } else { i });
-            consider(light, with, pp, r_star, overlap, p.mass[light]);
-        }
+            best
+        })
+        .reduce_with(|a, b| if b.before(&a) { b } else { a })?;
+    Some(StiffContact {
+        particle: best.light,
+        with: match best.other {
+            Other::Particle(j) => ContactWith::Particle(j),
+            Other::Wall(w) => ContactWith::Wall(m.walls[w].name.clone()),
+        },
+        spring: best.spring,
+        stiffness: best.k,
+        overlap: best.overlap,
+        mass: best.mass,
+        critical_dt: critical_step(best.mass, best.k),
+    })
+}
+
+fn is_free(p: &crate::state::particles::Particles, i: usize) -> bool {
+    p.fixed[i] & dof::ALL != dof::ALL
+}
+
+/// The other body of a candidate contact, by index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Other {
+    Particle(usize),
+    Wall(usize),
+}
+
+/// One spring of one contact while the stiffest is sought.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    light: usize,
+    other: Other,
+    spring: &'static str,
+    k: f64,
+    overlap: f64,
+    mass: f64,
+}
+
+impl Candidate {
+    /// A shorter critical step (smaller m/k, k > 0; no square root), then lower ids, then the
+    /// spring's name: a total order, so the minimum is unique.
+    fn before(&self, b: &Candidate) -> bool {
+        (self.mass / self.k)
+            .total_cmp(&(b.mass / b.k))
+            .then((self.light, self.other).cmp(&(b.light, b.other)))
+            .then(self.spring.cmp(b.spring))
+            .is_lt()
     }
-    for i in (0..p.len()).filter(|&i| free(i)) {
-        for (w, wall) in m.walls.iter().enumerate() {
-            let overlap = p.radius[i] - wall.normal_and_distance(&p.pos[i]).1;
-            if overlap > 0.0 {
-                let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
-                consider(i, ContactWith::Wall(wall.name.clone()), pp, p.radius[i], overlap, p.mass[i]);
-            }
-        }
-    }
-    best
 }
 
 /// The stiffest contact if dt exceeds its limit ([`STIFFNESS_FRACTION`] of its critical step).
