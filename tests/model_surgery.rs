@@ -4,23 +4,13 @@
 //! takes writes between runs.
 
 mod common;
-use common::{bin, gpu_required, run_script, stderr, stdout, temp_dir};
+use common::{bin, gpu_required, run_script, stderr, stdout, temp_dir, SMALL_BOX};
 use matdem_engine::physics::contact_law::PairState;
 use matdem_rs::api::model::ModelHandle;
 use matdem_rs::api::Host;
 use rhai::{Dynamic, Engine, Scope};
 use std::collections::BTreeSet;
 use std::rc::Rc;
-
-const SMALL_BOX: &str = r#"
-let b = new_box("t");
-b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.003;
-b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
-b.set_type("top_platen");
-let d = b.build_initial_model();
-d.set_group_mat("sample", material_micro("m", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.4e-3, restitution: 0.3 }));
-d.set_standard_dt();
-"#;
 
 /// An engine with a scope that keeps the script's variables between evaluations.
 struct Session {

@@ -2,6 +2,7 @@
 //! tables, charts and pictures.
 
 mod common;
+use common::SMALL_BOX;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
@@ -11,16 +12,6 @@ fn eval<T: Clone + 'static>(name: &str, script: &str) -> T {
     let engine = matdem_rs::new_engine(host);
     engine.eval::<T>(script).unwrap_or_else(|e| panic!("script failed: {e}"))
 }
-
-const SMALL_BOX: &str = r#"
-let b = new_box("t");
-b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.003;
-b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
-b.set_type("top_platen");
-let d = b.build_initial_model();
-d.set_group_mat("sample", material_micro("m", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.4e-3, restitution: 0.3 }));
-d.set_standard_dt();
-"#;
 
 #[test]
 fn box_builder_fills_container_with_groups_and_walls() {

@@ -46,3 +46,15 @@ pub fn stderr(o: &Output) -> String {
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
+
+/// A small box of grains with a top platen, a material and the standard step: the scene of
+/// the in-process script tests (`d` and `b`).
+pub const SMALL_BOX: &str = r#"
+let b = new_box("t");
+b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.003;
+b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
+b.set_type("top_platen");
+let d = b.build_initial_model();
+d.set_group_mat("sample", material_micro("m", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.4e-3, restitution: 0.3 }));
+d.set_standard_dt();
+"#;
