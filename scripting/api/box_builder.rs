@@ -94,17 +94,7 @@ fn build(host: &Host, b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
         None => Material::from_micro("default", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, r_mean).map_err(raise)?,
     };
     model.add_material(mat).map_err(raise)?;
-    let built = match spec.build_into_until(&mut model, &host.control) {
-        Ok(built) => built,
-        // Like a script loop's: nothing to resume, the run stops (see run::evaluate).
-        Err(matdem_engine::Error::Cancelled { .. }) if host.resumable => {
-            return Err(Box::new(rhai::EvalAltResult::ErrorTerminated(
-                crate::resume::STOPPED.into(),
-                rhai::Position::NONE,
-            )))
-        }
-        Err(e) => return Err(raise(e)),
-    };
+    let built = spec.build_into_until(&mut model, &host.control).map_err(|e| super::raise_build(host, e))?;
     model.groups.set("sample", (0..model.len() as u32).collect());
     for (k, ids) in built.class_ids.into_iter().enumerate() {
         model.groups.set(&format!("class{}", k + 1), ids);

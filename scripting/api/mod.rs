@@ -178,6 +178,18 @@ impl Host {
     }
 }
 
+/// The script error for an engine error of a long native build (a box, zones): a build
+/// cancelled by a signal has nothing to resume, so in a run it stops the script like a
+/// signal in a script loop (see run::evaluate); elsewhere it is a plain error.
+pub fn raise_build(host: &Host, e: matdem_engine::Error) -> Box<EvalAltResult> {
+    match e {
+        matdem_engine::Error::Cancelled { .. } if host.resumable => {
+            Box::new(EvalAltResult::ErrorTerminated(crate::resume::STOPPED.into(), rhai::Position::NONE))
+        }
+        e => raise(e),
+    }
+}
+
 /// Writes an output file atomically (see [`crate::atomic`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     crate::atomic::write(path, bytes)

@@ -59,16 +59,8 @@ fn build(host: &Host, z: &mut ZonedBuilder) -> RhaiResult<ModelHandle> {
             scaled_material(&m, d1 / 6e-3).map_err(raise)?
         }
     };
-    let (model, regions) = match data.spec.build(&material, data.scale_stiffness, &host.control) {
-        Ok(built) => built,
-        Err(matdem_engine::Error::Cancelled { .. }) if host.resumable => {
-            return Err(Box::new(rhai::EvalAltResult::ErrorTerminated(
-                crate::resume::STOPPED.into(),
-                rhai::Position::NONE,
-            )))
-        }
-        Err(e) => return Err(raise(e)),
-    };
+    let (model, regions) =
+        data.spec.build(&material, data.scale_stiffness, &host.control).map_err(|e| super::raise_build(host, e))?;
     let handle = host.adopt(&data.name, model);
     let mut d = z.0.borrow_mut();
     d.regions = regions;
