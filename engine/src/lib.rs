@@ -22,6 +22,8 @@
 //!   later run continues it bit for bit.
 //! - [`zoned`] packs concentric zones of growing grain size with mixing layers (paper 001);
 //!   [`scaling`] makes scaled copies of a packing and scales materials by its law.
+//! - [`pores`] is pore density flow: the Delaunay pore network of the packing, fluid mass
+//!   and pressure per pore, flow through the throats, pressure on the grains.
 //! - [`bench`] builds the standard throughput scene and times it.
 //!
 //! Units are SI; particle ids are 0-based.
@@ -38,6 +40,7 @@ pub mod model;
 pub mod neighbours;
 pub mod physics;
 pub mod plan;
+pub mod pores;
 pub mod scaling;
 pub mod simulation;
 pub mod state;

@@ -1,0 +1,450 @@
+//! The pore fluid: mass per pore, density ρ = m / V_p, pressure p = K_f·(ρ/ρ0 − 1), and its
+//! explicit update.
+//!
+//! A throat carries the volumetric flow q = g·(p_a − p_b) (Poiseuille-type conductance g,
+//! [`super::geometry::poiseuille`]) and so the mass ρ0·q from a to b; each pore sums its own
+//! row of throats, so mass moves from one pore to another and is conserved to round-off.
+//! With dm_i/dt = ρ0·Σ_j g_ij (p_j − p_i) and dp/dm = K_f/(ρ0 V_i), the pressures obey
+//! dp_i/dt = (K_f / V_i)·Σ_j g_ij (p_j − p_i); forward Euler is stable for a step
+//! h ≤ V_i / (K_f·Σ_j g_ij) at every pore (Gershgorin's bound on the spectrum, 2/λ_max ≥
+//! that), the flow's own critical step. The mechanical step is divided into as many flow
+//! sub-steps as that needs, up to the fluid's `max_substeps`, beyond which the guard stops
+//! the run naming the pore.
+
+use super::network::PoreNetwork;
+use super::Fluid;
+use crate::error::{Error, Instability, Result};
+use crate::model::Model;
+use crate::physics::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// What a boundary region does to the pores whose centres lie in it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum BoundaryKind {
+    /// The pores hold this (gauge) pressure (Pa): a reservoir.
+    Pressure(f64),
+    /// This volumetric rate (m³/s, at ρ0) enters the region, shared by pore volume;
+    /// negative draws fluid out.
+    Flux(f64),
+    /// No source (the default everywhere): a region listed later can seal what an earlier
+    /// one opened.
+    Impermeable,
+}
+
+/// A box of pores with a boundary condition. Regions apply in order; the last that holds a
+/// pore's centre wins. Pores in no region are closed: the hull of the network is impermeable.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoreBoundary {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub kind: BoundaryKind,
+}
+
+/// No boundary region holds this pore.
+const FREE: u32 = u32::MAX;
+
+/// Safety factor under the critical flow step.
+pub const FLOW_SAFETY: f64 = 0.9;
+
+#[derive(Debug, Clone)]
+pub struct PoreFlow {
+    pub fluid: Fluid,
+    pub boundaries: Vec<PoreBoundary>,
+    pub network: PoreNetwork,
+    /// Fluid mass of each pore (kg).
+    pub mass: Vec<f64>,
+    /// Pressure of each pore (Pa, gauge), from its mass and volume.
+    pub pressure: Vec<f64>,
+    /// Boundary region of each pore, or none.
+    pub region: Vec<u32>,
+    /// Volumetric source of each pore (m³/s), from fixed-flux regions.
+    pub source: Vec<f64>,
+    /// Volumetric flow of each throat from its pore `a` to `b` (m³/s), last sub-step.
+    pub flow: Vec<f64>,
+    /// Volumetric rate each boundary region sends into the rest of the network (m³/s), last
+    /// sub-step.
+    pub boundary_flow: Vec<f64>,
+    /// Mass the boundaries have added since the start (kg; negative when they drained).
+    pub boundary_mass: f64,
+    /// Flow sub-steps of the last mechanical step.
+    pub substeps: u32,
+    /// Network rebuilds since the start.
+    pub rebuilds: u32,
+}
+
+impl PoreFlow {
+    /// Fluid at zero pressure in every pore of the model's packing.
+    pub fn new(m: &Model, fluid: Fluid) -> Result<Self> {
+        fluid.check()?;
+        let mut network = PoreNetwork::build(m)?;
+        network.refresh(m, &fluid);
+        let mass: Vec<f64> = network.volume.iter().map(|v| fluid.density * v).collect();
+        let np = mass.len();
+        let nt = network.throats.len();
+        let mut f = PoreFlow {
+            fluid,
+            boundaries: Vec::new(),
+            network,
+            mass,
+            pressure: vec![0.0; np],
+            region: vec![FREE; np],
+            source: vec![0.0; np],
+            flow: vec![0.0; nt],
+            boundary_flow: Vec::new(),
+            boundary_mass: 0.0,
+            substeps: 0,
+            rebuilds: 0,
+        };
+        f.update_pressure();
+        Ok(f)
+    }
+
+    /// Sets the boundary regions (replacing any) and applies them.
+    pub fn set_boundaries(&mut self, boundaries: Vec<PoreBoundary>) -> Result<()> {
+        for b in &boundaries {
+            let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
+            if !finite(&b.lo) || !finite(&b.hi) {
+                return Err(Error::InvalidScene("a pore boundary region needs finite corners".into()));
+            }
+            if let BoundaryKind::Pressure(p) | BoundaryKind::Flux(p) = b.kind {
+                if !p.is_finite() {
+                    return Err(Error::param("pore boundary value", p, "must be a finite number"));
+                }
+            }
+        }
+        self.boundaries = boundaries;
+        self.boundary_mass += self.resolve_boundaries();
+        Ok(())
+    }
+
+    /// Finds each pore's region and source; returns the mass the fixed pressures added.
+    fn resolve_boundaries(&mut self) -> f64 {
+        let net = &self.network;
+        let np = net.pore_count();
+        self.region = vec![FREE; np];
+        self.source = vec![0.0; np];
+        for p in 0..np {
+            let c = net.centre[p];
+            for (b, bc) in self.boundaries.iter().enumerate() {
+                if (0..3).all(|d| c[d] >= bc.lo[d] && c[d] <= bc.hi[d]) {
+                    self.region[p] = if bc.kind == BoundaryKind::Impermeable { FREE } else { b as u32 };
+                }
+            }
+        }
+        for (b, bc) in self.boundaries.iter().enumerate() {
+            if let BoundaryKind::Flux(q) = bc.kind {
+                let total: f64 = (0..np).filter(|&p| self.region[p] == b as u32).map(|p| net.volume[p]).sum();
+                if total > 0.0 {
+                    for p in 0..np {
+                        if self.region[p] == b as u32 {
+                            self.source[p] = q * net.volume[p] / total;
+                        }
+                    }
+                }
+            }
+        }
+        self.boundary_flow = vec![0.0; self.boundaries.len()];
+        let added = self.hold_pressures();
+        self.update_pressure();
+        added
+    }
+
+    fn fixed_pressure(&self, p: usize) -> Option<f64> {
+        match self.region[p] {
+            FREE => None,
+            b => match self.boundaries[b as usize].kind {
+                BoundaryKind::Pressure(v) => Some(v),
+                _ => None,
+            },
+        }
+    }
+
+    /// Sets each fixed-pressure pore's mass to its pressure and volume; returns the mass added.
+    fn hold_pressures(&mut self) -> f64 {
+        let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
+        let mut added = 0.0;
+        for p in 0..self.mass.len() {
+            if let Some(v) = self.fixed_pressure(p) {
+                let m = rho0 * self.network.volume[p] * (1.0 + v / k);
+                added += m - self.mass[p];
+                self.mass[p] = m;
+            }
+        }
+        added
+    }
+
+    /// p = K_f·(m / (ρ0 V) − 1) in every pore.
+    pub fn update_pressure(&mut self) {
+        let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
+        let vol = &self.network.volume;
+        self.pressure.par_iter_mut().zip(self.mass.par_iter()).zip(vol.par_iter()).for_each(|((p, m), v)| {
+            *p = k * (m / (rho0 * v) - 1.0);
+        });
+    }
+
+    /// Density of each pore's fluid (kg/m³).
+    pub fn density(&self) -> Vec<f64> {
+        self.mass.iter().zip(&self.network.volume).map(|(m, v)| m / v).collect()
+    }
+
+    /// Total fluid mass in the network (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+
+    /// The flow's critical step and the pore that sets it: min over pores not held at a
+    /// pressure of V_i / (K_f·Σ_j g_ij); infinite when no pore is connected.
+    pub fn critical_dt(&self) -> (usize, f64) {
+        let net = &self.network;
+        let k = self.fluid.bulk_modulus;
+        (0..net.pore_count())
+            .into_par_iter()
+            .filter(|&p| self.fixed_pressure(p).is_none())
+            .map(|p| {
+                let g: f64 = net.throats_of(p).iter().map(|&t| net.conductance[t as usize]).sum();
+                (p, if g > 0.0 { net.volume[p] / (k * g) } else { f64::INFINITY })
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+            .unwrap_or((0, f64::INFINITY))
+    }
+
+    /// Follows the elements (rebuilding the network when they have moved far, carrying the
+    /// fluid over) and advances the fluid by `dt` in sub-steps under its critical step.
+    pub fn advance(&mut self, m: &Model, dt: f64) -> Result<()> {
+        let drift_limit = self.fluid.rebuild_drift * m.mean_radius();
+        if self.network.drift(m) > drift_limit {
+            self.rebuild(m)?;
+        } else {
+            self.network.refresh(m, &self.fluid);
+        }
+        self.update_pressure();
+        let (pore, crit) = self.critical_dt();
+        let n = if crit.is_finite() { (dt / (FLOW_SAFETY * crit)).ceil().max(1.0) } else { 1.0 };
+        if n > self.fluid.max_substeps as f64 {
+            let t = self.network.tets_of(pore)[0] as usize;
+            return Err(Error::Unstable(Box::new(Instability {
+                step: m.clock.step,
+                particle: self.network.tri.tets[t].v[0] as usize,
+                what: format!(
+                    "bounds pore {pore}, whose fluid needs {n} flow sub-steps of the mechanical step (stable flow \
+                     step V_p/(K_f·Σg) = {crit:.3e} s), more than the fluid's max_substeps = {}",
+                    self.fluid.max_substeps
+                ),
+                dt,
+                critical_dt: crit,
+                standard_dt: m.standard_dt().unwrap_or(f64::NAN),
+                fix: Some(format!(
+                    "Fix: raise the fluid's max_substeps to {n} or more, lower its bulk_modulus or raise its \
+                     viscosity (the flow step scales with μ/K_f), or lower dt"
+                )),
+            })));
+        }
+        let n = n as u32;
+        let h = dt / n as f64;
+        for _ in 0..n {
+            self.substep(h);
+        }
+        self.substeps = n;
+        if let Some(p) = self.pressure.iter().position(|p| !p.is_finite()) {
+            return Err(Error::InvalidScene(format!("pore {p}'s pressure is not finite after the flow update")));
+        }
+        Ok(())
+    }
+
+    /// One explicit Euler step of length `h`.
+    pub fn substep(&mut self, h: f64) {
+        let rho0 = self.fluid.density;
+        self.boundary_mass += self.hold_pressures();
+        self.update_pressure();
+        let net = &self.network;
+        let pressure = &self.pressure;
+        self.flow
+            .par_iter_mut()
+            .zip(net.throats.par_iter())
+            .zip(net.conductance.par_iter())
+            .for_each(|((q, th), g)| *q = g * (pressure[th.a as usize] - pressure[th.b as usize]));
+        let flow = &self.flow;
+        let source = &self.source;
+        // Net volumetric inflow of each pore through its own row of throats.
+        let inflow: Vec<f64> = (0..net.pore_count())
+            .into_par_iter()
+            .map(|p| {
+                net.throats_of(p)
+                    .iter()
+                    .map(|&t| {
+                        let th = &net.throats[t as usize];
+                        if th.a as usize == p {
+                            -flow[t as usize]
+                        } else {
+                            flow[t as usize]
+                        }
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        for b in self.boundary_flow.iter_mut() {
+            *b = 0.0;
+        }
+        for p in 0..self.mass.len() {
+            self.mass[p] += rho0 * h * (inflow[p] + source[p]);
+            self.boundary_mass += rho0 * h * source[p];
+            if self.region[p] != FREE {
+                self.boundary_flow[self.region[p] as usize] += source[p] - inflow[p];
+            }
+        }
+        self.boundary_mass += self.hold_pressures();
+        self.update_pressure();
+    }
+
+    /// Builds the network anew for the current packing and carries the fluid over: each new
+    /// pore takes the density of the old pore whose centre is nearest its own, and the masses
+    /// of pores not held at a pressure are scaled so that their total is unchanged.
+    pub fn rebuild(&mut self, m: &Model) -> Result<()> {
+        let old_density = self.density();
+        let old_centre = self.network.centre.clone();
+        let old_total = self.total_mass();
+        let old_free_mass: f64 =
+            (0..self.mass.len()).filter(|&p| self.fixed_pressure(p).is_none()).map(|p| self.mass[p]).sum();
+        let mut net = PoreNetwork::build(m)?;
+        net.refresh(m, &self.fluid);
+        let mass: Vec<f64> = net
+            .centre
+            .par_iter()
+            .zip(net.volume.par_iter())
+            .map(|(c, v)| {
+                let nearest = old_centre
+                    .iter()
+                    .enumerate()
+                    .map(|(i, o)| ((o - c).norm_squared(), i))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(_, i)| i)
+                    .unwrap_or(0);
+                old_density[nearest] * v
+            })
+            .collect();
+        self.flow = vec![0.0; net.throats.len()];
+        self.pressure = vec![0.0; mass.len()];
+        self.network = net;
+        self.mass = mass;
+        self.resolve_boundaries();
+        let free: Vec<usize> = (0..self.mass.len()).filter(|&p| self.fixed_pressure(p).is_none()).collect();
+        let new_free_mass: f64 = free.iter().map(|&p| self.mass[p]).sum();
+        if new_free_mass > 0.0 {
+            let s = old_free_mass / new_free_mass;
+            for &p in &free {
+                self.mass[p] *= s;
+            }
+        }
+        self.update_pressure();
+        // What the fixed pressures hold changed with the pores; the boundaries supplied it.
+        self.boundary_mass += self.total_mass() - old_total;
+        self.rebuilds += 1;
+        Ok(())
+    }
+
+    /// Sets the fluid to the steady state of the current network: the pressures for which
+    /// every free pore's throat flows and source balance (Kirchhoff), found by conjugate
+    /// gradients (Jacobi-preconditioned) to a relative residual `tol`; then the masses, the
+    /// throat flows and the boundary flows follow. Returns the iterations used. Needs at
+    /// least one fixed-pressure pore (otherwise the level is undetermined).
+    pub fn solve_steady(&mut self, tol: f64) -> Result<usize> {
+        let np = self.network.pore_count();
+        if !(0..np).any(|p| self.fixed_pressure(p).is_some()) {
+            return Err(Error::InvalidScene(
+                "the steady pore pressure needs a fixed-pressure boundary region (set one with a pressure)".into(),
+            ));
+        }
+        let net = &self.network;
+        let fixed: Vec<Option<f64>> = (0..np).map(|p| self.fixed_pressure(p)).collect();
+        let other = |p: usize, t: u32| {
+            let th = &net.throats[t as usize];
+            if th.a as usize == p {
+                th.b as usize
+            } else {
+                th.a as usize
+            }
+        };
+        let diag: Vec<f64> = (0..np)
+            .map(|p| net.throats_of(p).iter().map(|&t| net.conductance[t as usize]).sum::<f64>())
+            .collect();
+        // A·x over free pores (fixed pores read as 0 in x).
+        let apply = |x: &[f64], out: &mut [f64]| {
+            out.par_iter_mut().enumerate().for_each(|(p, o)| {
+                *o = if fixed[p].is_some() {
+                    0.0
+                } else {
+                    let mut s = diag[p] * x[p];
+                    for &t in net.throats_of(p) {
+                        let q = other(p, t);
+                        if fixed[q].is_none() {
+                            s -= net.conductance[t as usize] * x[q];
+                        }
+                    }
+                    s
+                };
+            });
+        };
+        let b: Vec<f64> = (0..np)
+            .map(|p| {
+                if fixed[p].is_some() {
+                    return 0.0;
+                }
+                let mut s = self.source[p];
+                for &t in net.throats_of(p) {
+                    if let Some(v) = fixed[other(p, t)] {
+                        s += net.conductance[t as usize] * v;
+                    }
+                }
+                s
+            })
+            .collect();
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut x: Vec<f64> = (0..np).map(|p| if fixed[p].is_some() { 0.0 } else { self.pressure[p] }).collect();
+        let mut ax = vec![0.0; np];
+        apply(&x, &mut ax);
+        let mut r: Vec<f64> = b.iter().zip(&ax).map(|(b, a)| b - a).collect();
+        let precond = |r: &[f64]| -> Vec<f64> {
+            r.iter().zip(&diag).map(|(r, d)| if *d > 0.0 { r / d } else { 0.0 }).collect()
+        };
+        let mut z = precond(&r);
+        let mut d = z.clone();
+        let mut rz = dot(&r, &z);
+        let bnorm = dot(&b, &b).sqrt().max(f64::MIN_POSITIVE);
+        let mut iters = 0;
+        let limit = 10 * np + 100;
+        while dot(&r, &r).sqrt() > tol * bnorm {
+            if iters >= limit {
+                return Err(Error::InvalidScene(format!(
+                    "the steady pore pressure did not converge in {limit} iterations (is part of the network \
+                     cut off from every fixed-pressure region?)"
+                )));
+            }
+            apply(&d, &mut ax);
+            let alpha = rz / dot(&d, &ax);
+            for p in 0..np {
+                x[p] += alpha * d[p];
+                r[p] -= alpha * ax[p];
+            }
+            z = precond(&r);
+            let rz1 = dot(&r, &z);
+            let beta = rz1 / rz;
+            rz = rz1;
+            for p in 0..np {
+                d[p] = z[p] + beta * d[p];
+            }
+            iters += 1;
+        }
+        let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
+        let before = self.total_mass();
+        for p in 0..np {
+            let v = fixed[p].unwrap_or(x[p]);
+            self.mass[p] = rho0 * self.network.volume[p] * (1.0 + v / k);
+        }
+        self.boundary_mass += self.total_mass() - before;
+        self.update_pressure();
+        // The flows of that state (a zero-length step leaves the masses as they are).
+        self.substep(0.0);
+        Ok(iters)
+    }
+}

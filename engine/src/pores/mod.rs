@@ -1,0 +1,78 @@
+//! Pore density flow (paper 003, §3.3): fluid in the pores of the packing.
+//!
+//! - [`delaunay`]: the Delaunay tetrahedralisation of element centres.
+//! - [`geometry`]: pore volume (tetrahedron minus sphere sectors), throat opening (face
+//!   minus circle sectors), the Poiseuille-type throat conductance.
+//! - [`network`]: pores (tetrahedra, slivers merged) and throats (faces between pores).
+//! - [`flow`]: fluid mass per pore, density = mass / pore volume, pressure from the equation
+//!   of state p = K_f·(ρ/ρ0 − 1), the explicit update sub-cycled under its stability limit,
+//!   boundary pores (fixed pressure, fixed flux; impermeable otherwise).
+//! - [`pressure_forces`]: pore pressure on the elements bounding each pore.
+
+pub mod delaunay;
+pub mod flow;
+pub mod geometry;
+pub mod network;
+pub mod pressure_forces;
+
+pub use flow::{BoundaryKind, PoreBoundary, PoreFlow};
+pub use network::PoreNetwork;
+
+use serde::{Deserialize, Serialize};
+
+/// The pore fluid and how the network treats it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fluid {
+    /// Bulk modulus K_f (Pa) of the equation of state p = K_f·(ρ/ρ0 − 1).
+    pub bulk_modulus: f64,
+    /// Reference density ρ0 (kg/m³), at zero (gauge) pressure.
+    pub density: f64,
+    /// Dynamic viscosity μ (Pa·s).
+    pub viscosity: f64,
+    /// Factor on the conductance of a throat whose face has bonded edges (cement partly
+    /// filling the passage); 1 = bonds do not narrow throats. A broken bond removes it.
+    pub cement_factor: f64,
+    /// Smallest aperture of a crack (a broken bond), as a fraction of the mean radius of the
+    /// throat's elements; the crack adds w³·b/(12 μ L) to its throat.
+    pub crack_aperture: f64,
+    /// Most flow sub-steps per mechanical step before the guard stops the run.
+    pub max_substeps: u32,
+    /// The network is rebuilt (fluid carried over) once an element has moved this fraction
+    /// of the mean radius since the last build.
+    pub rebuild_drift: f64,
+}
+
+impl Default for Fluid {
+    fn default() -> Self {
+        Fluid {
+            bulk_modulus: 2.2e9,
+            density: 1000.0,
+            viscosity: 1.0e-3,
+            cement_factor: 1.0,
+            crack_aperture: 0.01,
+            max_substeps: 1000,
+            rebuild_drift: 0.5,
+        }
+    }
+}
+
+impl Fluid {
+    /// Checks every property, naming the first bad one.
+    pub fn check(&self) -> crate::Result<()> {
+        use crate::error::check_positive;
+        check_positive("fluid bulk_modulus", self.bulk_modulus, false)?;
+        check_positive("fluid density", self.density, false)?;
+        check_positive("fluid viscosity", self.viscosity, false)?;
+        check_positive("fluid cement_factor", self.cement_factor, true)?;
+        check_positive("fluid crack_aperture", self.crack_aperture, true)?;
+        check_positive("fluid rebuild_drift", self.rebuild_drift, false)?;
+        if self.max_substeps == 0 {
+            return Err(crate::Error::InvalidParameter {
+                name: "fluid max_substeps",
+                value: 0.0,
+                reason: "must be ≥ 1".into(),
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,308 @@
+//! The pore network of a packing: pores are the Delaunay tetrahedra of element centres
+//! (a near-flat or nearly filled tetrahedron is merged into its widest-open neighbour, so
+//! no pore has a vanishing volume), throats are the faces between two pores. Topology is
+//! built once per rebuild; the geometry (pore volumes and centres, throat conductances)
+//! follows the elements every step.
+
+use super::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
+use super::geometry::{cubic_law, opening, poiseuille, pore_volume, tet_volume};
+use super::Fluid;
+use crate::error::Result;
+use crate::model::Model;
+use crate::physics::Vec3;
+use rayon::prelude::*;
+
+/// A tetrahedron whose empty volume is under this fraction of the mean is merged into a
+/// neighbour: slivers from co-spherical points and tightly filled corners would otherwise
+/// give pores with almost no room and a vanishing stable flow step.
+pub const SMALL_PORE_FRACTION: f64 = 0.05;
+
+/// A pore's fluid volume is kept above this fraction of its tetrahedra's volume (where
+/// overlapping spheres would subtract the same room twice).
+pub const VOLUME_FLOOR: f64 = 0.01;
+
+/// A face between two pores: the face of tetrahedron `tet` opposite its corner `face`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Throat {
+    pub a: u32,
+    pub b: u32,
+    pub tet: u32,
+    pub face: u8,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct PoreNetwork {
+    pub tri: Tetrahedralisation,
+    /// Pore of each tetrahedron.
+    pub tet_pore: Vec<u32>,
+    /// Tetrahedra of pore `p`: `pore_tets[pore_tet_start[p]..pore_tet_start[p + 1]]`.
+    pub pore_tet_start: Vec<u32>,
+    pub pore_tets: Vec<u32>,
+    pub throats: Vec<Throat>,
+    /// Throats of pore `p` (CSR rows, each throat in both of its pores' rows), so each pore
+    /// sums its own row.
+    pub row_start: Vec<u32>,
+    pub row: Vec<u32>,
+    /// Edges of each throat's face bonded when the network was built (bit e: the edge
+    /// opposite the face's e-th corner).
+    pub bonded_at_build: Vec<u8>,
+    /// Positions when the network was built.
+    pub built_at: Vec<Vec3>,
+    // Geometry of the current positions (see `refresh`).
+    /// Fluid volume of each pore (m³).
+    pub volume: Vec<f64>,
+    /// Volume-weighted centroid of each pore's tetrahedra (m).
+    pub centre: Vec<Vec3>,
+    /// Conductance of each throat (m³/(Pa·s)).
+    pub conductance: Vec<f64>,
+    /// Throat opening (m²).
+    pub opening: Vec<f64>,
+    /// Whether a bond across the throat's face has broken since the build.
+    pub cracked: Vec<bool>,
+}
+
+/// The three corners of face `k` of a tetrahedron with corners `v`, in a fixed order.
+pub fn face_corners(v: [u32; 4], k: usize) -> [u32; 3] {
+    let mut f = [0u32; 3];
+    let mut m = 0;
+    for (q, &vq) in v.iter().enumerate() {
+        if q != k {
+            f[m] = vq;
+            m += 1;
+        }
+    }
+    f
+}
+
+fn bonded(m: &Model, i: u32, j: u32) -> bool {
+    m.contacts.find(i as usize, j).is_some_and(|e| m.contacts.state[e].bonded)
+}
+
+impl PoreNetwork {
+    /// The network of the model's current packing.
+    pub fn build(m: &Model) -> Result<Self> {
+        let pos = &m.particles.pos;
+        let rad = &m.particles.radius;
+        let tri = tetrahedralise(pos)?;
+        let nt = tri.tets.len();
+        let corners = |t: usize| tri.tets[t].v.map(|i| pos[i as usize]);
+        let radii = |t: usize| tri.tets[t].v.map(|i| rad[i as usize]);
+        let empty: Vec<f64> = (0..nt).map(|t| pore_volume(corners(t), radii(t), 0.0)).collect();
+        let mean = empty.iter().sum::<f64>() / nt.max(1) as f64;
+
+        // Merge small tetrahedra into the neighbour across their widest-open face.
+        let mut parent: Vec<u32> = (0..nt as u32).collect();
+        fn root(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                parent[x as usize] = parent[parent[x as usize] as usize];
+                x = parent[x as usize];
+            }
+            x
+        }
+        for t in 0..nt {
+            if empty[t] >= SMALL_PORE_FRACTION * mean {
+                continue;
+            }
+            let tet = tri.tets[t];
+            let mut best: Option<(f64, f64, u32)> = None;
+            for k in 0..4 {
+                if tet.n[k] == HULL {
+                    continue;
+                }
+                let f = face_corners(tet.v, k);
+                let o = opening(f.map(|i| pos[i as usize]), f.map(|i| rad[i as usize]));
+                let key = (o.area, o.face, tet.n[k]);
+                if best.is_none_or(|b| (key.0, key.1) > (b.0, b.1)) {
+                    best = Some(key);
+                }
+            }
+            if let Some((_, _, nb)) = best {
+                let (a, b) = (root(&mut parent, t as u32), root(&mut parent, nb));
+                if a != b {
+                    parent[a.max(b) as usize] = a.min(b);
+                }
+            }
+        }
+        let mut id = vec![u32::MAX; nt];
+        let mut tet_pore = vec![0u32; nt];
+        let mut pores = 0u32;
+        for t in 0..nt {
+            let r = root(&mut parent, t as u32) as usize;
+            if id[r] == u32::MAX {
+                id[r] = pores;
+                pores += 1;
+            }
+            tet_pore[t] = id[r];
+        }
+        let np = pores as usize;
+        let (pore_tet_start, pore_tets) = csr(np, (0..nt as u32).map(|t| (tet_pore[t as usize], t)));
+
+        let mut throats = Vec::new();
+        let mut bonded_at_build = Vec::new();
+        for (t, tet) in tri.tets.iter().enumerate() {
+            for k in 0..4 {
+                let nb = tet.n[k];
+                if nb == HULL || (nb as usize) < t {
+                    continue;
+                }
+                let (a, b) = (tet_pore[t], tet_pore[nb as usize]);
+                if a == b {
+                    continue;
+                }
+                throats.push(Throat { a: a.min(b), b: a.max(b), tet: t as u32, face: k as u8 });
+                let f = face_corners(tet.v, k);
+                let mut bits = 0u8;
+                for e in 0..3 {
+                    if bonded(m, f[(e + 1) % 3], f[(e + 2) % 3]) {
+                        bits |= 1 << e;
+                    }
+                }
+                bonded_at_build.push(bits);
+            }
+        }
+        let (row_start, row) = csr(
+            np,
+            throats.iter().enumerate().flat_map(|(i, th)| [(th.a, i as u32), (th.b, i as u32)]),
+        );
+        let nth = throats.len();
+        let mut net = PoreNetwork {
+            tri,
+            tet_pore,
+            pore_tet_start,
+            pore_tets,
+            throats,
+            row_start,
+            row,
+            bonded_at_build,
+            built_at: pos.clone(),
+            volume: vec![0.0; np],
+            centre: vec![Vec3::zeros(); np],
+            conductance: vec![0.0; nth],
+            opening: vec![0.0; nth],
+            cracked: vec![false; nth],
+        };
+        net.refresh(m, &Fluid::default());
+        Ok(net)
+    }
+
+    pub fn pore_count(&self) -> usize {
+        self.volume.len()
+    }
+
+    /// Tetrahedra of pore `p`.
+    pub fn tets_of(&self, p: usize) -> &[u32] {
+        &self.pore_tets[self.pore_tet_start[p] as usize..self.pore_tet_start[p + 1] as usize]
+    }
+
+    /// Throats of pore `p`.
+    pub fn throats_of(&self, p: usize) -> &[u32] {
+        &self.row[self.row_start[p] as usize..self.row_start[p + 1] as usize]
+    }
+
+    /// Recomputes volumes, centres and conductances from the current positions and bonds.
+    pub fn refresh(&mut self, m: &Model, fluid: &Fluid) {
+        let pos = &m.particles.pos;
+        let rad = &m.particles.radius;
+        let tri = &self.tri;
+        let tets = |p: usize| &self.pore_tets[self.pore_tet_start[p] as usize..self.pore_tet_start[p + 1] as usize];
+        let geo: Vec<(f64, Vec3)> = (0..self.volume.len())
+            .into_par_iter()
+            .map(|p| {
+                let (mut empty, mut full, mut c) = (0.0, 0.0, Vec3::zeros());
+                for &t in tets(p) {
+                    let v = tri.tets[t as usize].v;
+                    let x = v.map(|i| pos[i as usize]);
+                    let vol = tet_volume(x).abs();
+                    empty += pore_volume(x, v.map(|i| rad[i as usize]), 0.0);
+                    full += vol;
+                    c += (x[0] + x[1] + x[2] + x[3]) * (0.25 * vol);
+                }
+                let centre = if full > 0.0 {
+                    c / full
+                } else {
+                    let v = tri.tets[tets(p)[0] as usize].v;
+                    v.iter().map(|&i| pos[i as usize]).sum::<Vec3>() / 4.0
+                };
+                (empty.max(VOLUME_FLOOR * full), centre)
+            })
+            .collect();
+        for (p, (v, c)) in geo.into_iter().enumerate() {
+            self.volume[p] = v;
+            self.centre[p] = c;
+        }
+        let centre = &self.centre;
+        let out: Vec<(f64, f64, bool)> = self
+            .throats
+            .par_iter()
+            .zip(self.bonded_at_build.par_iter())
+            .map(|(th, &bits)| {
+                let f = face_corners(tri.tets[th.tet as usize].v, th.face as usize);
+                let x = f.map(|i| pos[i as usize]);
+                let r = f.map(|i| rad[i as usize]);
+                let o = opening(x, r);
+                let mean_r = (r[0] + r[1] + r[2]) / 3.0;
+                let len = (centre[th.a as usize] - centre[th.b as usize]).norm().max(0.1 * mean_r);
+                let mut cracked = false;
+                let mut crack_g = 0.0;
+                for e in 0..3 {
+                    if bits & (1 << e) == 0 {
+                        continue;
+                    }
+                    let (i, j) = (f[(e + 1) % 3], f[(e + 2) % 3]);
+                    if !bonded(m, i, j) {
+                        cracked = true;
+                        let (xi, xj) = (pos[i as usize], pos[j as usize]);
+                        let (ri, rj) = (rad[i as usize], rad[j as usize]);
+                        let gap = (xi - xj).norm() - ri - rj;
+                        let w = gap.max(fluid.crack_aperture * mean_r);
+                        crack_g += cubic_law(w, ri.min(rj), fluid.viscosity, len);
+                    }
+                }
+                let cemented = bits != 0 && !cracked;
+                let factor = if cemented { fluid.cement_factor } else { 1.0 };
+                (poiseuille(&o, fluid.viscosity, len) * factor + crack_g, o.area, cracked)
+            })
+            .collect();
+        for (t, (g, a, c)) in out.into_iter().enumerate() {
+            self.conductance[t] = g;
+            self.opening[t] = a;
+            self.cracked[t] = c;
+        }
+    }
+
+    /// The largest distance any element has moved since the network was built (m).
+    pub fn drift(&self, m: &Model) -> f64 {
+        m.particles.pos.iter().zip(&self.built_at).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max)
+    }
+
+    /// The pore whose tetrahedra contain `x`, if any (a walk over all tetrahedra; for
+    /// carrying fluid over a rebuild, not for the step loop).
+    pub fn pore_at(&self, pos: &[Vec3], x: Vec3) -> Option<usize> {
+        self.tri.tets.iter().position(|t| {
+            let v = t.v.map(|i| pos[i as usize]);
+            (0..4).all(|k| {
+                let mut w = v;
+                w[k] = x;
+                tet_volume(w) * tet_volume(v) >= 0.0
+            })
+        }).map(|t| self.tet_pore[t] as usize)
+    }
+}
+
+/// CSR rows from (row, value) pairs, values in each row in the order given.
+fn csr(rows: usize, items: impl Iterator<Item = (u32, u32)> + Clone) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; rows + 1];
+    for (r, _) in items.clone() {
+        start[r as usize + 1] += 1;
+    }
+    for r in 0..rows {
+        start[r + 1] += start[r];
+    }
+    let mut fill = start.clone();
+    let mut out = vec![0u32; start[rows] as usize];
+    for (r, v) in items {
+        out[fill[r as usize] as usize] = v;
+        fill[r as usize] += 1;
+    }
+    (start, out)
+}

@@ -1,0 +1,181 @@
+//! The pore network's geometry: the Delaunay tetrahedralisation it rests on (empty
+//! circumspheres, volume equal to the convex hull, co-spherical lattices handled), pore
+//! volumes against the known porosity of regular packings, and the pore-pressure forces
+//! (zero on an interior element under uniform pressure, p × solid area on a hull face).
+
+use matdem_engine::physics::Vec3;
+use matdem_engine::pores::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
+use matdem_engine::pores::pressure_forces::add_pressure_forces;
+use matdem_engine::pores::{Fluid, PoreFlow, PoreNetwork};
+use matdem_engine::{Material, Model};
+use std::f64::consts::PI;
+
+/// Deterministic points in the unit cube (an LCG), plus its 8 corners.
+fn cube_and_random(n: usize) -> Vec<Vec3> {
+    let mut s = 0x2545_F491_4F6C_DD1Du64;
+    let mut r = || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut p: Vec<Vec3> = (0..8).map(|c| Vec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)).collect();
+    for _ in 0..n {
+        p.push(Vec3::new(r(), r(), r()));
+    }
+    p
+}
+
+fn simple_cubic(n: usize, a: f64) -> Vec<Vec3> {
+    let mut p = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                p.push(Vec3::new(i as f64, j as f64, k as f64) * a);
+            }
+        }
+    }
+    p
+}
+
+/// FCC conventional cells, n × n × n, with every lattice point of the closed block.
+fn fcc(n: usize, a: f64) -> Vec<Vec3> {
+    let mut p = Vec::new();
+    let h = 2 * n;
+    for i in 0..=h {
+        for j in 0..=h {
+            for k in 0..=h {
+                if (i + j + k) % 2 == 0 {
+                    p.push(Vec3::new(i as f64, j as f64, k as f64) * (a / 2.0));
+                }
+            }
+        }
+    }
+    p
+}
+
+/// Checks mutual neighbour links and positive orientation, and returns the largest
+/// violation of the empty-circumsphere property, as a fraction of the circumradius.
+fn check(tri: &Tetrahedralisation, pts: &[Vec3]) -> f64 {
+    for (t, tet) in tri.tets.iter().enumerate() {
+        for k in 0..4 {
+            let nb = tet.n[k];
+            if nb != HULL {
+                assert!(tri.tets[nb as usize].n.contains(&(t as u32)), "tet {t}'s neighbour {nb} does not link back");
+            }
+        }
+        let j = tet.v.map(|i| Vec3::from(tri.points[i as usize]));
+        assert!((j[0] - j[3]).dot(&(j[1] - j[3]).cross(&(j[2] - j[3]))) > 0.0, "tet {t} is not positively oriented");
+    }
+    let mut worst: f64 = 0.0;
+    for tet in &tri.tets {
+        let [a, b, c, d] = tet.v.map(|i| Vec3::from(tri.points[i as usize]));
+        // Circumcentre: solve 2(b−a)·x = |b|²−|a|², ….
+        let m = nalgebra::Matrix3::from_rows(&[(b - a).transpose(), (c - a).transpose(), (d - a).transpose()]) * 2.0;
+        let rhs = Vec3::new(b.norm_squared() - a.norm_squared(), c.norm_squared() - a.norm_squared(), d.norm_squared() - a.norm_squared());
+        let Some(x) = m.lu().solve(&rhs) else { continue };
+        let r = (a - x).norm();
+        for (i, p) in pts.iter().enumerate() {
+            if tet.v.contains(&(i as u32)) {
+                continue;
+            }
+            let inside = (r - (p - x).norm()) / r;
+            worst = worst.max(inside);
+        }
+    }
+    worst
+}
+
+fn total_volume(tri: &Tetrahedralisation, pos: &[Vec3]) -> f64 {
+    (0..tri.tets.len()).map(|t| tri.volume(t, pos)).sum()
+}
+
+#[test]
+fn random_points_give_empty_circumspheres_and_fill_their_hull() {
+    let pts = cube_and_random(400);
+    let tri = tetrahedralise(&pts).unwrap();
+    let worst = check(&tri, &pts);
+    // The jitter moves points by 1e-9 of the diagonal; nothing else may sit inside.
+    assert!(worst < 1e-7, "a point lies {worst:.2e} of a circumradius inside a circumsphere");
+    let v = total_volume(&tri, &pts);
+    assert!((v - 1.0).abs() < 1e-6, "volume {v} ≠ the hull's 1");
+    // Every point is a corner of some tetrahedron.
+    let mut used = vec![false; pts.len()];
+    tri.tets.iter().for_each(|t| t.v.iter().for_each(|&i| used[i as usize] = true));
+    assert!(used.iter().all(|&u| u));
+}
+
+#[test]
+fn cospherical_lattices_are_tetrahedralised_through_the_jitter() {
+    for (name, pts, hull) in [("simple cubic", simple_cubic(6, 1.0), 125.0), ("fcc", fcc(3, 1.0), 27.0)] {
+        let tri = tetrahedralise(&pts).unwrap();
+        let worst = check(&tri, &pts);
+        assert!(worst < 1e-7, "{name}: a point lies {worst:.2e} of a circumradius inside a circumsphere");
+        let v = total_volume(&tri, &pts);
+        assert!((v / hull - 1.0).abs() < 1e-6, "{name}: volume {v} ≠ the hull's {hull}");
+        println!("{name}: {} points, {} tetrahedra", pts.len(), tri.tets.len());
+    }
+}
+
+#[test]
+fn too_few_or_coincident_points_are_refused_with_a_message() {
+    let e = tetrahedralise(&[Vec3::zeros(), Vec3::x(), Vec3::y()]).unwrap_err().to_string();
+    assert!(e.contains("at least 4 elements"), "{e}");
+    let e = tetrahedralise(&[Vec3::zeros(); 5]).unwrap_err().to_string();
+    assert!(e.contains("distinct positions"), "{e}");
+}
+
+/// A model of equal spheres of radius `r` at the given centres.
+fn model(pts: &[Vec3], r: f64) -> Model {
+    let mut m = Model::new();
+    let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, r).unwrap()).unwrap();
+    for p in pts {
+        m.add_particle(*p, r, mat).unwrap();
+    }
+    m
+}
+
+#[test]
+fn pore_volume_of_regular_packings_matches_their_porosity() {
+    // Touching spheres; the hull of the centres holds a whole number of spheres per cell.
+    let a = 1e-3;
+    let n = 5;
+    let m = model(&simple_cubic(n + 1, a), a / 2.0);
+    let net = PoreNetwork::build(&m).unwrap();
+    let want = (n as f64 * a).powi(3) * (1.0 - PI / 6.0);
+    let got: f64 = net.volume.iter().sum();
+    assert!((got / want - 1.0).abs() < 1e-6, "simple cubic pore volume {got:e} vs {want:e}");
+
+    let r = a / (2.0 * 2f64.sqrt());
+    let m = model(&fcc(3, a), r);
+    let net = PoreNetwork::build(&m).unwrap();
+    let want = (3.0 * a).powi(3) * (1.0 - PI / (3.0 * 2f64.sqrt()));
+    let got: f64 = net.volume.iter().sum();
+    assert!((got / want - 1.0).abs() < 1e-6, "fcc pore volume {got:e} vs {want:e}");
+    println!("fcc: {} tetrahedra in {} pores, {} throats", net.tri.tets.len(), net.pore_count(), net.throats.len());
+}
+
+#[test]
+fn uniform_pressure_pushes_only_on_the_hull() {
+    let a = 1e-3;
+    let n = 5;
+    let r = 0.45 * a;
+    let pts = simple_cubic(n + 1, a);
+    let m = model(&pts, r);
+    let flow = PoreFlow::new(&m, Fluid::default()).unwrap();
+    let p = 1e5;
+    let pressure = vec![p; flow.network.pore_count()];
+    let mut force = vec![Vec3::zeros(); pts.len()];
+    add_pressure_forces(&flow.network, &pressure, &m.particles.pos, &m.particles.radius, &mut force);
+    let top = n as f64 * a;
+    let on_hull = |x: &Vec3| (0..3).any(|d| x[d] < 1e-9 || x[d] > top - 1e-9);
+    for (i, x) in pts.iter().enumerate() {
+        if !on_hull(x) {
+            assert!(force[i].norm() < 1e-9 * p * r * r, "interior element {i} feels {:?}", force[i]);
+        }
+    }
+    // The top face: (n)² squares, each with four quarter circles of radius r.
+    let fz: f64 = pts.iter().zip(&force).filter(|(x, _)| x.z > top - 1e-9).map(|(_, f)| f.z).sum();
+    let want = p * (n * n) as f64 * PI * r * r;
+    assert!((fz / want - 1.0).abs() < 1e-6, "top force {fz:e} vs p × solid area {want:e}");
+    let total: Vec3 = force.iter().sum();
+    assert!(total.norm() < 1e-9 * want, "net force {total:?} on a closed, uniformly pressurised sample");
+}
