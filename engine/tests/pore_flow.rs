@@ -85,7 +85,11 @@ fn darcy(nz: usize, p_in: f64) -> (Model, PoreFlow) {
     let big = 1.0;
     f.set_boundaries(vec![
         PoreBoundary { lo: Vec3::repeat(-big), hi: Vec3::new(big, big, 0.5 * A), kind: BoundaryKind::Pressure(p_in) },
-        PoreBoundary { lo: Vec3::new(-big, -big, top - 0.5 * A), hi: Vec3::repeat(big), kind: BoundaryKind::Pressure(0.0) },
+        PoreBoundary {
+            lo: Vec3::new(-big, -big, top - 0.5 * A),
+            hi: Vec3::repeat(big),
+            kind: BoundaryKind::Pressure(0.0),
+        },
     ])
     .unwrap();
     (m, f)
@@ -137,7 +141,10 @@ fn darcy_column_flows_steadily_with_a_linear_pressure_and_the_networks_permeabil
     let mut s = f.clone();
     let iters = s.solve_steady(1e-13).unwrap();
     let qs = s.boundary_flow[0];
-    assert!((qin / qs - 1.0).abs() < 1e-7, "explicit steady flux {qin:e} vs Kirchhoff's {qs:e} ({iters} CG iterations)");
+    assert!(
+        (qin / qs - 1.0).abs() < 1e-7,
+        "explicit steady flux {qin:e} vs Kirchhoff's {qs:e} ({iters} CG iterations)"
+    );
 
     // The pressure falls linearly between the reservoirs (pores away from the side walls).
     let top = (nz - 1) as f64 * A;

@@ -17,7 +17,8 @@ fn cube_and_random(n: usize) -> Vec<Vec3> {
         s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (s >> 11) as f64 / (1u64 << 53) as f64
     };
-    let mut p: Vec<Vec3> = (0..8).map(|c| Vec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)).collect();
+    let mut p: Vec<Vec3> =
+        (0..8).map(|c| Vec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)).collect();
     for _ in 0..n {
         p.push(Vec3::new(r(), r(), r()));
     }
@@ -70,7 +71,11 @@ fn check(tri: &Tetrahedralisation, pts: &[Vec3]) -> f64 {
         let [a, b, c, d] = tet.v.map(|i| Vec3::from(tri.points[i as usize]));
         // Circumcentre: solve 2(b−a)·x = |b|²−|a|², ….
         let m = nalgebra::Matrix3::from_rows(&[(b - a).transpose(), (c - a).transpose(), (d - a).transpose()]) * 2.0;
-        let rhs = Vec3::new(b.norm_squared() - a.norm_squared(), c.norm_squared() - a.norm_squared(), d.norm_squared() - a.norm_squared());
+        let rhs = Vec3::new(
+            b.norm_squared() - a.norm_squared(),
+            c.norm_squared() - a.norm_squared(),
+            d.norm_squared() - a.norm_squared(),
+        );
         let Some(x) = m.lu().solve(&rhs) else { continue };
         let r = (a - x).norm();
         for (i, p) in pts.iter().enumerate() {

@@ -365,9 +365,8 @@ impl PoreFlow {
                 th.a as usize
             }
         };
-        let diag: Vec<f64> = (0..np)
-            .map(|p| net.throats_of(p).iter().map(|&t| net.conductance[t as usize]).sum::<f64>())
-            .collect();
+        let diag: Vec<f64> =
+            (0..np).map(|p| net.throats_of(p).iter().map(|&t| net.conductance[t as usize]).sum::<f64>()).collect();
         // A·x over free pores (fixed pores read as 0 in x).
         let apply = |x: &[f64], out: &mut [f64]| {
             out.par_iter_mut().enumerate().for_each(|(p, o)| {
@@ -404,9 +403,8 @@ impl PoreFlow {
         let mut ax = vec![0.0; np];
         apply(&x, &mut ax);
         let mut r: Vec<f64> = b.iter().zip(&ax).map(|(b, a)| b - a).collect();
-        let precond = |r: &[f64]| -> Vec<f64> {
-            r.iter().zip(&diag).map(|(r, d)| if *d > 0.0 { r / d } else { 0.0 }).collect()
-        };
+        let precond =
+            |r: &[f64]| -> Vec<f64> { r.iter().zip(&diag).map(|(r, d)| if *d > 0.0 { r / d } else { 0.0 }).collect() };
         let mut z = precond(&r);
         let mut d = z.clone();
         let mut rz = dot(&r, &z);

@@ -98,7 +98,12 @@ mod tests {
     #[test]
     fn solid_angles_of_a_regular_tetrahedron_add_up_to_four_times_its_corner() {
         // Regular tetrahedron corner: Ω = arccos(23/27).
-        let v = [Vec3::new(1.0, 1.0, 1.0), Vec3::new(1.0, -1.0, -1.0), Vec3::new(-1.0, 1.0, -1.0), Vec3::new(-1.0, -1.0, 1.0)];
+        let v = [
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+            Vec3::new(-1.0, 1.0, -1.0),
+            Vec3::new(-1.0, -1.0, 1.0),
+        ];
         let om = solid_angle(v[0], v[1], v[2], v[3]);
         assert!((om - (23.0f64 / 27.0).acos()).abs() < 1e-14, "{om}");
     }
@@ -118,7 +123,12 @@ mod tests {
     fn poiseuille_law_matches_a_circular_tube() {
         // A circle of radius a: A = π a², P = 2π a.
         let a = 1e-3;
-        let o = Opening { area: std::f64::consts::PI * a * a, perimeter: 2.0 * std::f64::consts::PI * a, face: 0.0, sectors: [0.0; 3] };
+        let o = Opening {
+            area: std::f64::consts::PI * a * a,
+            perimeter: 2.0 * std::f64::consts::PI * a,
+            face: 0.0,
+            sectors: [0.0; 3],
+        };
         let g = poiseuille(&o, 1e-3, 0.1);
         let want = std::f64::consts::PI * a.powi(4) / (8.0 * 1e-3 * 0.1);
         assert!((g / want - 1.0).abs() < 1e-12);

@@ -160,10 +160,8 @@ impl PoreNetwork {
                 bonded_at_build.push(bits);
             }
         }
-        let (row_start, row) = csr(
-            np,
-            throats.iter().enumerate().flat_map(|(i, th)| [(th.a, i as u32), (th.b, i as u32)]),
-        );
+        let (row_start, row) =
+            csr(np, throats.iter().enumerate().flat_map(|(i, th)| [(th.a, i as u32), (th.b, i as u32)]));
         let nth = throats.len();
         let mut net = PoreNetwork {
             tri,
@@ -278,14 +276,18 @@ impl PoreNetwork {
     /// The pore whose tetrahedra contain `x`, if any (a walk over all tetrahedra; for
     /// carrying fluid over a rebuild, not for the step loop).
     pub fn pore_at(&self, pos: &[Vec3], x: Vec3) -> Option<usize> {
-        self.tri.tets.iter().position(|t| {
-            let v = t.v.map(|i| pos[i as usize]);
-            (0..4).all(|k| {
-                let mut w = v;
-                w[k] = x;
-                tet_volume(w) * tet_volume(v) >= 0.0
+        self.tri
+            .tets
+            .iter()
+            .position(|t| {
+                let v = t.v.map(|i| pos[i as usize]);
+                (0..4).all(|k| {
+                    let mut w = v;
+                    w[k] = x;
+                    tet_volume(w) * tet_volume(v) >= 0.0
+                })
             })
-        }).map(|t| self.tet_pore[t] as usize)
+            .map(|t| self.tet_pore[t] as usize)
     }
 }
 

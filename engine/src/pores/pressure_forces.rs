@@ -7,8 +7,8 @@
 //! Each element exposes the sector, not the whole face: the face's opening is the throat,
 //! where the fluid meets fluid.
 
-use super::network::{face_corners, PoreNetwork};
 use super::geometry::angle;
+use super::network::{face_corners, PoreNetwork};
 use crate::physics::Vec3;
 
 /// Adds the pore-pressure force on every element to `force` (N). One pass over the
