@@ -19,6 +19,7 @@ pub mod sandbox;
 pub mod snapshot;
 pub mod stdlib;
 pub mod study;
+pub mod sweep;
 
 use api::Host;
 use rhai::Engine;

@@ -7,7 +7,7 @@ use matdem_rs::bench::{run_bench, BenchConfig};
 use matdem_rs::package::{pack, Package};
 use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
 use matdem_rs::sandbox::Limits;
-use matdem_rs::study::{run_study, summary, write_outputs, StudyConfig, Vary};
+use matdem_rs::study::{run_study, summary, StudyConfig, Vary};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -148,7 +148,93 @@ enum Command {
         out: Option<PathBuf>,
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
+        /// Settings run at once, each in its own process (they share the cores).
+        #[arg(short = 'j', long, default_value_t = 1, value_parser = positive::<usize>)]
+        jobs: usize,
     },
+    /// Parameter sweeps as folders: plan the points, run them here or as a Slurm job array,
+    /// see where they stand and merge their results into one table.
+    #[command(after_help = "Examples:\n  matdem-rs sweep plan examples/oedometer --out out/sw --vary dt_rate=0.5,1 \\\n    \
+        --vary seed=1,2,3 --set quick=true --set samples=1\n  matdem-rs sweep run out/sw --local -j 2\n  \
+        matdem-rs sweep slurm out/sw --partition short --time 1:00:00 --cpus-per-task 4 --submit\n  \
+        matdem-rs sweep status out/sw\n  matdem-rs sweep collect out/sw")]
+    Sweep {
+        #[command(subcommand)]
+        action: SweepCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum SweepCommand {
+    /// Write DIR/sweep.ron (the source and its SHA-256, the design, every point's parameters)
+    /// and one run folder per point.
+    Plan {
+        /// A .rhai script, a package folder or a package archive (.tar).
+        source: PathBuf,
+        /// The sweep folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// A parameter and its values, NAME=v1,v2,...; repeatable (every combination is a point).
+        #[arg(long, value_name = "NAME=V1,V2,...", conflicts_with = "runs")]
+        vary: Vec<Vary>,
+        /// A CSV file of runs: a header of parameter names, one row per point (a design's runs).
+        #[arg(long, value_name = "FILE.csv")]
+        runs: Option<PathBuf>,
+        /// A parameter given to every point; repeatable.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+        /// Plan over a different sweep already in the folder (its points run again).
+        #[arg(long)]
+        replace: bool,
+    },
+    /// Run the pending points (no outcome yet, or interrupted) on this machine.
+    Run {
+        dir: PathBuf,
+        /// On this machine, in child processes (for a cluster, see `sweep slurm`).
+        #[arg(long, required = true)]
+        local: bool,
+        /// Points run at once (they share the cores).
+        #[arg(short = 'j', long, default_value_t = 1, value_parser = positive::<usize>)]
+        jobs: usize,
+        /// Run the points that failed again too.
+        #[arg(long)]
+        retry_failed: bool,
+    },
+    /// Write DIR/sweep.sbatch, a job array with one task per pending point, and with --submit
+    /// hand it to sbatch. The binary and the source are reached by path (a shared file system).
+    Slurm {
+        dir: PathBuf,
+        #[arg(long)]
+        partition: Option<String>,
+        /// Time limit of each task (e.g. 2:00:00).
+        #[arg(long)]
+        time: Option<String>,
+        #[arg(long)]
+        cpus_per_task: Option<u32>,
+        /// Memory of each task (e.g. 4G).
+        #[arg(long)]
+        mem: Option<String>,
+        #[arg(long)]
+        account: Option<String>,
+        /// At most this many tasks at once (--array=...%N).
+        #[arg(long)]
+        max_parallel: Option<u32>,
+        /// Include the points that failed.
+        #[arg(long)]
+        retry_failed: bool,
+        /// Submit it with sbatch and print the job id.
+        #[arg(long)]
+        submit: bool,
+    },
+    /// How many points are finished, failed (with each error), running or pending.
+    Status { dir: PathBuf },
+    /// Merge the points into DIR/sweep.csv (parameters, status, metrics) and DIR/timings.csv.
+    Collect { dir: PathBuf },
+    /// Run one point, as a Slurm array task does (INDEX counts from 0).
+    #[command(hide = true)]
+    Point { dir: PathBuf, index: usize },
 }
 
 /// The sandbox's limits, as typed. Zero is refused: Rhai reads it as "no limit".
@@ -341,9 +427,10 @@ fn main() -> ExitCode {
         Command::Bench { backend, particles, steps, warmup, json } => {
             return bench(backend, BenchConfig { particles, warmup, steps, json, gpu: None });
         }
-        Command::Study { script, vary, metric, set, reference, out, backend } => {
-            return study(script, vary, metric, set, reference, out, backend);
+        Command::Study { script, vary, metric, set, reference, out, backend, jobs } => {
+            return study(script, vary, metric, set, reference, out, backend, jobs);
         }
+        Command::Sweep { action } => return sweep(action),
     };
     let mut cfg = cfg;
     if !cfg.plan_only {
@@ -459,6 +546,7 @@ fn study(
     reference: Option<String>,
     out: Option<PathBuf>,
     backend: Backend,
+    jobs: usize,
 ) -> ExitCode {
     let reference = match reference.map(|r| parse_reference(&r)).transpose() {
         Ok(r) => r,
@@ -467,14 +555,11 @@ fn study(
             return ExitCode::from(2);
         }
     };
-    let exe = match std::env::current_exe() {
+    let exe = match own_exe() {
         Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: cannot find the matdem-rs binary to run each setting: {e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
-    let backend = backend.to_possible_value().map_or("auto".to_string(), |v| v.get_name().to_string());
+    let backend = backend_name(backend);
     let control = RunControl::default();
     if let Err(e) = stop_on_signals(&control) {
         eprintln!("warning: Ctrl-C and SIGTERM will stop the study without letting its running setting save ({e})");
@@ -489,25 +574,185 @@ fn study(
         metric,
         reference,
         backend,
+        jobs,
     };
-    // Each setting's run locks its own runNN folder; the study holds the folder around them.
-    let _lock = match matdem_rs::out_lock::OutLock::acquire(&cfg.out_dir, &format!("study {}", cfg.script.display())) {
-        Ok(lock) => lock,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let result = run_study(&cfg, |line| eprintln!("{line}")).and_then(|s| Ok((write_outputs(&s, &cfg)?, s)));
-    match result {
-        Ok((written, s)) => {
-            print!("{}", summary(&s, &cfg));
+    // Each setting's run locks its own runNN folder; the sweep holds the folder around them.
+    match run_study(&cfg, |line| eprintln!("{line}")) {
+        Ok((s, written)) => {
+            print!("{}", summary(&s, &cfg.metric));
             eprintln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(if cfg.control.is_cancelled() { 130 } else { 1 })
+        }
+    }
+}
+
+/// This binary, which runs each point of a study or sweep.
+fn own_exe() -> Result<PathBuf, ExitCode> {
+    std::env::current_exe().map_err(|e| {
+        eprintln!("error: cannot find the matdem-rs binary to run each point: {e}");
+        ExitCode::from(2)
+    })
+}
+
+fn backend_name(backend: Backend) -> String {
+    backend.to_possible_value().map_or("auto".to_string(), |v| v.get_name().to_string())
+}
+
+fn sweep(action: SweepCommand) -> ExitCode {
+    use matdem_rs::sweep::{collect, plan, slurm};
+    let result: Result<(), String> = (|| match action {
+        SweepCommand::Plan { source, out, vary, runs, set, backend, replace } => {
+            let fixed = set
+                .iter()
+                .map(|f| match f.split_once('=') {
+                    Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+                    _ => Err(format!("--set expects NAME=VALUE, got `{f}`")),
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            let mut request = plan::PlanRequest {
+                source,
+                dir: out.clone(),
+                backend: backend_name(backend),
+                fixed,
+                design: plan::Design::Runs { from: String::new() },
+                runs: Vec::new(),
+                study: None,
+                replace,
+            };
+            let planned = match runs {
+                Some(file) => {
+                    request.runs = plan::read_runs_csv(&file)?;
+                    request.design = plan::Design::Runs { from: plan::absolute(&file).display().to_string() };
+                    plan::plan(request)?
+                }
+                None if vary.is_empty() => return Err("give --vary NAME=v1,v2,... or --runs FILE.csv".into()),
+                None => {
+                    let mut names: Vec<&str> = Vec::new();
+                    for v in &vary {
+                        if names.contains(&v.name.as_str()) {
+                            return Err(format!("--vary {} is given twice; list all its values in one --vary", v.name));
+                        }
+                        names.push(&v.name);
+                    }
+                    plan::plan_grid(request, vary.into_iter().map(|v| (v.name, v.values)).collect())?
+                }
+            };
+            warn_refused_values(&planned);
+            eprintln!(
+                "planned {} point(s) in {}; run them with `matdem-rs sweep run {} --local -j N` or `matdem-rs sweep \
+                 slurm {} --submit`",
+                planned.points.len(),
+                out.display(),
+                out.display(),
+                out.display()
+            );
+            Ok(())
+        }
+        SweepCommand::Run { dir, local: _, jobs, retry_failed } => {
+            let planned = plan::load(&dir)?;
+            let control = RunControl::default();
+            if let Err(e) = stop_on_signals(&control) {
+                eprintln!("warning: Ctrl-C and SIGTERM will stop the sweep without letting its points save ({e})");
+            }
+            let exe = own_exe().map_err(|_| "cannot find the matdem-rs binary".to_string())?;
+            let opts = matdem_rs::sweep::LocalOptions { jobs, retry_failed, exe, control: control.clone() };
+            let result = matdem_rs::sweep::run_local(&dir, &planned, &opts, |line| eprintln!("{line}"));
+            if let Err(e) = result {
+                if control.is_cancelled() {
+                    eprintln!("error: {e}");
+                    std::process::exit(130);
+                }
+                return Err(e);
+            }
+            let results = collect::results(&dir, &planned)?;
+            eprint!("{}", collect::status_text(&dir, &planned, &results));
+            Ok(())
+        }
+        SweepCommand::Slurm { dir, partition, time, cpus_per_task, mem, account, max_parallel, retry_failed, submit } => {
+            let planned = plan::load(&dir)?;
+            let exe = own_exe().map_err(|_| "cannot find the matdem-rs binary".to_string())?;
+            let opts = slurm::SlurmOptions { partition, time, cpus_per_task, mem, account, max_parallel, retry_failed };
+            let Some((script, tasks)) = slurm::write_script(&dir, &planned, &exe, &opts)? else {
+                eprintln!("every point of {} is finished; nothing to submit", dir.display());
+                return Ok(());
+            };
+            eprintln!("wrote {} ({tasks} array task(s))", script.display());
+            if submit {
+                let id = slurm::submit(&script)?;
+                println!("{id}");
+                eprintln!(
+                    "submitted job {id}; follow it with `matdem-rs sweep status {}`, merge with `matdem-rs sweep \
+                     collect {}`",
+                    dir.display(),
+                    dir.display()
+                );
+            } else {
+                eprintln!("submit it with `sbatch {}`", script.display());
+            }
+            Ok(())
+        }
+        SweepCommand::Status { dir } => {
+            let planned = plan::load(&dir)?;
+            let results = collect::results(&dir, &planned)?;
+            print!("{}", collect::status_text(&dir, &planned, &results));
+            Ok(())
+        }
+        SweepCommand::Collect { dir } => {
+            let planned = plan::load(&dir)?;
+            let results = collect::results(&dir, &planned)?;
+            let written = collect::write_collect(&dir, &planned, &results)?;
+            print!("{}", collect::status_text(&dir, &planned, &results));
+            eprintln!("wrote {} file(s) under {}", written.len(), dir.display());
+            Ok(())
+        }
+        SweepCommand::Point { dir, index } => {
+            let planned = plan::load(&dir)?;
+            if index >= planned.points.len() {
+                return Err(format!("the sweep has {} point(s); index {index} is not one", planned.points.len()));
+            }
+            matdem_rs::sweep::point::check_source(&planned)?;
+            let name = &planned.points[index].name;
+            if !matdem_rs::sweep::point::is_pending(&dir, name, true)? {
+                eprintln!("{name} finished already; skipped");
+                return Ok(());
+            }
+            let control = RunControl::default();
+            if let Err(e) = stop_on_signals(&control) {
+                eprintln!("warning: SIGTERM will stop the point without letting it save ({e})");
+            }
+            let exe = own_exe().map_err(|_| "cannot find the matdem-rs binary".to_string())?;
+            let outcome = matdem_rs::sweep::point::run_point(&dir, &planned, index, &exe, None, &control)?;
+            eprintln!("{name}: {:?} in {:.1} s{}", outcome.status, outcome.wall_s, outcome.error.map(|e| format!(": {e}")).unwrap_or_default());
+            Ok(())
+        }
+    })();
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Points whose values a package refuses still run (and fail with the reason, so the sweep's
+/// table shows it); say so now rather than after the queue.
+fn warn_refused_values(planned: &matdem_rs::sweep::SweepPlan) {
+    let Ok(Some(package)) = Package::detect(&planned.source) else { return };
+    for p in &planned.points {
+        let set: Vec<String> = p
+            .parameters
+            .iter()
+            .chain(&planned.fixed)
+            .filter(|(n, _)| n != "backend")
+            .map(|(n, v)| format!("{n}={v}"))
+            .collect();
+        if let Err(e) = package.params(&set) {
+            eprintln!("warning: {} will fail: {e}", p.name);
         }
     }
 }

@@ -25,7 +25,7 @@ use std::rc::Rc;
 
 /// The folder under a run's output folder that holds what a resume needs.
 pub const RESUME_DIR: &str = "resume";
-const JOURNAL_FILE: &str = "journal.ron";
+pub const JOURNAL_FILE: &str = "journal.ron";
 
 /// Marker of the error that unwinds a script once the resume folder is written. Rhai's
 /// `try`/`catch` cannot catch a termination, so a script cannot swallow it.

@@ -3,16 +3,18 @@
 //! `report(name, value)`, and writes a table and a chart of error against wall time,
 //! relative to the most accurate setting.
 //!
-//! Each setting runs as a child `matdem-rs run` process in a folder of its own, so one
-//! setting that fails (an unstable time step, say) is recorded and the others go on, and the
-//! wall time is that of a real run.
+//! A study is a sweep (see [`crate::sweep`]) run on this machine: each setting runs as a
+//! child `matdem-rs run` process in a folder of its own, `-j N` at a time, so one setting
+//! that fails (an unstable time step, say) is recorded and the others go on, the wall time is
+//! that of a real run, and an interrupted study finishes where it stopped.
 
-use crate::api::metrics::{parse_metrics, METRICS_FILE};
+use crate::api::metrics::METRICS_FILE;
 use crate::api::write_atomic;
 use crate::plot::LineChart;
+use crate::sweep::collect::{PointResult, PointState};
+use crate::sweep::plan::{grid, plan_grid, Design, PlanRequest, StudySpec};
+use crate::sweep::LocalOptions;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
 
 /// One `--vary NAME=v1,v2,...`.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,8 +54,10 @@ pub struct StudyConfig {
     pub reference: Option<Vec<(String, String)>>,
     /// `--backend` for runs that do not vary `backend`.
     pub backend: String,
-    /// Ctrl-C or SIGTERM: the running setting is stopped the same way (it saves its resume
-    /// point) and the study ends.
+    /// Settings run at once, each in its own process.
+    pub jobs: usize,
+    /// Ctrl-C or SIGTERM: the running settings are stopped the same way (they save their
+    /// resume points) and the study ends; running it again finishes it.
     pub control: matdem_engine::backend::RunControl,
 }
 
@@ -84,50 +88,50 @@ impl Study {
 
 /// Every combination of the varied values, the first `--vary` changing slowest.
 pub fn settings(vary: &[Vary]) -> Vec<Vec<(String, String)>> {
-    vary.iter().fold(vec![Vec::new()], |acc, v| {
-        acc.iter()
-            .flat_map(|s| {
-                v.values.iter().map(move |x| {
-                    let mut s = s.clone();
-                    s.push((v.name.clone(), x.clone()));
-                    s
-                })
-            })
-            .collect()
-    })
+    grid(&as_grid(vary))
 }
 
-/// Runs the study; `progress` hears one line per finished run.
-pub fn run_study(cfg: &StudyConfig, mut progress: impl FnMut(&str)) -> Result<Study, String> {
+fn as_grid(vary: &[Vary]) -> Vec<(String, Vec<String>)> {
+    vary.iter().map(|v| (v.name.clone(), v.values.clone())).collect()
+}
+
+/// Runs the study as a sweep in `cfg.out_dir` (planned there, run locally, `cfg.jobs` at a
+/// time); `progress` hears one line per finished run. The same study run again into the
+/// same folder skips the settings that finished; a changed one starts over. Returns the
+/// study and the files written (the sweep's table and timings, the study's table and chart).
+pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(Study, Vec<PathBuf>), String> {
     check_config(cfg)?;
-    std::fs::create_dir_all(&cfg.out_dir)
-        .map_err(|e| format!("cannot create output folder {}: {e}", cfg.out_dir.display()))?;
-    let all = settings(&cfg.vary);
-    progress(&format!("study: {} setting(s), one run each, in {}/runNN", all.len(), cfg.out_dir.display()));
-    let mut runs = Vec::with_capacity(all.len());
-    let count = all.len();
-    for (k, setting) in all.into_iter().enumerate() {
-        let dir = cfg.out_dir.join(format!("run{:02}", k + 1));
-        let run = run_one(cfg, setting, &dir)?;
-        if cfg.control.is_cancelled() {
-            return Err(format!(
-                "interrupted during run {} of {count} ({}): runs 1 to {k} finished and are kept in their folders; \
-                 the interrupted one can be resumed with `matdem-rs run {} --resume {}`",
-                k + 1,
-                dir.display(),
-                cfg.script.display(),
-                dir.display()
-            ));
-        }
-        let shown = match &run.outcome {
-            Ok(m) => format!("{} = {m:.6e}", cfg.metric),
-            Err(why) => format!("no result: {why}"),
-        };
-        progress(&format!("run {}: {}  {:.1} s, {shown}", k + 1, describe(&run.setting), run.wall_s));
-        runs.push(run);
-    }
-    let reference = pick_reference(cfg, &runs)?;
-    Ok(Study { runs, reference })
+    let fixed = cfg
+        .fixed
+        .iter()
+        .map(|f| match f.split_once('=') {
+            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.trim().to_string())),
+            _ => Err(format!("--set expects NAME=VALUE, got `{f}`")),
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let spec = StudySpec { metric: cfg.metric.clone(), reference: cfg.reference.clone() };
+    let request = PlanRequest {
+        source: cfg.script.clone(),
+        dir: cfg.out_dir.clone(),
+        backend: cfg.backend.clone(),
+        fixed,
+        design: Design::Runs { from: String::new() },
+        runs: Vec::new(),
+        study: Some(spec.clone()),
+        replace: true,
+    };
+    let plan = plan_grid(request, as_grid(&cfg.vary))?;
+    progress(&format!(
+        "study: {} setting(s), one run each, in {}/runNN",
+        plan.points.len(),
+        cfg.out_dir.display()
+    ));
+    let opts = LocalOptions { jobs: cfg.jobs, retry_failed: true, exe: cfg.exe.clone(), control: cfg.control.clone() };
+    crate::sweep::run_local(&cfg.out_dir, &plan, &opts, &progress)?;
+    let results = crate::sweep::results(&cfg.out_dir, &plan)?;
+    let study = from_results(&spec, &results)?;
+    let written = crate::sweep::collect::write_collect(&cfg.out_dir, &plan, &results)?;
+    Ok((study, written))
 }
 
 fn check_config(cfg: &StudyConfig) -> Result<(), String> {
@@ -158,97 +162,37 @@ fn check_config(cfg: &StudyConfig) -> Result<(), String> {
     Ok(())
 }
 
-fn run_one(cfg: &StudyConfig, setting: Vec<(String, String)>, dir: &Path) -> Result<StudyRun, String> {
-    let mut cmd = Command::new(&cfg.exe);
-    cmd.arg("run").arg(&cfg.script).arg("--out").arg(dir);
-    let mut backend = cfg.backend.clone();
-    for (name, value) in &setting {
-        // The backend is a command-line choice, not a script parameter.
-        if name == "backend" {
-            backend = value.clone();
-        } else {
-            cmd.arg("--set").arg(format!("{name}={value}"));
-        }
-    }
-    for f in &cfg.fixed {
-        cmd.arg("--set").arg(f);
-    }
-    cmd.arg("--backend").arg(&backend);
-    // A stale metrics file from an earlier study must not pass for this run's.
-    let _ = std::fs::remove_file(dir.join(METRICS_FILE));
-    let start = Instant::now();
-    let (status, stdout, stderr) = run_until_cancelled(cmd, &cfg.control, dir)?;
-    let wall_s = start.elapsed().as_secs_f64();
-    let mut log = stdout;
-    log.extend_from_slice(&stderr);
-    write_atomic(&dir.join("log.txt"), &log).map_err(|e| format!("cannot write {}/log.txt: {e}", dir.display()))?;
-    let outcome = if status.success() {
-        read_metric(dir, &cfg.metric)
-    } else {
-        Err(first_error_line(&String::from_utf8_lossy(&stderr), status.code()))
-    };
-    Ok(StudyRun { setting, wall_s, outcome })
-}
-
-/// Runs `cmd` to its end, its output caught in files beside `dir`; when `control` is
-/// cancelled, sends the child SIGTERM (so it saves its resume point) and waits for it.
-fn run_until_cancelled(
-    mut cmd: Command,
-    control: &matdem_engine::backend::RunControl,
-    dir: &Path,
-) -> Result<(std::process::ExitStatus, Vec<u8>, Vec<u8>), String> {
-    let parent = dir.parent().unwrap_or(Path::new("."));
-    let name = dir.file_name().unwrap_or_default().to_string_lossy();
-    let (out_path, err_path) = (parent.join(format!(".{name}.stdout")), parent.join(format!(".{name}.stderr")));
-    let file = |p: &Path| std::fs::File::create(p).map_err(|e| format!("cannot create {}: {e}", p.display()));
-    cmd.stdout(file(&out_path)?).stderr(file(&err_path)?).stdin(std::process::Stdio::null());
-    let mut child = cmd.spawn().map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
-    let mut told = false;
-    let status = loop {
-        match child.try_wait() {
-            Ok(Some(status)) => break status,
-            Ok(None) => {}
-            Err(e) => return Err(format!("cannot wait for run {}: {e}", dir.display())),
-        }
-        if control.is_cancelled() && !told {
-            // SAFETY: kill(2) on our own child's pid; no memory is touched.
-            unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
-            told = true;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    };
-    let read = |p: &Path| {
-        let bytes = std::fs::read(p).unwrap_or_default();
-        let _ = std::fs::remove_file(p);
-        bytes
-    };
-    Ok((status, read(&out_path), read(&err_path)))
-}
-
-fn read_metric(dir: &Path, metric: &str) -> Result<f64, String> {
-    let path = dir.join(METRICS_FILE);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|_| format!("the script reported no metrics; add `report(\"{metric}\", value);` to it"))?;
-    let metrics = parse_metrics(&text)?;
-    let names = || metrics.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
-    metrics
+/// The study of a sweep's points: each run's metric (or why it has none) and the reference.
+pub fn from_results(spec: &StudySpec, results: &[PointResult]) -> Result<Study, String> {
+    let metric = &spec.metric;
+    let runs: Vec<StudyRun> = results
         .iter()
-        .find(|(n, _)| n == metric)
-        .map(|(_, v)| *v)
-        .ok_or_else(|| format!("the script did not report `{metric}`; it reported: {}", names()))
+        .map(|r| {
+            let outcome = match &r.state {
+                PointState::Ok => match r.metrics.iter().find(|(n, _)| n == metric) {
+                    Some((_, v)) => Ok(*v),
+                    None if r.metrics.is_empty() => Err(match &r.metrics_error {
+                        Some(e) if e.contains(METRICS_FILE) => e.clone(),
+                        _ => format!("the script reported no metrics; add `report(\"{metric}\", value);` to it"),
+                    }),
+                    None => {
+                        let names = r.metrics.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
+                        Err(format!("the script did not report `{metric}`; it reported: {names}"))
+                    }
+                },
+                PointState::Failed(why) => Err(why.clone()),
+                other => Err(format!("not run ({})", other.label())),
+            };
+            StudyRun { setting: r.parameters.clone(), wall_s: r.wall_s.unwrap_or(0.0), outcome }
+        })
+        .collect();
+    let reference = pick_reference(spec, &runs)?;
+    Ok(Study { runs, reference })
 }
 
-fn first_error_line(stderr: &str, code: Option<i32>) -> String {
-    let line = stderr.lines().find(|l| l.starts_with("error")).unwrap_or("the run failed").trim();
-    match code {
-        Some(c) => format!("{line} (exit {c})"),
-        None => format!("{line} (killed)"),
-    }
-}
-
-fn pick_reference(cfg: &StudyConfig, runs: &[StudyRun]) -> Result<usize, String> {
+fn pick_reference(spec: &StudySpec, runs: &[StudyRun]) -> Result<usize, String> {
     let done = |r: &StudyRun| r.outcome.as_ref().is_ok_and(|m| m.is_finite());
-    match &cfg.reference {
+    match &spec.reference {
         Some(want) => {
             let i = runs
                 .iter()
@@ -269,6 +213,11 @@ fn pick_reference(cfg: &StudyConfig, runs: &[StudyRun]) -> Result<usize, String>
     }
 }
 
+/// The varied parameters' names, as the runs list them.
+fn varied(study: &Study) -> Vec<String> {
+    study.runs.first().map(|r| r.setting.iter().map(|(n, _)| n.clone()).collect()).unwrap_or_default()
+}
+
 /// `name=value` pairs as one label.
 pub fn describe(setting: &[(String, String)]) -> String {
     setting.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")
@@ -276,10 +225,10 @@ pub fn describe(setting: &[(String, String)]) -> String {
 
 /// The table: one row per run. Cells are quoted per RFC 4180 where they need it; the note
 /// (why a run gave no result) is always quoted, as it always was.
-pub fn to_csv(study: &Study, cfg: &StudyConfig) -> String {
+pub fn to_csv(study: &Study, metric: &str) -> String {
     let mut header = vec!["run".to_string()];
-    header.extend(cfg.vary.iter().map(|v| v.name.clone()));
-    header.extend(["wall_s", &cfg.metric, "rel_error", "reference", "note"].map(String::from));
+    header.extend(varied(study));
+    header.extend(["wall_s", metric, "rel_error", "reference", "note"].map(String::from));
     let mut s = csv_line(&header, None);
     for (i, r) in study.runs.iter().enumerate() {
         let (metric, note) = match &r.outcome {
@@ -316,10 +265,10 @@ fn csv_line(fields: &[String], always_quoted: Option<&str>) -> String {
 
 /// Error (%) against wall time: one series per combination of all but the first varied
 /// parameter, tracing the first one's values.
-pub fn chart(study: &Study, cfg: &StudyConfig) -> LineChart {
-    let first = &cfg.vary[0].name;
-    let title = format!("What accuracy costs: {} against wall time", cfg.metric);
-    let y = format!("|{} − reference| / reference [%]", cfg.metric);
+pub fn chart(study: &Study, metric: &str) -> LineChart {
+    let first = &varied(study)[0];
+    let title = format!("What accuracy costs: {metric} against wall time");
+    let y = format!("|{metric} − reference| / reference [%]");
     let mut c = LineChart::new(title, "wall time [s]", y);
     let mut groups: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
     for (i, r) in study.runs.iter().enumerate() {
@@ -342,21 +291,22 @@ pub fn chart(study: &Study, cfg: &StudyConfig) -> LineChart {
 }
 
 /// Writes `study.csv` and the chart; returns the files written.
-pub fn write_outputs(study: &Study, cfg: &StudyConfig) -> Result<Vec<PathBuf>, String> {
-    let csv = cfg.out_dir.join("study.csv");
-    write_atomic(&csv, to_csv(study, cfg).as_bytes()).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+pub fn write_outputs(study: &Study, spec: &StudySpec, dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let csv = dir.join("study.csv");
+    write_atomic(&csv, to_csv(study, &spec.metric).as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut written = vec![csv];
     let results = study.runs.iter().filter(|r| r.outcome.is_ok()).count();
     if results > 1 {
-        let files = chart(study, cfg).save(&cfg.out_dir.join("study")).map_err(|e| e.to_string())?;
+        let files = chart(study, &spec.metric).save(&dir.join("study")).map_err(|e| e.to_string())?;
         written.extend(files);
     }
     Ok(written)
 }
 
 /// A short table for the terminal.
-pub fn summary(study: &Study, cfg: &StudyConfig) -> String {
-    let mut s = format!("{:<40} {:>9} {:>14} {:>10}\n", "setting", "wall [s]", cfg.metric, "error");
+pub fn summary(study: &Study, metric: &str) -> String {
+    let mut s = format!("{:<40} {:>9} {:>14} {:>10}\n", "setting", "wall [s]", metric, "error");
     for (i, r) in study.runs.iter().enumerate() {
         let m = r.outcome.as_ref().map_or("-".to_string(), |m| format!("{m:.6e}"));
         let e = match study.error(i) {
@@ -397,18 +347,7 @@ mod tests {
         let run =
             |m: Result<f64, String>| StudyRun { setting: vec![("x".into(), "a,b".into())], wall_s: 1.0, outcome: m };
         let study = Study { runs: vec![run(Err(why.into())), run(Ok(2.0))], reference: 1 };
-        let cfg = StudyConfig {
-            exe: PathBuf::new(),
-            script: PathBuf::new(),
-            out_dir: PathBuf::new(),
-            vary: vec!["x=1".parse().unwrap()],
-            fixed: vec![],
-            metric: "m".into(),
-            reference: None,
-            backend: "cpu".into(),
-            control: Default::default(),
-        };
-        let text = to_csv(&study, &cfg);
+        let text = to_csv(&study, "m");
         assert!(text.starts_with("run,x,wall_s,m,rel_error,reference,note\n"), "{text}");
         assert!(text.ends_with("2,\"a,b\",1.000,2.0,0.0,true,\"\"\n"), "{text}");
         let rows: Vec<csv::StringRecord> =
