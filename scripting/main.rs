@@ -154,10 +154,12 @@ enum Command {
     },
     /// Parameter sweeps as folders: plan the points, run them here or as a Slurm job array,
     /// see where they stand and merge their results into one table.
-    #[command(after_help = "Examples:\n  matdem-rs sweep plan examples/oedometer --out out/sw --vary dt_rate=0.5,1 \\\n    \
+    #[command(
+        after_help = "Examples:\n  matdem-rs sweep plan examples/oedometer --out out/sw --vary dt_rate=0.5,1 \\\n    \
         --vary seed=1,2,3 --set quick=true --set samples=1\n  matdem-rs sweep run out/sw --local -j 2\n  \
         matdem-rs sweep slurm out/sw --partition short --time 1:00:00 --cpus-per-task 4 --submit\n  \
-        matdem-rs sweep status out/sw\n  matdem-rs sweep collect out/sw")]
+        matdem-rs sweep status out/sw\n  matdem-rs sweep collect out/sw"
+    )]
     Sweep {
         #[command(subcommand)]
         action: SweepCommand,
@@ -672,7 +674,17 @@ fn sweep(action: SweepCommand) -> ExitCode {
             eprint!("{}", collect::status_text(&dir, &planned, &results));
             Ok(())
         }
-        SweepCommand::Slurm { dir, partition, time, cpus_per_task, mem, account, max_parallel, retry_failed, submit } => {
+        SweepCommand::Slurm {
+            dir,
+            partition,
+            time,
+            cpus_per_task,
+            mem,
+            account,
+            max_parallel,
+            retry_failed,
+            submit,
+        } => {
             let planned = plan::load(&dir)?;
             let exe = own_exe().map_err(|_| "cannot find the matdem-rs binary".to_string())?;
             let opts = slurm::SlurmOptions { partition, time, cpus_per_task, mem, account, max_parallel, retry_failed };
@@ -726,7 +738,12 @@ fn sweep(action: SweepCommand) -> ExitCode {
             }
             let exe = own_exe().map_err(|_| "cannot find the matdem-rs binary".to_string())?;
             let outcome = matdem_rs::sweep::point::run_point(&dir, &planned, index, &exe, None, &control)?;
-            eprintln!("{name}: {:?} in {:.1} s{}", outcome.status, outcome.wall_s, outcome.error.map(|e| format!(": {e}")).unwrap_or_default());
+            eprintln!(
+                "{name}: {:?} in {:.1} s{}",
+                outcome.status,
+                outcome.wall_s,
+                outcome.error.map(|e| format!(": {e}")).unwrap_or_default()
+            );
             Ok(())
         }
     })();

@@ -121,14 +121,17 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
         replace: true,
     };
     let plan = plan_grid(request, as_grid(&cfg.vary))?;
-    progress(&format!(
-        "study: {} setting(s), one run each, in {}/runNN",
-        plan.points.len(),
-        cfg.out_dir.display()
-    ));
+    progress(&format!("study: {} setting(s), one run each, in {}/runNN", plan.points.len(), cfg.out_dir.display()));
     let opts = LocalOptions { jobs: cfg.jobs, retry_failed: true, exe: cfg.exe.clone(), control: cfg.control.clone() };
     crate::sweep::run_local(&cfg.out_dir, &plan, &opts, &progress)?;
     let results = crate::sweep::results(&cfg.out_dir, &plan)?;
+    for (r, run) in results.iter().zip(study_runs(&spec, &results)) {
+        let shown = match &run.outcome {
+            Ok(m) => format!("{} = {m:.6e}", cfg.metric),
+            Err(why) => format!("no result: {why}"),
+        };
+        progress(&format!("{}: {}  {:.1} s, {shown}", r.name, describe(&run.setting), run.wall_s));
+    }
     let study = from_results(&spec, &results)?;
     let written = crate::sweep::collect::write_collect(&cfg.out_dir, &plan, &results)?;
     Ok((study, written))
@@ -164,8 +167,15 @@ fn check_config(cfg: &StudyConfig) -> Result<(), String> {
 
 /// The study of a sweep's points: each run's metric (or why it has none) and the reference.
 pub fn from_results(spec: &StudySpec, results: &[PointResult]) -> Result<Study, String> {
+    let runs = study_runs(spec, results);
+    let reference = pick_reference(spec, &runs)?;
+    Ok(Study { runs, reference })
+}
+
+/// Each point's metric, or why it has none.
+fn study_runs(spec: &StudySpec, results: &[PointResult]) -> Vec<StudyRun> {
     let metric = &spec.metric;
-    let runs: Vec<StudyRun> = results
+    results
         .iter()
         .map(|r| {
             let outcome = match &r.state {
@@ -185,9 +195,7 @@ pub fn from_results(spec: &StudySpec, results: &[PointResult]) -> Result<Study, 
             };
             StudyRun { setting: r.parameters.clone(), wall_s: r.wall_s.unwrap_or(0.0), outcome }
         })
-        .collect();
-    let reference = pick_reference(spec, &runs)?;
-    Ok(Study { runs, reference })
+        .collect()
 }
 
 fn pick_reference(spec: &StudySpec, runs: &[StudyRun]) -> Result<usize, String> {

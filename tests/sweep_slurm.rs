@@ -74,7 +74,11 @@ fn a_sweep_submitted_to_slurm_equals_the_same_sweep_run_locally() {
             .output()
             .unwrap();
         ok(&o);
-        assert!(stderr(&o).contains("warning: run05 will fail") && stderr(&o).contains("out of range"), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("warning: run05 will fail") && stderr(&o).contains("out of range"),
+            "{}",
+            stderr(&o)
+        );
     }
     let submitted = bin().args(["sweep", "slurm"]).arg(&cluster).args(["--time", "5", "--submit"]).output().unwrap();
     ok(&submitted);

@@ -148,7 +148,9 @@ pub fn table_csv(plan: &SweepPlan, results: &[PointResult]) -> String {
         );
         row.push(r.state.label().to_string());
         row.extend(
-            metrics.iter().map(|n| r.metrics.iter().find(|(m, _)| m == n).map_or(String::new(), |(_, v)| format!("{v:?}"))),
+            metrics
+                .iter()
+                .map(|n| r.metrics.iter().find(|(m, _)| m == n).map_or(String::new(), |(_, v)| format!("{v:?}"))),
         );
         row.push(match &r.state {
             PointState::Failed(why) => why.clone(),
@@ -198,7 +200,8 @@ pub fn status_text(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Str
         let setting = r.parameters.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ");
         match &r.state {
             PointState::Failed(why) => {
-                let _ = writeln!(s, "  {} {setting}: failed: {why} (log: {}/log.txt)", r.name, dir.join(&r.name).display());
+                let _ =
+                    writeln!(s, "  {} {setting}: failed: {why} (log: {}/log.txt)", r.name, dir.join(&r.name).display());
             }
             PointState::Ok => {}
             other => {

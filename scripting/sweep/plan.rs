@@ -118,8 +118,8 @@ pub fn plan(req: PlanRequest) -> Result<SweepPlan, String> {
     if req.runs.is_empty() {
         return Err("a sweep needs at least one point; give --vary NAME=v1,v2,... or --runs FILE.csv".into());
     }
-    let source = std::path::absolute(&req.source)
-        .map_err(|e| format!("cannot resolve {}: {e}", req.source.display()))?;
+    let source =
+        std::path::absolute(&req.source).map_err(|e| format!("cannot resolve {}: {e}", req.source.display()))?;
     if !source.exists() {
         return Err(format!("cannot read {}: no such file or folder", req.source.display()));
     }
@@ -141,8 +141,7 @@ pub fn plan(req: PlanRequest) -> Result<SweepPlan, String> {
         matdem_rs_version: env!("CARGO_PKG_VERSION").to_string(),
     };
     plan.check()?;
-    std::fs::create_dir_all(&req.dir)
-        .map_err(|e| format!("cannot create sweep folder {}: {e}", req.dir.display()))?;
+    std::fs::create_dir_all(&req.dir).map_err(|e| format!("cannot create sweep folder {}: {e}", req.dir.display()))?;
     if req.dir.join(SWEEP_FILE).exists() {
         match load(&req.dir) {
             Ok(old) if old == plan => return Ok(old),
@@ -254,8 +253,7 @@ pub fn read_runs_csv(path: &Path) -> Result<Vec<Vec<(String, String)>>, String> 
         .trim(csv::Trim::All)
         .from_path(path)
         .map_err(|e| at(format!("cannot read it: {e}")))?;
-    let header: Vec<String> =
-        reader.headers().map_err(|e| at(e.to_string()))?.iter().map(str::to_string).collect();
+    let header: Vec<String> = reader.headers().map_err(|e| at(e.to_string()))?.iter().map(str::to_string).collect();
     let mut runs = Vec::new();
     for (k, row) in reader.records().enumerate() {
         let row = row.map_err(|e| at(e.to_string()))?;

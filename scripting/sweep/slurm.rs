@@ -102,12 +102,10 @@ pub fn write_script(
 /// Submits the job script with `sbatch` and returns the job id.
 pub fn submit(script: &Path) -> Result<String, String> {
     let dir = script.parent().unwrap_or(Path::new("."));
-    let out = std::process::Command::new("sbatch")
-        .arg("--parsable")
-        .arg(script)
-        .current_dir(dir)
-        .output()
-        .map_err(|e| format!("cannot run sbatch ({e}); is Slurm installed here? Submit {} on a login node", script.display()))?;
+    let out =
+        std::process::Command::new("sbatch").arg("--parsable").arg(script).current_dir(dir).output().map_err(|e| {
+            format!("cannot run sbatch ({e}); is Slurm installed here? Submit {} on a login node", script.display())
+        })?;
     if !out.status.success() {
         return Err(format!("sbatch refused {}: {}", script.display(), String::from_utf8_lossy(&out.stderr).trim()));
     }
@@ -139,11 +137,15 @@ pub fn ranges(indices: &[usize]) -> String {
 
 /// An option value that goes on an `#SBATCH` line as one word.
 fn check_word(flag: &str, v: &str) -> Result<(), String> {
-    let ok = !v.is_empty() && v.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | ':' | '.' | ',' | '+'));
+    let ok =
+        !v.is_empty() && v.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | ':' | '.' | ',' | '+'));
     if ok {
         Ok(())
     } else {
-        Err(format!("--{flag} `{}`: give one word of letters, digits and `_-:.,+` (e.g. --time 2:00:00)", v.escape_debug()))
+        Err(format!(
+            "--{flag} `{}`: give one word of letters, digits and `_-:.,+` (e.g. --time 2:00:00)",
+            v.escape_debug()
+        ))
     }
 }
 
