@@ -605,8 +605,18 @@ fn backend_name(backend: Backend) -> String {
 }
 
 fn sweep(action: SweepCommand) -> ExitCode {
+    match sweep_action(action) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn sweep_action(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
-    let result: Result<(), String> = (|| match action {
+    match action {
         SweepCommand::Plan { source, out, vary, runs, set, backend, replace } => {
             let fixed = set
                 .iter()
@@ -745,13 +755,6 @@ fn sweep(action: SweepCommand) -> ExitCode {
                 outcome.error.map(|e| format!(": {e}")).unwrap_or_default()
             );
             Ok(())
-        }
-    })();
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(2)
         }
     }
 }
