@@ -335,5 +335,6 @@ fn sigterm_stops_a_study_and_its_running_setting_saves_its_resume_point() {
     let record = std::fs::read_to_string(out.join("run01/run.ron")).unwrap();
     assert!(record.contains("status: \"interrupted\""), "{record}");
     assert!(out.join("run01/resume/journal.ron").is_file());
-    assert!(!out.join("run02").exists(), "the study went on to the next setting");
+    // A study is a sweep: every setting's folder is planned up front, and stays unrun.
+    assert!(!out.join("run02/run.ron").exists(), "the study went on to the next setting");
 }
