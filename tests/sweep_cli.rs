@@ -194,8 +194,7 @@ fn an_interrupted_sweep_resumes_and_ends_bit_for_bit_as_an_uninterrupted_one() {
     for sw in [&cut, &whole] {
         ok(&plan(&script, sw, &["--vary", "seed=1,2,3", "--set", "rounds=3"]));
     }
-    let mut child =
-        bin().args(["sweep", "run", "--local"]).arg(&cut).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    let child = bin().args(["sweep", "run", "--local"]).arg(&cut).stderr(std::process::Stdio::piped()).spawn().unwrap();
     let start = std::time::Instant::now();
     while !cut.join("outcomes/run01.ron").exists() {
         assert!(start.elapsed().as_secs() < 120, "run01 never finished");
