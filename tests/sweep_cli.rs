@@ -173,7 +173,7 @@ fn the_slurm_job_array_lists_the_pending_points_and_the_chosen_resources() {
     assert!(stderr(&bad).contains("--partition"), "{}", stderr(&bad));
 }
 
-/// Settles a few hundred grains a little more with each `round`: each point lasts about a second.
+/// Settles a few dozen grains a little more with each `round`: 40 rounds last about a second.
 const SETTLE: &str = r#"
 let b = new_box("settle");
 b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.seed = params.seed;
@@ -192,15 +192,16 @@ fn an_interrupted_sweep_resumes_and_ends_bit_for_bit_as_an_uninterrupted_one() {
     std::fs::write(&script, SETTLE).unwrap();
     let (cut, whole) = (dir.join("cut"), dir.join("whole"));
     for sw in [&cut, &whole] {
-        ok(&plan(&script, sw, &["--vary", "seed=1,2,3", "--set", "rounds=3"]));
+        ok(&plan(&script, sw, &["--vary", "seed=1,2,3", "--set", "rounds=40"]));
     }
     let child = bin().args(["sweep", "run", "--local"]).arg(&cut).stderr(std::process::Stdio::piped()).spawn().unwrap();
     let start = std::time::Instant::now();
-    while !cut.join("outcomes/run01.ron").exists() {
-        assert!(start.elapsed().as_secs() < 120, "run01 never finished");
-        std::thread::sleep(std::time::Duration::from_millis(20));
+    // Stop it once run02 has begun (run01 finished, run02's run record written).
+    while !(cut.join("outcomes/run01.ron").exists() && cut.join("run02/run.ron").exists()) {
+        assert!(start.elapsed().as_secs() < 120, "run02 never started");
+        std::thread::sleep(std::time::Duration::from_millis(10));
     }
-    std::thread::sleep(std::time::Duration::from_millis(300));
+    std::thread::sleep(std::time::Duration::from_millis(100));
     // SAFETY: kill(2) on our own child's pid.
     unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
     let o = child.wait_with_output().unwrap();
