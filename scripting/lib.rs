@@ -7,6 +7,7 @@
 pub mod api;
 pub mod atomic;
 pub mod bench;
+pub mod calibration;
 pub mod out_lock;
 pub mod package;
 pub mod plot;

@@ -4,6 +4,7 @@
 //! `new_zoned` (paper 001's zones), the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
 pub mod box_builder;
+pub mod calibration;
 pub mod checkpoint;
 pub mod docs;
 pub mod field;
@@ -217,5 +218,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     training::register(engine, host.clone());
     files::register(engine, host.clone());
     zones::register(engine, host.clone());
+    calibration::register(engine, host.clone());
     plot::register(engine, host);
 }

@@ -17,7 +17,7 @@ pub struct Chart(pub Rc<RefCell<LineChart>>);
 /// Renders and writes a figure. Callers wrap it, and whatever reads the model for it, in
 /// one `observe`, so a resumed run neither redraws nor rewrites the figures finished before
 /// its interruption.
-fn save_figure(
+pub(crate) fn save_figure(
     host: &Host,
     name: &str,
     save: impl FnOnce(&std::path::Path) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError>,

@@ -12,12 +12,14 @@
 //! `render_png` and `save`; [`save`](LineChart::save) picks the format from the
 //! file extension and writes files atomically (see [`write_atomic`]).
 
+pub mod bars;
 pub mod chart;
 pub mod picture;
 mod style;
 
 use std::path::{Path, PathBuf};
 
+pub use bars::BarChart;
 pub use chart::{Gap, LineChart, Series};
 pub use picture::ParticlePicture;
 
