@@ -297,7 +297,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         let response = opts.get("name").map_or("response".to_string(), |v| v.to_string());
         let runs = d.array.runs();
         // Replicates: the responses of r copies of the design, one after the other.
-        if y.is_empty() || y.len() % runs != 0 {
+        if y.is_empty() || !y.len().is_multiple_of(runs) {
             return Err(err(format!(
                 "anova: {} responses for the {runs} runs of {}: give one per run (or per run of each replicate)",
                 y.len(),

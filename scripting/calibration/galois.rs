@@ -55,9 +55,9 @@ pub fn prime_power(q: u32) -> Option<(u32, u32)> {
     if !(2..=MAX_ORDER).contains(&q) {
         return None;
     }
-    let p = (2..=q).find(|d| q % d == 0)?;
+    let p = (2..=q).find(|d| q.is_multiple_of(*d))?;
     let (mut rest, mut k) = (q, 0);
-    while rest % p == 0 {
+    while rest.is_multiple_of(p) {
         rest /= p;
         k += 1;
     }

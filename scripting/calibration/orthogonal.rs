@@ -121,7 +121,7 @@ pub fn check_design(rows: &[Vec<u8>], q: usize) -> Result<()> {
     let m = rows.first().map_or(0, Vec::len);
     // One column only needs balance; pairs of columns need every pair of levels.
     let unit = if m >= 2 { q * q } else { q };
-    if n == 0 || n % unit != 0 {
+    if n == 0 || !n.is_multiple_of(unit) {
         return Err(CalibrationError::new(format!(
             "{n} runs cannot be orthogonal at {q} levels (need a multiple of {unit})"
         )));

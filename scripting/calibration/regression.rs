@@ -216,7 +216,7 @@ mod tests {
     fn r2_of_a_noisy_line_matches_its_definition() {
         let x = xs();
         let y: Vec<f64> =
-            x.iter().enumerate().map(|(i, v)| 2.0 * v + 1.0 + if i % 2 == 0 { 0.05 } else { -0.05 }).collect();
+            x.iter().enumerate().map(|(i, v)| 2.0 * v + 1.0 + if i.is_multiple_of(2) { 0.05 } else { -0.05 }).collect();
         let f = fit(Form::Linear, &x, &y).unwrap();
         let my = y.iter().sum::<f64>() / 9.0;
         let tot: f64 = y.iter().map(|v| (v - my).powi(2)).sum();
