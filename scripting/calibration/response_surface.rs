@@ -51,7 +51,7 @@ impl Surface {
         let range: Vec<(f64, f64)> = (0..m)
             .map(|j| x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| (lo.min(r[j]), hi.max(r[j]))))
             .collect();
-        if let Some(j) = (0..m).find(|&j| !(range[j].1 > range[j].0)) {
+        if let Some(j) = (0..m).find(|&j| range[j].1.partial_cmp(&range[j].0) != Some(std::cmp::Ordering::Greater)) {
             return Err(CalibrationError::new(format!("factor `{}` does not vary over the runs", factors[j])));
         }
         let mut a = DMatrix::zeros(n, terms);
