@@ -110,6 +110,17 @@ fn text(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
             "particle lanes, neighbour rows, pair and wall contact state, contact scratch"
         }
     );
+    let sets: Vec<String> = r
+        .lane_sets
+        .iter()
+        .map(|s| format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")))
+        .collect();
+    let _ = writeln!(
+        o,
+        "plan lanes per particle (f64, as the CPU allocates them): {} = {} B",
+        sets.join(" + "),
+        r.lane_sets.iter().map(|s| s.bytes_per_particle).sum::<usize>()
+    );
     o
 }
 
@@ -155,6 +166,7 @@ fn json(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
         ("contacts_per_particle", json_num(r.contacts_per_particle)),
         ("wall_contacts_per_particle", json_num(r.wall_contacts_per_particle)),
         ("bytes_per_particle", json_num(r.bytes_per_particle)),
+        ("plan_bytes_per_particle", r.lane_sets.iter().map(|s| s.bytes_per_particle).sum::<usize>().to_string()),
     ];
     let body: Vec<String> = fields.iter().map(|(k, v)| format!("{}:{v}", json_str(k))).collect();
     format!("{{{}}}\n", body.join(","))

@@ -298,29 +298,3 @@ fn contact_opened(p: Pair, r_star: f32, shear_in: vec3<f32>, dashpot_in: f32, n:
     let trial = s_prev - (v_rel - n * vn) * (kt * dt);
     return vec2<f32>(released(trial, vec3<f32>(0.0), s_prev, kt), 0.5 * dashpot_in * vn * dt);
 }
-
-// The heat ledger (engine/src/backend/gpu/heat.rs): per particle, one (hi, lo) pair for each
-// cause the plan needs, at heat[i * HEAT_LANES + slot]; a cause that is off has slot HEAT_OFF.
-const HEAT_OFF: u32 = 255u;
-override HEAT_LANES: u32 = 0u;
-override HEAT_DAMPING: u32 = 255u;
-override HEAT_CONTACT_DAMPING: u32 = 255u;
-override HEAT_FRICTION: u32 = 255u;
-override HEAT_BREAKAGE: u32 = 255u;
-override HEAT_WALL_WORK: u32 = 255u;
-
-// Adds x to a compensated sum: hi carries the total, lo what f32 rounded off it. A step's
-// heat is ~1e-6 of the total over 1e5–1e6 steps, so a plain f32 sum would lose most of it;
-// two-sum keeps each step's rounding error in lo, and renormalising keeps lo below half an
-// ulp of hi: the pair holds ~48 bits. Two-sum's error terms are zero in real arithmetic, and
-// drivers do simplify them away (Mesa's lavapipe does): each step is multiplied by
-// `params.one`, which no real-arithmetic rewrite can cancel, and is exact in IEEE f32. It
-// comes in as `one` because not every stage that includes this file binds `params`.
-fn ledger_add(acc: vec2<f32>, x: f32, one: f32) -> vec2<f32> {
-    let s = (acc.x + x) * one;
-    let b = (s - acc.x) * one;
-    let err = (acc.x - (s - b) * one) * one + (x - b) * one;
-    let lo = (acc.y + err) * one;
-    let hi = (s + lo) * one;
-    return vec2<f32>(hi, (lo - (hi - s) * one) * one);
-}

@@ -14,6 +14,7 @@ use crate::materials::Material;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
+use crate::plan::LaneSet;
 use crate::simulation::Simulation;
 use crate::walls::Wall;
 use std::mem::size_of;
@@ -141,6 +142,8 @@ pub struct BenchReport {
     pub bytes_per_particle: f64,
     /// Worker threads of the rayon pool the steps ran on.
     pub threads: usize,
+    /// The plan's per-particle lanes by stage, on the CPU ([`StepPlan::lane_sets`]).
+    pub lane_sets: Vec<LaneSet>,
 }
 
 /// Runs `warmup` untimed steps, then `steps` timed ones, through [`Simulation::run`] (so
@@ -152,6 +155,7 @@ pub fn run(mut sim: Simulation, warmup: u64, steps: u64) -> Result<(BenchReport,
     let t0 = Instant::now();
     sim.run(steps, &ctl, &mut |_| {})?;
     let seconds = t0.elapsed().as_secs_f64();
+    let lane_sets = sim.plan().lane_sets();
     let m = &sim.model;
     let n = m.len();
     let nf = n.max(1) as f64;
@@ -170,6 +174,7 @@ pub fn run(mut sim: Simulation, warmup: u64, steps: u64) -> Result<(BenchReport,
             (model_bytes(m) + sim.backend_bytes()) as f64 / nf
         },
         threads: rayon::current_num_threads(),
+        lane_sets,
     };
     Ok((report, sim))
 }
@@ -212,8 +217,7 @@ pub fn model_bytes(m: &Model) -> usize {
     if let Some(r) = &p.rotation {
         bytes += cap(&r.ang_vel) + cap(&r.torque);
     }
-    let h = &p.heat;
-    bytes += cap(&h.damping) + cap(&h.contact_damping) + cap(&h.friction) + cap(&h.breakage) + cap(&h.wall_work);
+    bytes += p.heat.lanes().iter().map(|l| cap(l)).sum::<usize>();
     let c = &m.contacts;
     bytes += cap(&c.row_start) + cap(&c.other) + cap(&c.state) + cap(&c.built_at);
     bytes += cap(&c.pair) + cap(&c.pair_start) + cap(&c.wall_near);

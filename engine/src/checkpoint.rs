@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 /// The first bytes of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; older files are refused, not misread.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
 

@@ -75,6 +75,10 @@ pub struct Settings {
     pub max_overlap_ratio: f64,
     /// What the guard does when dt is too long for the stiffest current contact.
     pub guard: crate::guard::GuardMode,
+    /// Keep the energy ledger: the heat each particle releases, by cause, and the work walls
+    /// do (`Energies`' heat and wall work). Off, a plan allocates and books none of its lanes
+    /// and the energies report no heat.
+    pub heat_ledger: bool,
 }
 
 impl Default for Settings {
@@ -90,6 +94,7 @@ impl Default for Settings {
             guard_every: 100,
             max_overlap_ratio: 0.5,
             guard: crate::guard::GuardMode::Stop,
+            heat_ledger: true,
         }
     }
 }

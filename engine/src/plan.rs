@@ -6,6 +6,8 @@ use crate::materials::Material;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
+use crate::physics::Vec3;
+use crate::state::particles::HeatCauses;
 use crate::walls::WallMotion;
 use std::fmt;
 
@@ -26,14 +28,26 @@ pub enum Stage {
     WallForces,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
+    /// Optional: the energy ledger, the heat each particle releases by cause and the work
+    /// walls do. Its lanes exist only in plans that keep it; the core stages book into them
+    /// as they dissipate, because each cause is a by-product of a core law (see
+    /// docs/adding-an-effect.md).
+    Heat,
     /// The stability guard's checks, every `guard_every` steps.
     Guard,
 }
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 6] =
-        [Stage::Walls, Stage::Neighbours, Stage::ContactForces, Stage::WallForces, Stage::Integrate, Stage::Guard];
+    pub const ALL: [Stage; 7] = [
+        Stage::Walls,
+        Stage::Neighbours,
+        Stage::ContactForces,
+        Stage::WallForces,
+        Stage::Integrate,
+        Stage::Heat,
+        Stage::Guard,
+    ];
 
     /// The stage's name, as its files are named.
     pub const fn name(self) -> &'static str {
@@ -43,6 +57,7 @@ impl Stage {
             Stage::ContactForces => "contact_forces",
             Stage::WallForces => "wall_forces",
             Stage::Integrate => "integrate",
+            Stage::Heat => "heat",
             Stage::Guard => "guard",
         }
     }
@@ -76,6 +91,16 @@ pub struct StepPlan {
     pub pair: Vec<PairParams>,
     /// Constants of a particle of each material against each wall: `wall[w * materials + a]`.
     pub wall: Vec<PairParams>,
+    /// The heat ledger's causes this plan books (all off without the ledger).
+    pub heat: HeatCauses,
+}
+
+/// One stage's per-particle lanes in a plan, on the CPU backend (f64).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LaneSet {
+    pub stage: &'static str,
+    pub lanes: Vec<&'static str>,
+    pub bytes_per_particle: usize,
 }
 
 impl StepPlan {
@@ -98,28 +123,84 @@ impl StepPlan {
             }
         }
         let s = &m.settings;
+        let shear_springs = s.tangential == TangentialKind::Mindlin || pair.iter().chain(&wall).any(|p| p.ks > 0.0);
+        let moving_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count();
+        let servo_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count();
+        let bonds = m.contacts.state.iter().any(|p| p.bonded);
+        let dashpot = m.materials.iter().any(|a| a.restitution < 1.0);
+        let heat = if s.heat_ledger {
+            HeatCauses {
+                damping: s.damping > 0.0 || s.local_damping > 0.0,
+                contact_damping: dashpot,
+                friction: shear_springs,
+                breakage: bonds,
+                // A fixed wall does no work.
+                wall_work: moving_walls + servo_walls > 0,
+            }
+        } else {
+            HeatCauses::default()
+        };
         StepPlan {
             normal: s.normal,
             tangential: s.tangential,
-            dashpot: m.materials.iter().any(|a| a.restitution < 1.0),
+            dashpot,
             rotation: s.rotation,
             gravity: s.gravity.norm() > 0.0,
             damping: s.damping,
             local_damping: s.local_damping,
-            bonds: m.contacts.state.iter().any(|p| p.bonded),
+            bonds,
             walls: m.walls.len(),
-            moving_walls: m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count(),
-            servo_walls: m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count(),
+            moving_walls,
+            servo_walls,
             materials: nm,
             pair,
             wall,
+            heat,
         }
     }
 
-    /// The stages a step of this plan runs, in order: the wall stages only with walls.
+    /// The stages a step of this plan runs, in order: the wall stages only with walls, each
+    /// optional stage only when the plan has it.
     pub fn stages(&self) -> Vec<Stage> {
-        let walls = self.walls > 0;
-        Stage::ALL.into_iter().filter(|s| walls || !matches!(s, Stage::Walls | Stage::WallForces)).collect()
+        Stage::ALL.into_iter().filter(|s| self.has(*s)).collect()
+    }
+
+    /// Whether a step of this plan runs `stage`.
+    pub fn has(&self, stage: Stage) -> bool {
+        match stage {
+            Stage::Walls | Stage::WallForces => self.walls > 0,
+            Stage::Heat => self.heat.lanes() > 0,
+            Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
+        }
+    }
+
+    /// The per-particle lanes this plan allocates on the CPU, by stage: the core's, then each
+    /// optional lane set the plan has (rotation, heat). The GPU allocates the same sets, in
+    /// f32 (`backend::gpu::memory`).
+    pub fn lane_sets(&self) -> Vec<LaneSet> {
+        use std::mem::size_of;
+        let (v, f, u) = (size_of::<Vec3>(), size_of::<f64>(), size_of::<u32>());
+        let mut sets = vec![LaneSet {
+            stage: "core",
+            lanes: vec!["pos", "vel", "force", "origin", "radius", "mass", "material", "fixed"],
+            bytes_per_particle: 4 * v + 2 * f + u + 1,
+        }];
+        if self.rotation {
+            sets.push(LaneSet { stage: "rotation", lanes: vec!["ang_vel", "torque"], bytes_per_particle: 2 * v });
+        }
+        if self.has(Stage::Heat) {
+            sets.push(LaneSet {
+                stage: Stage::Heat.name(),
+                lanes: self.heat.names(),
+                bytes_per_particle: self.heat.lanes() * f,
+            });
+        }
+        sets
+    }
+
+    /// Bytes per particle of the plan's lanes on the CPU ([`lane_sets`](Self::lane_sets)).
+    pub fn bytes_per_particle(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_particle).sum()
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -226,6 +307,14 @@ impl fmt::Display for StepPlan {
         }
         stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
         writeln!(f, "step plan: {}", stages.join(" → "))?;
+        let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
+        writeln!(f, "stages: {}", names.join(" → "))?;
+        let sets: Vec<String> = self
+            .lane_sets()
+            .iter()
+            .map(|s| format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")))
+            .collect();
+        writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
         let mut off = Vec::new();
         if !self.rotation {
             off.push("rotation");
@@ -248,7 +337,10 @@ impl fmt::Display for StepPlan {
         if self.walls == 0 {
             off.push("walls");
         }
-        off.extend(["heat", "fluid", "rolling resistance"]);
+        if !self.has(Stage::Heat) {
+            off.push("heat ledger");
+        }
+        off.extend(["heat conduction", "fluid", "rolling resistance"]);
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

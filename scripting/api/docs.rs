@@ -155,6 +155,11 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     ("gravity", "Model (read, set)", "gravity [gx, gy, gz], m/s²"),
     ("damping", "Model (read, set)", "MatDEM's global viscous damping ratio"),
     ("local_damping", "Model (read, set)", "Cundall's local damping coefficient α (0 … 1)"),
+    (
+        "heat_ledger",
+        "Model (read, set)",
+        "keep the energy ledger (heat by cause, wall work; on by default); false: no heat lanes, energies report no heat",
+    ),
     ("contact_law", "Model (set)", "\"linear\" (MatDEM) or \"hertz\""),
     (
         "guard",

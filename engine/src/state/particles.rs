@@ -32,7 +32,8 @@ pub struct Particles {
     pub origin: Vec<Vec3>,
     /// Angular state, present only when rotation is simulated.
     pub rotation: Option<Rotation>,
-    /// Heat released per particle since the start (J), by cause.
+    /// Heat released per particle since the start (J), by cause: only the lanes of the causes
+    /// a plan with the ledger can produce are allocated ([`HeatLedger::fit`]).
     pub heat: HeatLedger,
 }
 
@@ -45,6 +46,8 @@ pub struct Rotation {
 
 /// Per-particle energy ledger: heat released by each cause and work done by walls (J).
 /// Each particle books its half of every pair's heat, so no two threads write one entry.
+/// The lane set of the `heat` stage: a lane is allocated (one entry per particle) only once a
+/// plan that can produce its cause runs, and is empty otherwise; an empty lane sums to 0.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct HeatLedger {
     pub damping: Vec<f64>,
@@ -77,10 +80,14 @@ impl Particles {
             rot.ang_vel.push(Vec3::zeros());
             rot.torque.push(Vec3::zeros());
         }
+        let n = self.len() - 1;
+        // Only allocated lanes grow; a plan allocates the others when it needs them.
         for lane in self.heat.lanes_mut() {
-            lane.push(0.0);
+            if n > 0 && lane.len() == n {
+                lane.push(0.0);
+            }
         }
-        self.len() - 1
+        n
     }
 
     /// Keeps only the particles for which `keep` is true; returns the old → new id map.
@@ -110,7 +117,9 @@ impl Particles {
             filter(&mut rot.torque, keep);
         }
         for lane in self.heat.lanes_mut() {
-            filter(lane, keep);
+            if lane.len() == keep.len() {
+                filter(lane, keep);
+            }
         }
         map
     }
@@ -123,14 +132,78 @@ impl Particles {
         }
     }
 
+    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger).
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        let core = self.pos.len() * (4 * size_of::<Vec3>() + 2 * size_of::<f64>() + size_of::<u32>() + 1);
+        let rotation = self.rotation.as_ref().map_or(0, |r| (r.ang_vel.len() + r.torque.len()) * size_of::<Vec3>());
+        core + rotation + self.heat.bytes()
+    }
+
     /// Moment of inertia of a solid sphere, 2/5·m·r².
     pub fn inertia(&self, i: usize) -> f64 {
         0.4 * self.mass[i] * self.radius[i] * self.radius[i]
     }
 }
 
+/// The causes of heat a plan can produce, in the order of [`HeatLedger::lanes_mut`]: the
+/// ledger lanes it allocates and books. All off when the scene keeps no ledger.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HeatCauses {
+    /// Global viscous or local damping.
+    pub damping: bool,
+    /// Contact dashpots (restitution < 1).
+    pub contact_damping: bool,
+    /// Shear springs, which release their energy as they slide or open.
+    pub friction: bool,
+    /// Bonds, whose stored energy a break releases.
+    pub breakage: bool,
+    /// Walls that move, and so do work.
+    pub wall_work: bool,
+}
+
+impl HeatCauses {
+    /// The lanes' names, in ledger order.
+    pub const NAMES: [&'static str; 5] = ["damping", "contact_damping", "friction", "breakage", "wall_work"];
+
+    /// Each cause on or off, in ledger order.
+    pub fn flags(&self) -> [bool; 5] {
+        [self.damping, self.contact_damping, self.friction, self.breakage, self.wall_work]
+    }
+
+    /// Lanes a particle carries.
+    pub fn lanes(&self) -> usize {
+        self.flags().iter().filter(|on| **on).count()
+    }
+
+    /// The names of the lanes that are on.
+    pub fn names(&self) -> Vec<&'static str> {
+        Self::NAMES.into_iter().zip(self.flags()).filter(|(_, on)| *on).map(|(n, _)| n).collect()
+    }
+}
+
 impl HeatLedger {
     pub fn lanes_mut(&mut self) -> [&mut Vec<f64>; 5] {
         [&mut self.damping, &mut self.contact_damping, &mut self.friction, &mut self.breakage, &mut self.wall_work]
+    }
+
+    pub fn lanes(&self) -> [&Vec<f64>; 5] {
+        [&self.damping, &self.contact_damping, &self.friction, &self.breakage, &self.wall_work]
+    }
+
+    /// Allocates the lanes of `causes` for `n` particles (zero heat). Lanes outside `causes`
+    /// are left as they are: one that was booked by an earlier plan keeps its heat.
+    pub fn fit(&mut self, causes: &HeatCauses, n: usize) {
+        for (lane, on) in self.lanes_mut().into_iter().zip(causes.flags()) {
+            if on && lane.len() != n {
+                debug_assert!(lane.is_empty(), "a heat lane of {} entries for {n} particles", lane.len());
+                lane.resize(n, 0.0);
+            }
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.lanes().iter().map(|l| l.len() * std::mem::size_of::<f64>()).sum()
     }
 }

@@ -40,6 +40,8 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().settings.local_damping = a;
             Ok(())
         })
+        .register_get("heat_ledger", |d: &mut ModelHandle| d.model().settings.heat_ledger)
+        .register_set("heat_ledger", |d: &mut ModelHandle, on: bool| d.model().settings.heat_ledger = on)
         .register_set("contact_law", |d: &mut ModelHandle, s: &str| -> RhaiResult<()> {
             d.model().settings.normal = s.parse().map_err(raise)?;
             Ok(())

@@ -12,6 +12,7 @@
 //! the cost of the contact law. The loops are monomorphised for the plan's laws.
 
 use super::blocks::{for_blocks, Reduce, Rows};
+use super::heat::HeatLanes;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{
     contact, contact_opened, BreakKind, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw,
@@ -99,9 +100,9 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
     scratch.fit(m.contacts.pair_count());
     let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
     if rotation {
-        gather_pass::<true>(m, scratch);
+        gather_pass::<true>(m, plan, scratch);
     } else {
-        gather_pass::<false>(m, scratch);
+        gather_pass::<false>(m, plan, scratch);
     }
     breaks
 }
@@ -177,23 +178,21 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
 }
 
 /// Pass 2: each particle sums its row in row order and mirrors the new pair states.
-fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
+fn gather_pass<const ROT: bool>(m: &mut Model, plan: &StepPlan, scratch: &PairScratch) {
     let Model { particles: p, contacts: c, .. } = m;
     let radius = &p.radius;
     let torque = match &mut p.rotation {
         Some(r) if ROT => Some(&mut r.torque[..]),
         _ => None,
     };
-    let heat = &mut p.heat;
-    let lanes =
-        (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.breakage[..]);
+    let lanes = (&mut p.force[..], torque, HeatLanes::of(&mut p.heat, &plan.heat));
     let (row_start, pair_start, pair) = (&c.row_start[..], &c.pair_start[..], &c.pair[..]);
     for_blocks(
         0..radius.len(),
         Rows::Csr(row_start),
         lanes,
         &mut c.state[..],
-        &|range, (force, mut torque, h_damp, h_fric, h_break), state: &mut [PairState]| {
+        &|range, (force, mut torque, mut heat), state: &mut [PairState]| {
             let base = row_start[range.start] as usize;
             for i in range.clone() {
                 let li = i - range.start;
@@ -210,7 +209,7 @@ fn gather_pass<const ROT: bool>(m: &mut Model, scratch: &PairScratch) {
                 if let Some(tq) = torque.as_deref_mut() {
                     tq[li] = row.torque;
                 }
-                book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
+                heat.book_row(li, &row);
             }
         },
     )
@@ -262,12 +261,4 @@ pub(super) fn gather_row<const ROT: bool>(
         hb += b;
     }
     RowSum { force: f, torque: t, heat: [hd, hf, hb] }
-}
-
-/// Books a particle's half of its pairs' heat.
-#[inline(always)]
-pub(super) fn book_heat(row: &RowSum, damping: &mut f64, friction: &mut f64, breakage: &mut f64) {
-    *damping += 0.5 * row.heat[0];
-    *friction += 0.5 * row.heat[1];
-    *breakage += 0.5 * row.heat[2];
 }

@@ -10,7 +10,8 @@
 //! their energies are taken between the forces and the move.
 
 use super::blocks::{for_blocks, Rows, Strided};
-use super::contact_forces::{book_heat, gather_row, pair_pass, Breaks, PairScratch};
+use super::contact_forces::{gather_row, pair_pass, Breaks, PairScratch};
+use super::heat::HeatLanes;
 use super::integrate::{advance, spin, Motion, Observed, Translation};
 use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
@@ -94,25 +95,15 @@ where
         Some(r) if ROT => (Some(&mut r.ang_vel[..]), Some(&mut r.torque[..])),
         _ => (None, None),
     };
-    let h = &mut p.heat;
-    let loads_lanes = (&mut p.force[..], torque, &mut h.contact_damping[..], &mut h.friction[..], &mut h.breakage[..]);
-    let motion_lanes = (
-        &mut h.wall_work[..],
-        &mut h.damping[..],
-        &mut p.pos[..],
-        &mut p.vel[..],
-        ang_vel,
-        Strided { items: &mut wall_contacts[..], stride: nw },
-    );
+    let loads_lanes = (&mut p.force[..], torque, HeatLanes::of(&mut p.heat, &plan.heat));
+    let motion_lanes = (&mut p.pos[..], &mut p.vel[..], ang_vel, Strided { items: &mut wall_contacts[..], stride: nw });
     let walls = &walls[..];
     for_blocks(
         0..radius.len(),
         Rows::Csr(row_start),
         (loads_lanes, motion_lanes),
         &mut c.state[..],
-        &|range,
-          ((force, mut torque, h_damp, h_fric, h_break), (work, h_visc, pos, vel, mut ang_vel, wall_state)),
-          state: &mut [PairState]| {
+        &|range, ((force, mut torque, mut heat), (pos, vel, mut ang_vel, wall_state)), state: &mut [PairState]| {
             let base = row_start[range.start] as usize;
             let mut loads = WallLoads::default();
             let mut unobserved = Observed::default();
@@ -132,7 +123,7 @@ where
                 let rows = &mut state[start - base..end - base];
                 let row = gather_row::<ROT>(scratch, &pair[start..end], own - start, ri, rows);
                 let (mut f, mut t) = (row.force, row.torque);
-                book_heat(&row, &mut h_damp[li], &mut h_fric[li], &mut h_break[li]);
+                heat.book_row(li, &row);
                 // wall_forces: the walls in reach (most particles have none).
                 let wall_st = &mut wall_state.items[li * nw..(li + 1) * nw];
                 #[cfg(debug_assertions)]
@@ -149,9 +140,7 @@ where
                     let mut out = ParticleOut {
                         force: &mut f,
                         torque: if ROT { Some(&mut t) } else { None },
-                        h_damp: &mut h_damp[li],
-                        h_fric: &mut h_fric[li],
-                        work: &mut work[li],
+                        heat: heat.walls_at(li),
                     };
                     particle_walls::<N, T, DASHPOT>(walls, plan, k.dt, near[i], &body, wall_st, &mut out, &mut loads);
                 }
@@ -159,10 +148,10 @@ where
                 // integrate: body forces, damping and the move.
                 let c = if DAMP { damping_c[i] } else { 0.0 };
                 let b = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: f };
-                advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], &mut h_visc[li], &mut unobserved);
+                advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], heat.damping_at(li), &mut unobserved);
                 if let (Some(tq), Some(w)) = (torque.as_deref_mut(), ang_vel.as_deref_mut()) {
                     tq[li] = t;
-                    spin::<DAMP, false>(k.dt, mass[i], ri, c, t, &mut w[li], &mut h_visc[li], &mut unobserved);
+                    spin::<DAMP, false>(k.dt, mass[i], ri, c, t, &mut w[li], heat.damping_at(li), &mut unobserved);
                 }
             }
             loads

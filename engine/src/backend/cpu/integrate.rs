@@ -6,8 +6,10 @@
 //! makes the heat it books, c·|v̄|²·dt, exactly the work it removes.
 
 use super::blocks::{for_blocks, Reduce, Rows};
+use super::heat::{book, HeatLanes};
 use crate::model::Model;
 use crate::physics::Vec3;
+use crate::plan::StepPlan;
 use crate::state::particles::dof;
 
 /// What an observed step measures (J): the kinetic energy at the integer step and the heat
@@ -30,12 +32,12 @@ impl Reduce for Observed {
 /// observed step's integration; unobserved steps integrate in the fused pass (fused.rs), with
 /// the same per-particle code. Angular velocities advance only when the plan simulates
 /// `rotation` (the lanes may outlive it, holding the torques of the last step that computed them).
-pub fn integrate(m: &mut Model, damping_c: &[f64], rotation: bool) -> Observed {
+pub fn integrate(m: &mut Model, plan: &StepPlan, damping_c: &[f64]) -> Observed {
     match (!damping_c.is_empty(), m.settings.local_damping > 0.0) {
-        (false, false) => integrate_loop::<false, false>(m, damping_c, rotation),
-        (false, true) => integrate_loop::<false, true>(m, damping_c, rotation),
-        (true, false) => integrate_loop::<true, false>(m, damping_c, rotation),
-        (true, true) => integrate_loop::<true, true>(m, damping_c, rotation),
+        (false, false) => integrate_loop::<false, false>(m, plan, damping_c),
+        (false, true) => integrate_loop::<false, true>(m, plan, damping_c),
+        (true, false) => integrate_loop::<true, false>(m, plan, damping_c),
+        (true, true) => integrate_loop::<true, true>(m, plan, damping_c),
     }
 }
 
@@ -53,7 +55,8 @@ impl Motion {
     }
 }
 
-fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, damping_c: &[f64], rotation: bool) -> Observed {
+fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, plan: &StepPlan, damping_c: &[f64]) -> Observed {
+    let rotation = plan.rotation;
     let k = Motion::of(m);
     let p = &mut m.particles;
     let n = p.len();
@@ -62,15 +65,15 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, damping_c:
     let mut obs = for_blocks(
         0..n,
         Rows::None,
-        (&mut p.pos[..], &mut p.vel[..], &mut p.heat.damping[..]),
+        (&mut p.pos[..], &mut p.vel[..], HeatLanes::of(&mut p.heat, &plan.heat)),
         (),
-        &|range, (pos, vel, heat), ()| {
+        &|range, (pos, vel, mut heat), ()| {
             let mut obs = Observed::default();
             for i in range.clone() {
                 let li = i - range.start;
                 let c = if DAMP { damping_c[i] } else { 0.0 };
                 let body = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: force[i] };
-                advance::<DAMP, LOCAL, true>(&k, &body, &mut pos[li], &mut vel[li], &mut heat[li], &mut obs);
+                advance::<DAMP, LOCAL, true>(&k, &body, &mut pos[li], &mut vel[li], heat.damping_at(li), &mut obs);
             }
             obs
         },
@@ -78,10 +81,10 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, damping_c:
     if let Some((ang_vel, torque)) = rot {
         // A plain loop after the translations, so the energies an observed step sums come
         // out in the same order as ever; unobserved steps spin in the fused pass (fused.rs).
+        let mut heat = HeatLanes::of(&mut p.heat, &plan.heat);
         for i in 0..n {
             let c = if DAMP { damping_c[i] } else { 0.0 };
-            let heat = &mut p.heat.damping[i];
-            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, torque[i], &mut ang_vel[i], heat, &mut obs);
+            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, torque[i], &mut ang_vel[i], heat.damping_at(i), &mut obs);
         }
     }
     obs
@@ -104,7 +107,7 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
     b: &Translation,
     pos: &mut Vec3,
     vel: &mut Vec3,
-    heat: &mut f64,
+    mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
     let (dt, mi) = (k.dt, b.mass);
@@ -137,14 +140,14 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
     }
     let v_mean = (v0 + v1) * 0.5;
     if LOCAL {
-        *heat += local_heat;
+        book(&mut heat, local_heat);
         if OBSERVE {
             obs.damping_heat += local_heat;
         }
     }
     if DAMP {
         let h = b.damping_c * v_mean.norm_squared() * dt;
-        *heat += h;
+        book(&mut heat, h);
         if OBSERVE {
             obs.damping_heat += h;
         }
@@ -166,7 +169,7 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     damping_c: f64,
     torque: Vec3,
     ang_vel: &mut Vec3,
-    heat: &mut f64,
+    mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
     let inertia = 0.4 * mass * radius * radius;
@@ -180,7 +183,7 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     let w_mean: Vec3 = (w0 + w1) * 0.5;
     if DAMP {
         let h = damping_c * w_mean.norm_squared() * dt * inertia / mass;
-        *heat += h;
+        book(&mut heat, h);
         if OBSERVE {
             obs.damping_heat += h;
         }

@@ -6,6 +6,7 @@
 pub mod blocks;
 pub mod contact_forces;
 pub mod fused;
+pub mod heat;
 pub mod integrate;
 mod prefetch;
 pub mod wall_forces;
@@ -61,6 +62,9 @@ impl CpuBackend {
             // or the contact and integration loops would silently skip rotation.
             m.particles.enable_rotation();
         }
+        // The optional stages' lanes, allocated for the plan (a no-op once they are).
+        let n = m.particles.len();
+        heat::fit(&mut m.particles.heat, &self.plan.heat, n);
         for w in &mut m.walls {
             w.advance(dt);
         }
@@ -86,12 +90,14 @@ impl CpuBackend {
         // with the force at the end of the move; count half of it (the trapezoid rule), or
         // while a platen loads the sample the account runs ahead by F·v·dt/2.
         e.wall_work -= 0.5 * (e.wall_work - work_before);
-        let obs = integrate(m, &self.damping_c, self.plan.rotation);
+        let obs = integrate(m, &self.plan, &self.damping_c);
         e.kinetic = obs.kinetic;
         // The kinetic energy is that of the integer time, half way through this step's
         // damping: book half of it, or the account runs half a step behind (an offset of
         // ζ·ω·dt of the kinetic energy, frozen in when the motion starts or stops).
-        e.heat_damping += 0.5 * obs.damping_heat;
+        if self.plan.heat.damping {
+            e.heat_damping += 0.5 * obs.damping_heat;
+        }
         m.clock.step += 1;
         m.clock.time += dt;
         Some(e)

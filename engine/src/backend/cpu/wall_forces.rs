@@ -5,6 +5,7 @@
 //! block in a fixed tree order (deterministic).
 
 use super::blocks::{for_blocks, Reduce, Rows};
+use super::heat::{book, HeatLanes, WallHeat};
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{
     contact, contact_opened, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams,
@@ -84,15 +85,13 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
     };
     let (pos, radius, vel, mass, material) = (&p.pos, &p.radius, &p.vel, &p.mass, &p.material);
     let (walls, dt) = (&walls[..], clock.dt);
-    let heat = &mut p.heat;
-    let lanes =
-        (&mut p.force[..], torque, &mut heat.contact_damping[..], &mut heat.friction[..], &mut heat.wall_work[..]);
+    let lanes = (&mut p.force[..], torque, HeatLanes::of(&mut p.heat, &plan.heat));
     for_blocks(
         0..pos.len(),
         Rows::Stride(nw),
         lanes,
         &mut wall_contacts[..],
-        &|range, (force, mut torque, h_damp, h_fric, work), state: &mut [PairState]| {
+        &|range, (force, mut torque, mut heat), state: &mut [PairState]| {
             let mut loads = WallLoads::default();
             for i in range.clone() {
                 let li = i - range.start;
@@ -114,9 +113,7 @@ fn wall_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
                 let mut out = ParticleOut {
                     force: &mut force[li],
                     torque: torque.as_deref_mut().map(|t| &mut t[li]),
-                    h_damp: &mut h_damp[li],
-                    h_fric: &mut h_fric[li],
-                    work: &mut work[li],
+                    heat: heat.walls_at(li),
                 };
                 particle_walls::<N, T, DASHPOT>(walls, plan, dt, near[i], &body, st, &mut out, &mut loads);
             }
@@ -180,9 +177,8 @@ pub(super) struct Body {
 pub(super) struct ParticleOut<'a> {
     pub force: &'a mut Vec3,
     pub torque: Option<&'a mut Vec3>,
-    pub h_damp: &'a mut f64,
-    pub h_fric: &'a mut f64,
-    pub work: &'a mut f64,
+    /// Its ledger entries (those the plan has).
+    pub heat: WallHeat<'a>,
 }
 
 /// One particle against one wall, touching (`overlap` > 0) or just come apart. Kept out of
@@ -211,8 +207,8 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     if overlap <= 0.0 {
         // The contact has just opened.
         let (friction, damping) = contact_opened::<T>(params, ri, st, &nrm, v_rel, dt);
-        *out.h_fric += friction;
-        *out.h_damp += damping;
+        book(&mut out.heat.friction, friction);
+        book(&mut out.heat.damping, damping);
         return;
     }
     let g = ContactGeometry { n: nrm, overlap, v_rel, r_star: ri, m_star: body.mass };
@@ -221,12 +217,12 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     if let Some(t) = out.torque.as_deref_mut() {
         *t += (nrm * ri).cross(&r.shear);
     }
-    *out.h_damp += r.heat_damping;
-    *out.h_fric += r.heat_friction;
+    book(&mut out.heat.damping, r.heat_damping);
+    book(&mut out.heat.friction, r.heat_friction);
     // Work the moving wall does on the particle this step (none by a wall at rest: skipping
     // the zero keeps the lane, which most steps would otherwise fetch from memory for nothing).
     if v_wall != Vec3::zeros() {
-        *out.work += r.force.dot(&v_wall) * dt;
+        book(&mut out.heat.work, r.force.dot(&v_wall) * dt);
     }
     loads.force[w] += r.force;
     loads.normal[w] += r.force.dot(&inward).max(0.0);

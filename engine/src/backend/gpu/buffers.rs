@@ -36,7 +36,7 @@ pub struct Params {
     pub buckets: u32,
     pub skin: f32,
     pub cell: f32,
-    /// 1.0, opaque to the shader compiler (`ledger_add` in common.wgsl).
+    /// 1.0, opaque to the shader compiler (`ledger_add` in heat.wgsl).
     pub one: f32,
     pub pad: [f32; 3],
 }

@@ -1,11 +1,12 @@
 //! The WGSL sources (the only file that names shader paths) and the one way a stage becomes
-//! a pipeline: `common.wgsl` prepended to the stage's file, the plan's choices passed as
+//! a pipeline: `common.wgsl` and `heat.wgsl` prepended to the stage's file, the plan's choices passed as
 //! pipeline-overridable constants, so a switched-off effect is compiled out.
 
 use crate::model::{NormalKind, TangentialKind};
 use crate::plan::StepPlan;
 
 pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
+pub const HEAT: &str = include_str!("../../../../shaders/heat.wgsl");
 pub const NEIGHBOURS: &str = include_str!("../../../../shaders/neighbours.wgsl");
 pub const CONTACT_FORCES: &str = include_str!("../../../../shaders/contact_forces.wgsl");
 pub const WALL_FORCES: &str = include_str!("../../../../shaders/wall_forces.wgsl");
@@ -29,9 +30,10 @@ pub const STAGES: [(&str, &str); 9] = [
     ("guard", GUARD),
 ];
 
-/// A stage's full source.
+/// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and
+/// sum, which the dissipating stages book into) and the stage's own file.
 pub fn source(stage: &str) -> String {
-    format!("{COMMON}\n{stage}")
+    format!("{COMMON}\n{HEAT}\n{stage}")
 }
 
 /// The plan's choices as the overrides of common.wgsl.

@@ -1,0 +1,168 @@
+//! Pay for use: a plan allocates the lanes of an optional stage only when it has the stage,
+//! on both backends. The CPU's lanes are counted on the model after a run (every lane as long
+//! as it is allocated, in bytes per particle) against the plan's own account
+//! ([`StepPlan::lane_sets`]); the GPU's through its device buffers, where a lane the plan does
+//! not have is a 128-byte placeholder. Switching the heat ledger off changes no motion, bit
+//! for bit.
+
+mod common;
+
+use common::material;
+use matdem_engine::backend::RunControl;
+use matdem_engine::builder::simple_cubic;
+use matdem_engine::plan::Stage;
+use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall};
+
+const N: usize = 4 * 4 * 4;
+/// The core lanes: pos, vel, force, origin (3 × f64 each), radius, mass (f64), material (u32),
+/// fixed (u8).
+const CORE: usize = 4 * 24 + 2 * 8 + 4 + 1;
+
+/// What a scene switches on.
+#[derive(Clone, Copy, Default)]
+struct Effects {
+    friction: bool,
+    dashpot: bool,
+    rotation: bool,
+    bonds: bool,
+    ledger: bool,
+}
+
+/// A 4 × 4 × 4 block of touching spheres on a floor, under gravity, with `e`'s effects.
+fn block(e: Effects) -> Model {
+    let mut mat: Material = material("m", 2650.0, 1e5, 1e7, 0.3);
+    mat.ks = if e.friction { 4e4 } else { 0.0 };
+    mat.mu_p = if e.friction { 0.5 } else { 0.0 };
+    mat.restitution = if e.dashpot { 0.5 } else { 1.0 };
+    mat.xb = 1e-4;
+    let mut m = Model::new();
+    let k = m.add_material(mat).unwrap();
+    let (r, s) = (1e-3, 1.999e-3);
+    for x in simple_cubic(4, 4, 4, s, Vec3::repeat(0.5 * s)) {
+        m.add_particle(x, r, k).unwrap();
+    }
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1e-4).unwrap()).unwrap();
+    m.settings.normal = NormalKind::Linear;
+    m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
+    m.settings.rotation = e.rotation;
+    m.settings.heat_ledger = e.ledger;
+    if e.rotation {
+        m.particles.enable_rotation();
+    }
+    if e.bonds {
+        m.connect(None, 1e-5).unwrap();
+    }
+    m.set_standard_dt().unwrap();
+    m
+}
+
+fn run(sim: &mut Simulation, steps: u64) {
+    sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
+}
+
+/// The plan's lane sets by name, and the bytes per particle the CPU model holds after a run.
+fn cpu_lanes(e: Effects) -> (Vec<&'static str>, usize, usize, Simulation) {
+    let mut sim = Simulation::new(block(e));
+    run(&mut sim, 20);
+    let plan = sim.plan().clone();
+    let sets = plan.lane_sets().iter().map(|s| s.stage).collect();
+    let held = sim.model.particles.bytes();
+    assert_eq!(held % N, 0);
+    (sets, plan.bytes_per_particle(), held / N, sim)
+}
+
+// Without friction, dashpot, damping, moving walls, bonds or rotation nothing can release heat:
+// the plan has the core lanes only, and that is what the model holds (117 B a particle), even
+// with the ledger switched on. Each effect then adds exactly its lanes: friction and the dashpot
+// a heat lane each (8 B), bonds the breakage lane, rotation ang_vel and torque (48 B); with the
+// ledger off no heat lane at all.
+#[test]
+fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
+    let on = Effects { ledger: true, ..Default::default() };
+    let cases = [
+        (on, vec!["core"], CORE, vec![]),
+        (Effects { friction: true, ..on }, vec!["core", "heat"], CORE + 8, vec!["friction"]),
+        (
+            Effects { friction: true, dashpot: true, ..on },
+            vec!["core", "heat"],
+            CORE + 16,
+            vec!["contact_damping", "friction"],
+        ),
+        (Effects { friction: true, dashpot: true, ledger: false, ..on }, vec!["core"], CORE, vec![]),
+        (Effects { bonds: true, ..on }, vec!["core", "heat"], CORE + 8, vec!["breakage"]),
+        (
+            Effects { rotation: true, friction: true, ..on },
+            vec!["core", "rotation", "heat"],
+            CORE + 48 + 8,
+            vec!["friction"],
+        ),
+        (
+            Effects { rotation: true, friction: true, dashpot: true, bonds: true, ledger: false },
+            vec!["core", "rotation"],
+            CORE + 48,
+            vec![],
+        ),
+    ];
+    for (k, (effects, sets, bytes, heat)) in cases.into_iter().enumerate() {
+        let (got_sets, planned, held, mut sim) = cpu_lanes(effects);
+        eprintln!("case {k}: {got_sets:?}, planned {planned} B, held {held} B per particle");
+        assert_eq!(got_sets, sets, "case {k}: lane sets");
+        assert_eq!(planned, bytes, "case {k}: the plan's bytes per particle");
+        assert_eq!(held, bytes, "case {k}: the model's bytes per particle");
+        assert_eq!(sim.plan().heat.names(), heat, "case {k}: heat lanes");
+        assert_eq!(sim.plan().stages().contains(&Stage::Heat), !heat.is_empty(), "case {k}: heat stage");
+        let allocated: Vec<usize> = sim.model.particles.heat.lanes().iter().map(|l| l.len()).collect();
+        assert_eq!(allocated.iter().filter(|&&l| l == N).count(), heat.len(), "case {k}: {allocated:?}");
+        assert_eq!(sim.model.particles.rotation.is_some(), effects.rotation, "case {k}: rotation lanes");
+    }
+}
+
+// The ledger is bookkeeping: the same scene with and without it moves bit for bit the same
+// (positions, velocities, spins after 200 steps with friction, dashpot, bonds and rotation on,
+// some bonds breaking or not); only the energies' heat differs, positive with it, 0 without.
+#[test]
+fn the_heat_ledger_changes_no_motion() {
+    let effects = Effects { friction: true, dashpot: true, rotation: true, bonds: true, ledger: true };
+    let mut with = Simulation::new(block(effects));
+    let mut without = Simulation::new(block(Effects { ledger: false, ..effects }));
+    // Shake the block so that contacts slide and the dashpots work.
+    for sim in [&mut with, &mut without] {
+        for (i, v) in sim.model.particles.vel.iter_mut().enumerate() {
+            *v = Vec3::new(0.01 * ((i * 7) % 5) as f64, -0.01 * ((i * 3) % 4) as f64, 0.02);
+        }
+        run(sim, 200);
+    }
+    let (a, b) = (&with.model.particles, &without.model.particles);
+    assert!(a.pos == b.pos && a.vel == b.vel, "the ledger changed the motion");
+    assert_eq!(a.rotation.as_ref().unwrap().ang_vel, b.rotation.as_ref().unwrap().ang_vel);
+    let (ea, eb) = (with.energies(), without.energies());
+    eprintln!("heat with the ledger {:e} J, without {:e} J", ea.heat(), eb.heat());
+    assert!(ea.heat() > 0.0 && ea.heat_friction > 0.0 && ea.heat_contact_damping > 0.0);
+    assert_eq!(eb.heat(), 0.0);
+    assert_eq!(ea.mechanical(), eb.mechanical());
+}
+
+// On the GPU the same plans: the heat ledger's buffer holds one 8-byte (hi, lo) f32 pair per
+// particle and cause the plan has, a 128-byte placeholder without the ledger; the rotation lanes
+// (two vec4<f32>, 32 B a particle) exist only with rotation. Measured as differences of the
+// device's buffer bytes between plans that differ in that one stage.
+#[cfg(feature = "gpu")]
+#[test]
+fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
+    use matdem_engine::backend::gpu::GpuBackend;
+    use matdem_engine::backend::Backend;
+    let Some(ctx) = common::gpu("stage_lanes_gpu") else { return };
+    let device_bytes = |e: Effects| {
+        let mut m = block(e);
+        let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+        matdem_engine::simulation::run_steps(&mut b, &mut m, 5, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})
+            .unwrap();
+        b.bytes()
+    };
+    let base = Effects { friction: true, dashpot: true, ..Default::default() };
+    let off = device_bytes(base);
+    let on = device_bytes(Effects { ledger: true, ..base });
+    assert_eq!(on - off, N * 2 * 8 - 128, "heat ledger: 2 causes");
+    let rot = device_bytes(Effects { rotation: true, ..base });
+    assert_eq!(rot - off, 2 * (N * 16 - 128), "rotation lanes");
+}
