@@ -356,6 +356,8 @@ mod tests {
         let mut m = Model::new();
         let k = m.add_material(Material::from_micro("m", 2650.0, 1e6, 1e5, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
         m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+        // The optional stages are another test's (stage_lanes.rs): the core's here.
+        m.settings.heat_ledger = false;
         let names = |m: &Model| StepPlan::build(m).stages().iter().map(|s| s.name()).collect::<Vec<_>>().join(" ");
         assert_eq!(names(&m), "neighbours contact_forces integrate guard");
         m.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -1e-3), Vec3::z(), 1e-4).unwrap()).unwrap();
