@@ -2,7 +2,7 @@
 //! throughput, contacts, memory and the machine, as text or as one JSON object.
 
 use matdem_engine::backend::gpu::device::GpuContext;
-use matdem_engine::bench::{run, BenchReport, LatticeScene};
+use matdem_engine::bench::{profile, run, BenchReport, LatticeScene, StageProfile};
 use matdem_engine::Simulation;
 use std::sync::Arc;
 
@@ -21,6 +21,8 @@ pub struct BenchConfig {
     pub warmup: u64,
     pub steps: u64,
     pub json: bool,
+    /// Also time each named stage in separate passes (CPU only).
+    pub profile: bool,
     /// Bench this GPU instead of the CPU backend.
     pub gpu: Option<Arc<GpuContext>>,
 }
@@ -35,7 +37,15 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     if cfg.steps == 0 {
         return Err("error: --steps must be at least 1".into());
     }
+    if cfg.profile && cfg.gpu.is_some() {
+        return Err("error: --profile times the CPU backend's stages; run it with --backend cpu".into());
+    }
     let model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
+    let profile = if cfg.profile {
+        Some(profile(&model, cfg.warmup, cfg.steps).map_err(|e| format!("error: the profiled run failed: {e}"))?)
+    } else {
+        None
+    };
     let sim = match &cfg.gpu {
         Some(ctx) => Simulation::with_gpu(model, ctx.clone()),
         None => Simulation::new(model),
@@ -46,7 +56,32 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
         None => cpu_model(),
     };
     let backend = Backend { name: if cfg.gpu.is_some() { "gpu" } else { "cpu" }, device };
-    Ok(if cfg.json { json(&scene, &report, &backend) } else { text(&scene, &report, &backend) })
+    let mut out = if cfg.json { json(&scene, &report, &backend) } else { text(&scene, &report, &backend) };
+    if let (Some(p), false) = (&profile, cfg.json) {
+        out.push_str(&profile_text(p));
+    }
+    Ok(out)
+}
+
+/// Each named stage's share of a step, from separate passes.
+fn profile_text(p: &StageProfile) -> String {
+    let mut o = String::new();
+    let total = p.total();
+    let _ = writeln!(
+        o,
+        "profile: {} steps as separate passes, one per named stage, {:.3} s ({:.3} ms a step; the fused pass \
+         took {:.3} s for the same steps from the same start):",
+        p.steps,
+        total,
+        1e3 * total / p.steps.max(1) as f64,
+        p.fused_seconds
+    );
+    for (name, t) in &p.stages {
+        let share = if total > 0.0 { 100.0 * t / total } else { 0.0 };
+        let _ = writeln!(o, "  {name:<15} {share:5.1} %  {:.4} ms a step", 1e3 * t / p.steps.max(1) as f64);
+    }
+    let _ = writeln!(o, "  (heat: booked inside contact_forces, wall_forces and integrate, its time theirs)");
+    o
 }
 
 /// The CPU's model name from /proc/cpuinfo (Linux), else the architecture.

@@ -117,6 +117,10 @@ enum Command {
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
+        /// Also time each named stage (CPU only): the same steps run as separate passes, one
+        /// per stage, and each stage's share of them printed.
+        #[arg(long)]
+        profile: bool,
     },
     /// Print the script reference (Markdown): every function, property and stdlib procedure
     /// scripts can use, from what this binary registers.
@@ -426,8 +430,8 @@ fn main() -> ExitCode {
             print!("{}", matdem_rs::api::reference::markdown(&matdem_rs::new_engine(host)));
             return ExitCode::SUCCESS;
         }
-        Command::Bench { backend, particles, steps, warmup, json } => {
-            return bench(backend, BenchConfig { particles, warmup, steps, json, gpu: None });
+        Command::Bench { backend, particles, steps, warmup, json, profile } => {
+            return bench(backend, BenchConfig { particles, warmup, steps, json, profile, gpu: None });
         }
         Command::Study { script, vary, metric, set, reference, out, backend, jobs } => {
             return study(script, vary, metric, set, reference, out, backend, jobs);

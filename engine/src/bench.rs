@@ -179,6 +179,57 @@ pub fn run(mut sim: Simulation, warmup: u64, steps: u64) -> Result<(BenchReport,
     Ok((report, sim))
 }
 
+/// Where the time of a step goes: each named stage's time in steps run as separate passes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageProfile {
+    pub steps: u64,
+    /// (stage name, seconds) in step order, the guard last.
+    pub stages: Vec<(&'static str, f64)>,
+    /// Seconds of the same number of steps run as the fused pass (what an unobserved run does).
+    pub fused_seconds: f64,
+}
+
+impl StageProfile {
+    /// Seconds of the separate passes, all stages.
+    pub fn total(&self) -> f64 {
+        self.stages.iter().map(|(_, t)| t).sum()
+    }
+}
+
+/// Profiles `steps` steps of `model` on the CPU backend: first as the fused pass an
+/// unobserved run takes (timed whole), then, from the same state, as separate passes, one per
+/// named stage, each timed ([`CpuBackend::step_profiled`](crate::backend::CpuBackend)); the
+/// guard's checks (`check_state` and the stiffest contact) at the model's guard cadence.
+/// The separate passes read the lanes a fused step reads once up to three times, so their
+/// sum exceeds the fused time; the shares say which stage's work dominates.
+pub fn profile(model: &Model, warmup: u64, steps: u64) -> Result<StageProfile> {
+    use crate::backend::CpuBackend;
+    use crate::plan::{Stage, StepPlan};
+    let mut m = model.clone();
+    let mut b = CpuBackend::with_plan(StepPlan::build(&m), StepPlan::build(&m).damping_coefficients(&m));
+    let mut sim = Simulation::new(m.clone());
+    sim.run(warmup, &RunControl::default(), &mut |_| {})?;
+    let t0 = Instant::now();
+    sim.run(steps, &RunControl::default(), &mut |_| {})?;
+    let fused_seconds = t0.elapsed().as_secs_f64();
+    for _ in 0..warmup {
+        b.step(&mut m, false);
+    }
+    let mut times = crate::backend::StageTimes::default();
+    let every = m.settings.guard_every.max(1);
+    for k in 0..steps {
+        b.step_profiled(&mut m, &mut times);
+        if (k + 1) % every == 0 {
+            let t = Instant::now();
+            crate::guard::check_state(&m)?;
+            let _ = crate::guard::too_stiff(&m, &b.plan);
+            times.add(Stage::Guard, t.elapsed());
+        }
+    }
+    let stages = times.0.iter().map(|(s, t)| (s.name(), t.as_secs_f64())).collect();
+    Ok(StageProfile { steps, stages, fused_seconds })
+}
+
 /// Particle pairs in the rows that touch now (centre distance < r_i + r_j), each once.
 pub fn touching_pairs(m: &Model) -> usize {
     let (p, c) = (&m.particles, &m.contacts);

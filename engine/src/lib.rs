@@ -34,6 +34,8 @@ pub mod builder;
 pub mod checkpoint;
 pub mod error;
 pub mod guard;
+#[macro_use]
+pub mod laws;
 pub mod materials;
 pub mod memory_budget;
 pub mod model;

@@ -50,12 +50,7 @@ impl Energies {
 /// Potential energies and heat at the current positions; `kinetic` is left for the caller
 /// (the integrator knows the velocity at the integer step).
 pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
-    let mut e = match (plan.normal, plan.tangential) {
-        (NormalKind::Linear, TangentialKind::Linear) => spring_energies::<Linear, LinearShear>(m, plan),
-        (NormalKind::Linear, TangentialKind::Mindlin) => spring_energies::<Linear, MindlinShear>(m, plan),
-        (NormalKind::Hertz, TangentialKind::Linear) => spring_energies::<Hertz, LinearShear>(m, plan),
-        (NormalKind::Hertz, TangentialKind::Mindlin) => spring_energies::<Hertz, MindlinShear>(m, plan),
-    };
+    let mut e = crate::with_laws!(plan, spring_energies[](m, plan));
     let p = &m.particles;
     let g = m.settings.gravity;
     e.gravity = -(0..p.len()).map(|i| p.mass[i] * g.dot(&p.pos[i])).sum::<f64>();

@@ -20,7 +20,7 @@ use crate::status::EnergySample;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-pub use cpu::CpuBackend;
+pub use cpu::{CpuBackend, StageTimes};
 #[cfg(feature = "gpu")]
 pub use gpu::GpuBackend;
 

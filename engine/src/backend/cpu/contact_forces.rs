@@ -13,10 +13,9 @@
 
 use super::blocks::{for_blocks, Reduce, Rows};
 use super::heat::HeatLanes;
-use crate::model::{Model, NormalKind, TangentialKind};
+use crate::model::Model;
 use crate::physics::contact_law::{
-    contact, contact_opened, BreakKind, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw,
-    PairState, TangentialLaw,
+    contact, contact_opened, BreakKind, ContactGeometry, NormalLaw, PairState, TangentialLaw,
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
@@ -72,22 +71,7 @@ impl PairScratch {
 /// Overwrites `force` (and `torque`) with the contact forces of this step. The rows must
 /// carry pair ids (as [`rebuild`](crate::neighbours::rebuild) leaves them).
 pub fn compute_contact_forces(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch) -> Breaks {
-    macro_rules! go {
-        ($n:ty, $t:ty) => {
-            match (plan.dashpot, plan.rotation) {
-                (false, false) => contact_loop::<$n, $t, false, false>(m, plan, scratch),
-                (true, false) => contact_loop::<$n, $t, true, false>(m, plan, scratch),
-                (false, true) => contact_loop::<$n, $t, false, true>(m, plan, scratch),
-                (true, true) => contact_loop::<$n, $t, true, true>(m, plan, scratch),
-            }
-        };
-    }
-    match (plan.normal, plan.tangential) {
-        (NormalKind::Linear, TangentialKind::Linear) => go!(Linear, LinearShear),
-        (NormalKind::Linear, TangentialKind::Mindlin) => go!(Linear, MindlinShear),
-        (NormalKind::Hertz, TangentialKind::Linear) => go!(Hertz, LinearShear),
-        (NormalKind::Hertz, TangentialKind::Mindlin) => go!(Hertz, MindlinShear),
-    }
+    crate::with_laws!(plan, contact_loop[plan.dashpot, plan.rotation](m, plan, scratch))
 }
 
 fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(

@@ -15,8 +15,8 @@ use super::heat::HeatLanes;
 use super::integrate::{advance, spin, Motion, Observed, Translation};
 use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
-use crate::model::{Model, NormalKind, TangentialKind};
-use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairState, TangentialLaw};
+use crate::model::Model;
+use crate::physics::contact_law::{NormalLaw, PairState, TangentialLaw};
 use crate::plan::StepPlan;
 
 /// Computes this step's contact and wall forces and advances the particles by the step, as
@@ -25,32 +25,7 @@ use crate::plan::StepPlan;
 pub fn forces_and_motion(m: &mut Model, plan: &StepPlan, scratch: &mut PairScratch, damping_c: &[f64]) -> Breaks {
     let rot = plan.rotation && m.particles.rotation.is_some();
     let (damp, local) = (!damping_c.is_empty(), m.settings.local_damping > 0.0);
-    macro_rules! integration {
-        ($n:ty, $t:ty, $d:literal, $r:literal) => {
-            match (damp, local) {
-                (false, false) => run::<$n, $t, $d, $r, false, false>(m, plan, scratch, damping_c),
-                (false, true) => run::<$n, $t, $d, $r, false, true>(m, plan, scratch, damping_c),
-                (true, false) => run::<$n, $t, $d, $r, true, false>(m, plan, scratch, damping_c),
-                (true, true) => run::<$n, $t, $d, $r, true, true>(m, plan, scratch, damping_c),
-            }
-        };
-    }
-    macro_rules! go {
-        ($n:ty, $t:ty) => {
-            match (plan.dashpot, rot) {
-                (false, false) => integration!($n, $t, false, false),
-                (true, false) => integration!($n, $t, true, false),
-                (false, true) => integration!($n, $t, false, true),
-                (true, true) => integration!($n, $t, true, true),
-            }
-        };
-    }
-    match (plan.normal, plan.tangential) {
-        (NormalKind::Linear, TangentialKind::Linear) => go!(Linear, LinearShear),
-        (NormalKind::Linear, TangentialKind::Mindlin) => go!(Linear, MindlinShear),
-        (NormalKind::Hertz, TangentialKind::Linear) => go!(Hertz, LinearShear),
-        (NormalKind::Hertz, TangentialKind::Mindlin) => go!(Hertz, MindlinShear),
-    }
+    crate::with_laws!(plan, run[plan.dashpot, rot, damp, local](m, plan, scratch, damping_c))
 }
 
 fn run<N, T, const DASHPOT: bool, const ROT: bool, const DAMP: bool, const LOCAL: bool>(

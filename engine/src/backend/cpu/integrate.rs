@@ -33,12 +33,8 @@ impl Reduce for Observed {
 /// the same per-particle code. Angular velocities advance only when the plan simulates
 /// `rotation` (the lanes may outlive it, holding the torques of the last step that computed them).
 pub fn integrate(m: &mut Model, plan: &StepPlan, damping_c: &[f64]) -> Observed {
-    match (!damping_c.is_empty(), m.settings.local_damping > 0.0) {
-        (false, false) => integrate_loop::<false, false>(m, plan, damping_c),
-        (false, true) => integrate_loop::<false, true>(m, plan, damping_c),
-        (true, false) => integrate_loop::<true, false>(m, plan, damping_c),
-        (true, true) => integrate_loop::<true, true>(m, plan, damping_c),
-    }
+    let (damp, local) = (!damping_c.is_empty(), m.settings.local_damping > 0.0);
+    crate::with_flags!(integrate_loop[damp, local](m, plan, damping_c))
 }
 
 /// Per-step constants of the integration.

@@ -16,7 +16,7 @@ use crate::error::Result;
 use crate::guard::{check_state, too_stiff, StiffContact};
 use crate::model::{Breakage, Model};
 use crate::neighbours;
-use crate::plan::StepPlan;
+use crate::plan::{Stage, StepPlan};
 use crate::status::{potential_energies, Energies, EnergySample};
 use contact_forces::{compute_contact_forces, Breaks, PairScratch};
 use integrate::integrate;
@@ -48,6 +48,44 @@ impl CpuBackend {
     /// Heap bytes of the backend's own per-particle and per-pair buffers.
     pub fn scratch_bytes(&self) -> usize {
         self.damping_c.capacity() * std::mem::size_of::<f64>() + self.pairs.bytes()
+    }
+
+    /// Advances the model by one step as separate passes, one per named stage (what an
+    /// observed step runs, without its energy sums), adding each stage's wall-clock time to
+    /// `times`: what `matdem-rs bench --profile` reports. The heat ledger is booked inside the
+    /// passes that dissipate, so its time is theirs.
+    pub fn step_profiled(&mut self, m: &mut Model, times: &mut StageTimes) {
+        use std::time::Instant;
+        let dt = m.clock.dt;
+        if self.plan.rotation && m.particles.rotation.is_none() {
+            m.particles.enable_rotation();
+        }
+        let n = m.particles.len();
+        heat::fit(&mut m.particles.heat, &self.plan.heat, n);
+        let t = Instant::now();
+        for w in &mut m.walls {
+            w.advance(dt);
+        }
+        times.add(Stage::Walls, t.elapsed());
+        let t = Instant::now();
+        if neighbours::is_stale(&m.contacts, &m.particles.pos) {
+            neighbours::rebuild(m);
+        } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
+            neighbours::rebuild_wall_mask(m);
+        }
+        times.add(Stage::Neighbours, t.elapsed());
+        let t = Instant::now();
+        let breaks = compute_contact_forces(m, &self.plan, &mut self.pairs);
+        record_breaks(m, breaks);
+        times.add(Stage::ContactForces, t.elapsed());
+        let t = Instant::now();
+        compute_wall_forces(m, &self.plan);
+        times.add(Stage::WallForces, t.elapsed());
+        let t = Instant::now();
+        integrate(m, &self.plan, &self.damping_c);
+        times.add(Stage::Integrate, t.elapsed());
+        m.clock.step += 1;
+        m.clock.time += dt;
     }
 
     /// Advances the model by one step. Returns the energies at the start of the step's
@@ -138,6 +176,19 @@ impl Backend for CpuBackend {
 
     fn bytes(&self) -> usize {
         self.scratch_bytes()
+    }
+}
+
+/// Wall-clock time spent in each named stage.
+#[derive(Debug, Clone, Default)]
+pub struct StageTimes(pub Vec<(Stage, std::time::Duration)>);
+
+impl StageTimes {
+    pub fn add(&mut self, stage: Stage, d: std::time::Duration) {
+        match self.0.iter_mut().find(|(s, _)| *s == stage) {
+            Some((_, t)) => *t += d,
+            None => self.0.push((stage, d)),
+        }
     }
 }
 

@@ -6,10 +6,9 @@
 
 use super::blocks::{for_blocks, Reduce, Rows};
 use super::heat::{book, HeatLanes, WallHeat};
-use crate::model::{Model, NormalKind, TangentialKind};
+use crate::model::Model;
 use crate::physics::contact_law::{
-    contact, contact_opened, ContactGeometry, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams,
-    PairState, TangentialLaw,
+    contact, contact_opened, ContactGeometry, NormalLaw, PairParams, PairState, TangentialLaw,
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
@@ -41,22 +40,7 @@ pub fn compute_wall_forces(m: &mut Model, plan: &StepPlan) {
     if m.walls.is_empty() {
         return;
     }
-    macro_rules! go {
-        ($n:ty, $t:ty) => {
-            match (plan.dashpot, plan.rotation) {
-                (false, false) => wall_loop::<$n, $t, false, false>(m, plan),
-                (true, false) => wall_loop::<$n, $t, true, false>(m, plan),
-                (false, true) => wall_loop::<$n, $t, false, true>(m, plan),
-                (true, true) => wall_loop::<$n, $t, true, true>(m, plan),
-            }
-        };
-    }
-    let loads = match (plan.normal, plan.tangential) {
-        (NormalKind::Linear, TangentialKind::Linear) => go!(Linear, LinearShear),
-        (NormalKind::Linear, TangentialKind::Mindlin) => go!(Linear, MindlinShear),
-        (NormalKind::Hertz, TangentialKind::Linear) => go!(Hertz, LinearShear),
-        (NormalKind::Hertz, TangentialKind::Mindlin) => go!(Hertz, MindlinShear),
-    };
+    let loads = crate::with_laws!(plan, wall_loop[plan.dashpot, plan.rotation](m, plan));
     store_loads(&mut m.walls, &loads);
 }
 

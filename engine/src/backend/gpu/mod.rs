@@ -46,7 +46,7 @@ use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
-use crate::plan::StepPlan;
+use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
@@ -358,23 +358,17 @@ impl GpuBackend {
             let kr = &s.kernels;
             for _ in 0..k {
                 if let Some(w) = &kr.walls {
-                    w.advance.dispatch(&mut pass);
+                    dispatch_stage(&mut pass, Stage::Walls, [&w.advance]);
                 }
-                for slab in &kr.contact_forces {
-                    slab.dispatch(&mut pass);
-                }
+                dispatch_stage(&mut pass, Stage::ContactForces, &kr.contact_forces);
                 if let Some(w) = &kr.walls {
-                    for slab in &w.forces {
-                        slab.dispatch(&mut pass);
-                    }
+                    dispatch_stage(&mut pass, Stage::WallForces, &w.forces);
                 }
-                kr.integrate.dispatch(&mut pass);
+                dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
             }
-            kr.drift.dispatch(&mut pass);
+            dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
             if guard {
-                for slab in &kr.guard {
-                    slab.dispatch(&mut pass);
-                }
+                dispatch_stage(&mut pass, Stage::Guard, &kr.guard);
             }
         }
         ctx.queue.submit([enc.finish()]);
@@ -518,4 +512,14 @@ impl Backend for GpuBackend {
     fn bytes(&self) -> usize {
         self.device_bytes as usize
     }
+}
+
+/// Dispatches one stage's kernels inside a debug group named for the stage, so that a capture
+/// (RenderDoc, Nsight) shows a step as the plan's named stages.
+fn dispatch_stage<'k>(pass: &mut wgpu::ComputePass<'_>, stage: Stage, kernels: impl IntoIterator<Item = &'k Kernel>) {
+    pass.push_debug_group(stage.name());
+    for kernel in kernels {
+        kernel.dispatch(pass);
+    }
+    pass.pop_debug_group();
 }
