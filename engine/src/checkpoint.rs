@@ -153,11 +153,8 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     if lanes.iter().chain([&p.origin.len()]).any(|&l| l != n) {
         return Err("particle lanes of different lengths".into());
     }
-    let h = &p.heat;
-    if [h.damping.len(), h.contact_damping.len(), h.friction.len(), h.breakage.len(), h.wall_work.len()]
-        .iter()
-        .any(|&l| l != n)
-    {
+    // A ledger lane is allocated (one entry per particle) or absent (empty) until a plan books it.
+    if p.heat.lanes().iter().any(|l| !l.is_empty() && l.len() != n) {
         return Err("heat ledger does not match the particles".into());
     }
     if let Some(rot) = &p.rotation {

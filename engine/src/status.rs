@@ -1,10 +1,8 @@
 //! Observation: energies and heat, coordination number, contact forces, unbalanced force,
 //! porosity. These run on demand or on sampling steps, never inside the force loops.
 
-use crate::model::{Model, NormalKind, TangentialKind};
-use crate::physics::contact_law::{
-    normal_energy, shear_energy, Hertz, Linear, LinearShear, MindlinShear, NormalLaw, TangentialLaw,
-};
+use crate::model::{Model, NormalKind};
+use crate::physics::contact_law::{normal_energy, shear_energy, Hertz, Linear, NormalLaw, TangentialLaw};
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use serde::{Deserialize, Serialize};
