@@ -79,7 +79,7 @@ impl Session {
             .collect();
         let stdlib_docs = crate::api::reference::stdlib_docs(&engine);
         names.extend(stdlib_docs.iter().map(|(n, _)| n.clone()));
-        names.extend(docs::DOCS.iter().map(|(n, _, _)| n.to_string()));
+        names.extend(docs::functions().map(|(n, _, _)| n.to_string()));
         names.extend([":help", ":vars", ":load", ":quit"].map(String::from));
         names.sort();
         names.dedup();

@@ -33,6 +33,7 @@ pub mod bench;
 pub mod builder;
 pub mod checkpoint;
 pub mod error;
+pub mod geometry;
 pub mod guard;
 #[macro_use]
 pub mod laws;

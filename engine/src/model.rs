@@ -360,6 +360,19 @@ impl Model {
     pub fn connect(&mut self, ids: Option<&[u32]>, tolerance: f64) -> Result<usize> {
         check_positive("tolerance", tolerance, true)?;
         let member = self.membership(ids)?;
+        self.connect_where(&member, &member, tolerance)
+    }
+
+    /// Bonds every pair with one end among `a` and the other among `b` whose gap is at most
+    /// `tolerance` (m): a structure to a packing, or one block to another, without bonding
+    /// either inside itself. Returns the number of new bonds.
+    pub fn connect_between(&mut self, a: &[u32], b: &[u32], tolerance: f64) -> Result<usize> {
+        check_positive("tolerance", tolerance, true)?;
+        let (a, b) = (self.membership(Some(a))?, self.membership(Some(b))?);
+        self.connect_where(&a, &b, tolerance)
+    }
+
+    fn connect_where(&mut self, a: &[bool], b: &[bool], tolerance: f64) -> Result<usize> {
         if self.contacts.skin <= 0.0 {
             // Not built yet: the usual skin, or a tiny bonding tolerance would become the skin
             // and the rows would be rebuilt every step.
@@ -376,7 +389,7 @@ impl Model {
         for i in 0..p.len() {
             for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
                 let j = c.other[e] as usize;
-                if !(member[i] && member[j]) {
+                if !((a[i] && b[j]) || (a[j] && b[i])) {
                     continue;
                 }
                 let gap = (p.pos[j] - p.pos[i]).norm() - p.radius[i] - p.radius[j];

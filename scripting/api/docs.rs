@@ -1,6 +1,26 @@
 //! One line of help per script function, for the REPL's `:help NAME` and its completion.
 //! Stdlib procedures (written in Rhai) carry their own `///` docs; these are the native ones.
 //! A test checks that every name here is a function scripts can call.
+//!
+//! Newer concepts keep their tables beside their registrations (`geometry::DOCS`); the
+//! lists below name every table, and [`functions`] and [`properties`] read them all.
+
+/// Every table of functions: this file's and those kept where their names are registered.
+pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] = &[DOCS, super::geometry::DOCS];
+
+/// Every table of properties, as [`FUNCTION_TABLES`].
+pub const PROPERTY_TABLES: &[&[(&str, &str, &str)]] = &[PROPERTIES, super::geometry::PROPERTIES];
+
+/// Every documented function: (name, usage, what it does).
+pub fn functions() -> impl Iterator<Item = &'static (&'static str, &'static str, &'static str)> {
+    FUNCTION_TABLES.iter().flat_map(|t| t.iter())
+}
+
+/// Every documented property: (name, whose, what it is); a name two types share has a row
+/// for each.
+pub fn properties() -> impl Iterator<Item = &'static (&'static str, &'static str, &'static str)> {
+    PROPERTY_TABLES.iter().flat_map(|t| t.iter())
+}
 
 /// (name, usage, what it does).
 pub const DOCS: &[(&str, &str, &str)] = &[
@@ -40,7 +60,8 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("set", "d.set(lane, ids or mask or group, value) / d.x = field", "writes a lane (x y z vx vy vz wx wy wz r) for a selection: a number, or a Field of the selection's length or of d.n (MatDEM d.mo.aX(ids) = v); radius writes update mass and inertia; a bad value is refused naming the particle and nothing changes"),
     ("delete", "d.delete(ids or group or mask) -> count", "deletes elements, keeping the groups, contacts and bonds of the rest (MatDEM d.delElement)"),
     ("keep_groups", "d.keep_groups([name, ...]) -> count", "deletes every element outside the named groups; returns how many went (MatDEM d.makeModelByGroups)"),
-    ("add_elements", "d.add_elements(table, material, group) -> count", "adds one element per table row (columns x, y, z, r in m) with a material (its name or the material) to a group (MatDEM d.addElement)"),
+    ("new_model", "new_model(name) -> Model", "an empty model (no elements, walls or materials) to fill with d.add_elements(geometry, material, group)"),
+    ("add_elements", "d.add_elements(geometry or table, material, group) -> count", "adds the elements of a geometry (make_box, …), or one per table row (columns x, y, z, r in m), with a material (its name or the material) to a group (MatDEM d.addElement)"),
     ("move_group", "d.move_group(group or ids or mask, dx, dy, dz)", "translates elements, m (MatDEM d.moveGroup); displacements (d.dx…) include the move"),
     ("freeze", "d.freeze(group) -> count", "fixes x, y and z and zeroes the velocity: the group acts as a wall (MatDEM d.defineWallElement); with rotation on it can still turn"),
     ("unfreeze", "d.unfreeze(group) -> count", "frees x, y and z of a frozen group"),
@@ -51,7 +72,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("layers_between", "d.layers_between([z0, z1, ...]) / d.layers_between(points, normal) -> counts", "groups layer1…layerN between horizontal planes (or parallel planes through points, in order along the normal); layer k holds z(k-1) ≤ z < z(k), the last includes its top"),
     ("free", "d.free(group, \"z\")", "releases a fixed degree of freedom"),
     ("set_velocity", "d.set_velocity(group, [vx, vy, vz])", "sets a group's velocity, m/s"),
-    ("connect", "d.connect(group, gap) -> bonds", "bonds particles of a group closer than gap, m (MatDEM d.connectGroup)"),
+    ("connect", "d.connect(group, gap) / d.connect(group_a, group_b, gap) -> bonds", "bonds particles of a group closer than gap, m (MatDEM d.connectGroup); with two groups, only pairs with one end in each (a structure to a packing)"),
     ("break_bonds", "d.break_bonds(group) -> count", "breaks a group's bonds (MatDEM d.breakGroup)"),
     ("boundary", "d.boundary(name) -> map", "a wall's position, velocity and force"),
     ("move_boundary", "d.move_boundary(name, [vx, vy, vz])", "moves a wall at a velocity, m/s (MatDEM d.moveBoundary)"),
@@ -229,5 +250,5 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
 
 /// The help for `name`: usage and description, if documented.
 pub fn lookup(name: &str) -> Option<(&'static str, &'static str)> {
-    DOCS.iter().find(|(n, _, _)| *n == name).map(|(_, usage, doc)| (*usage, *doc))
+    functions().find(|(n, _, _)| *n == name).map(|(_, usage, doc)| (*usage, *doc))
 }

@@ -9,6 +9,7 @@ pub mod checkpoint;
 pub mod docs;
 pub mod field;
 pub mod files;
+pub mod geometry;
 pub mod materials;
 pub mod metrics;
 pub mod model;
@@ -208,6 +209,7 @@ fn error_message(e: &EvalAltResult) -> String {
 /// Registers the whole script API.
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     field::register(engine);
+    geometry::register(engine);
     table::register(engine, host.clone());
     materials::register(engine);
     metrics::register(engine, host.clone());

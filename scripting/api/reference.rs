@@ -3,7 +3,7 @@
 //! own `///` comment. `matdem-rs doc` prints it; `docs/script-reference.md` is its output,
 //! and a test fails when a registered name has no entry or the file is out of date.
 
-use super::docs::{DOCS, PROPERTIES};
+use super::docs::{functions, properties};
 use rhai::Engine;
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -39,8 +39,8 @@ pub fn undocumented(engine: &Engine) -> Vec<Registered> {
     registered(engine)
         .into_iter()
         .filter(|r| match r {
-            Registered::Function(n) => !DOCS.iter().any(|(d, _, _)| d == n),
-            Registered::Property(n) => !PROPERTIES.iter().any(|(d, _, _)| d == n),
+            Registered::Function(n) => !functions().any(|(d, _, _)| d == n),
+            Registered::Property(n) => !properties().any(|(d, _, _)| d == n),
         })
         .collect()
 }
@@ -75,14 +75,14 @@ pub fn markdown(engine: &Engine) -> String {
          |---|---|---|\n",
     );
     let cell = |t: &str| t.replace('|', "\\|").replace('\n', " ");
-    let mut docs: Vec<_> = DOCS.iter().collect();
+    let mut docs: Vec<_> = functions().collect();
     docs.sort_by_key(|(n, _, _)| *n);
     for (name, usage, doc) in docs {
         let _ = writeln!(s, "| `{name}` | `{}` | {} |", cell(usage), cell(doc));
     }
     s.push_str("\n## Properties\n\n| name | of | what it is |\n|---|---|---|\n");
-    let mut props: Vec<_> = PROPERTIES.iter().collect();
-    props.sort_by_key(|(n, _, _)| *n);
+    let mut props: Vec<_> = properties().collect();
+    props.sort_by_key(|(n, of, _)| (*n, *of));
     for (name, of, doc) in props {
         let _ = writeln!(s, "| `{name}` | {} | {} |", cell(of), cell(doc));
     }

@@ -7,9 +7,13 @@
 //! whole input before it changes anything.
 
 use super::*;
+use crate::api::geometry::Geometry;
 use matdem_engine::state::particles::dof;
 
-pub(super) fn register(engine: &mut Engine, _host: &Rc<Host>) {
+pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
+    let h = host.clone();
+    // An empty model to build from geometry objects (MatDEM builds d from mfs objects).
+    engine.register_fn("new_model", move |name: &str| h.adopt(name, Model::new()));
     engine
         .register_fn("delete", |d: &mut ModelHandle, sel: Dynamic| -> RhaiResult<INT> {
             let mut m = d.model();
@@ -38,6 +42,10 @@ pub(super) fn register(engine: &mut Engine, _host: &Rc<Host>) {
         })
         .register_fn("add_elements", |d: &mut ModelHandle, t: Table, mat: Dynamic, group: &str| {
             add_elements(&mut d.model(), &t, &mat, group)
+        })
+        .register_fn("add_elements", |d: &mut ModelHandle, g: Geometry, mat: Dynamic, group: &str| {
+            // A geometry's values were checked when it was made.
+            add_checked(&mut d.model(), g.0.pos(), g.0.radius(), &mat, group)
         })
         .register_fn(
             "move_group",
@@ -115,6 +123,13 @@ fn add_elements(m: &mut Model, t: &Table, mat: &Dynamic, group: &str) -> RhaiRes
             )));
         }
     }
+    let pos: Vec<Vec3> = (0..rows).map(|k| Vec3::new(x[k], y[k], z[k])).collect();
+    add_checked(m, &pos, r, mat, group)
+}
+
+/// Adds elements at checked centres and radii with material `mat` (a name the model knows,
+/// or a material value) to group `group` (created, or extended). Returns the number added.
+fn add_checked(m: &mut Model, pos: &[Vec3], r: &[f64], mat: &Dynamic, group: &str) -> RhaiResult<INT> {
     let material = if let Some(name) = mat.clone().try_cast::<rhai::ImmutableString>() {
         m.material_index(&name).map_err(|e| {
             err(format!(
@@ -127,10 +142,10 @@ fn add_elements(m: &mut Model, t: &Table, mat: &Dynamic, group: &str) -> RhaiRes
         return Err(err(format!("add_elements: expected a material name or a material, got {}", mat.type_name())));
     };
     let mut ids: Vec<u32> = m.groups.get(group).map(|g| g.to_vec()).unwrap_or_default();
-    for k in 0..rows {
-        let id = m.add_particle(Vec3::new(x[k], y[k], z[k]), r[k], material).map_err(raise)?;
+    for (p, r) in pos.iter().zip(r) {
+        let id = m.add_particle(*p, *r, material).map_err(raise)?;
         ids.push(id as u32);
     }
     m.groups.set(group, ids);
-    Ok(rows as INT)
+    Ok(pos.len() as INT)
 }

@@ -73,6 +73,14 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             }),
         )
         .register_fn(
+            "connect",
+            observed!(host, "connect", |d, a: Dynamic, b: Dynamic, tol: FLOAT| {
+                let mut m = d.model();
+                let (a, b) = (resolve_ids(&m, &a)?, resolve_ids(&m, &b)?);
+                m.connect_between(&a, &b, tol).map_err(raise)? as INT
+            }),
+        )
+        .register_fn(
             "break_bonds",
             observed!(host, "break_bonds", |d, sel: Dynamic| {
                 let mut m = d.model();
