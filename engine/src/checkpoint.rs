@@ -8,12 +8,14 @@
 //! | 8 | magic `MDEMCKPT` |
 //! | 4 | format version ([`FORMAT_VERSION`]) |
 //! | 8 | payload length n |
-//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex) |
+//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex, the model's parallel bonds) |
 //! | 4 | CRC-32 (IEEE) of everything before it |
 //!
 //! The model is saved whole, derived rows included: positions, half-step velocities, forces,
 //! per-pair shear and bond state, wall contact states, walls with their servo state, groups,
-//! materials, settings, clock (time, step, dt), breakages and the heat ledger. The engine
+//! materials, settings, clock (time, step, dt), breakages, the heat ledger and the parallel
+//! bonds with their forces and moments (after the annex, from format 3: a format-2 file, which
+//! ends at the annex, loads with none). The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
@@ -21,12 +23,16 @@
 //! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
 
 use crate::model::Model;
+use crate::state::parallel_bonds::ParallelBonds;
 use serde::{Deserialize, Serialize};
 
 /// The first bytes of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
-/// Bumped whenever the payload's layout changes; older files are refused, not misread.
-pub const FORMAT_VERSION: u32 = 2;
+/// Bumped whenever the payload's layout changes; files of a version this build does not know
+/// are refused, not misread.
+pub const FORMAT_VERSION: u32 = 3;
+/// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them).
+pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
 
@@ -73,10 +79,20 @@ struct PayloadOut<'a> {
     writer: &'a str,
     model: &'a Model,
     annex: &'a [u8],
+    parallel_bonds: &'a ParallelBonds,
 }
 
 #[derive(Deserialize)]
 struct PayloadIn {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+    parallel_bonds: ParallelBonds,
+}
+
+/// Format 2: the payload ends at the annex.
+#[derive(Deserialize)]
+struct PayloadInV2 {
     writer: String,
     model: Model,
     annex: Vec<u8>,
@@ -87,7 +103,8 @@ pub const WRITER: &str = env!("CARGO_PKG_VERSION");
 
 /// Encodes `model` and the host's `annex` as checkpoint bytes.
 pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
-    let payload = postcard::to_stdvec(&PayloadOut { writer: WRITER, model, annex })
+    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds };
+    let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
         // unsupported serde features), so a failure here is an engine bug, not a user error.
         .expect("the model always serialises");
@@ -111,7 +128,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         return Err(CheckpointError::Truncated { expected: (HEADER + TRAILER) as u64, found: bytes.len() as u64 });
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != FORMAT_VERSION {
+    if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(CheckpointError::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
     }
     let len = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
@@ -134,12 +151,21 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         });
     }
     let payload = &bytes[HEADER..body];
-    let p: PayloadIn = postcard::from_bytes(payload).map_err(|e| {
+    let read = |payload| -> Result<PayloadIn, postcard::Error> {
+        if version == 2 {
+            let p: PayloadInV2 = postcard::from_bytes(payload)?;
+            Ok(PayloadIn { writer: p.writer, model: p.model, annex: p.annex, parallel_bonds: ParallelBonds::default() })
+        } else {
+            postcard::from_bytes(payload)
+        }
+    };
+    let mut p: PayloadIn = read(payload).map_err(|e| {
         // The writer's version leads the payload, so it can usually be read even when the
         // model that follows cannot.
         let writer = postcard::take_from_bytes::<String>(payload).map(|(w, _)| w).unwrap_or_else(|_| "?".into());
         CheckpointError::Incompatible { writer, reason: e.to_string() }
     })?;
+    p.model.parallel_bonds = p.parallel_bonds;
     check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
     Ok(Checkpoint { model: p.model, annex: p.annex })
 }
@@ -181,6 +207,9 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     }
     if c.has_pair_ids() && c.pair.iter().any(|&k| k as usize >= c.pair_count()) {
         return Err("pair ids out of range".into());
+    }
+    if !m.parallel_bonds.consistent(n) {
+        return Err("parallel bond rows do not match the particles".into());
     }
     Ok(())
 }

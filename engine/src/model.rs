@@ -4,10 +4,12 @@
 use crate::error::{check_positive, Error, Result};
 use crate::materials::Material;
 use crate::physics::contact_law::{BreakKind, PairState};
+use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::timestep::{critical_step, element_period, STANDARD_FRACTION};
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::state::groups::Groups;
+use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::Particles;
 use crate::walls::{Wall, MAX_WALLS};
 use serde::{Deserialize, Serialize};
@@ -130,6 +132,10 @@ pub struct Model {
     pub breakages: Vec<Breakage>,
     /// Bumped by every change that invalidates a step plan.
     pub revision: u64,
+    /// The `parallel_bond` stage's bonds (empty unless the scene made them). Saved after the
+    /// model in a checkpoint (format 3), so that a model of format 2 still reads.
+    #[serde(skip)]
+    pub parallel_bonds: ParallelBonds,
 }
 
 impl Default for Model {
@@ -151,6 +157,7 @@ impl Model {
             clock: Clock { step: 0, time: 0.0, dt: 0.0 },
             breakages: Vec::new(),
             revision: 0,
+            parallel_bonds: ParallelBonds::default(),
         }
     }
 
@@ -208,6 +215,7 @@ impl Model {
         }
         let mass = self.sphere_mass(material as usize, radius);
         let id = self.particles.push(pos, radius, mass, material);
+        self.parallel_bonds.fit(self.particles.len());
         let w = self.walls.len();
         self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
         self.contacts.stale = true;
@@ -331,6 +339,7 @@ impl Model {
         });
         let map = self.particles.retain(&keep);
         self.groups.remap(&map);
+        self.parallel_bonds.retain(&map);
         // Rows refer to old ids: renumber the survivors' rows (the map keeps the order, so
         // rows stay sorted), then rebuild from them, which carries each pair's state over and
         // keeps bonded pairs however far apart. Rows built before particles were added cover
@@ -404,6 +413,41 @@ impl Model {
         }
         self.touch();
         Ok(count)
+    }
+
+    /// Turns every MatDEM bond into a parallel bond with `params` (Potyondy & Cundall's model,
+    /// physics/parallel_bond.rs): the pair keeps a plain linear contact (compression and
+    /// friction, no tension) and gains a bond of radius λ̄·min(Ri, Rj) in parallel with it,
+    /// unloaded at the current positions. Rotation is simulated from then on. Returns the
+    /// number of bonds made; refuses a model with none (connect it first) and bad parameters.
+    pub fn bond_parallel(&mut self, params: ParallelBondParams) -> Result<usize> {
+        params.validate().map_err(Error::InvalidScene)?;
+        let c = &mut self.contacts;
+        let mut pairs = Vec::new();
+        for i in 0..c.row_start.len().saturating_sub(1) {
+            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
+                if c.state[e].bonded {
+                    if (i as u32) < c.other[e] {
+                        pairs.push((i as u32, c.other[e]));
+                    }
+                    c.state[e].bonded = false;
+                    c.state[e].shear = Vec3::zeros();
+                }
+            }
+        }
+        if pairs.is_empty() {
+            return Err(Error::InvalidScene(
+                "bond_parallel found no bonded pairs: connect the particles first (d.connect), then make the \
+                 bonds parallel"
+                    .into(),
+            ));
+        }
+        self.parallel_bonds.make(params, &pairs, self.len());
+        self.settings.rotation = true;
+        self.particles.enable_rotation();
+        self.contacts.stale = true;
+        self.touch();
+        Ok(pairs.len())
     }
 
     /// Breaks every bond that has at least one end among `ids` (all when `None`).

@@ -5,8 +5,10 @@
 use crate::materials::Material;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairParams;
+use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
 use crate::physics::Vec3;
+use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::HeatCauses;
 use crate::walls::WallMotion;
 use std::fmt;
@@ -26,6 +28,10 @@ pub enum Stage {
     ContactForces,
     /// Particle–wall contact forces and the loads the walls carry.
     WallForces,
+    /// Optional: parallel bonds (Potyondy & Cundall 2004) in parallel with the linear
+    /// contacts: their forces and moments, added to the contact sums, and their breakage. Its
+    /// lanes (the bonds' rows and states) exist only in scenes that made such bonds.
+    ParallelBond,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
     /// Optional: the energy ledger, the heat each particle releases by cause and the work
@@ -39,11 +45,12 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 8] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
         Stage::WallForces,
+        Stage::ParallelBond,
         Stage::Integrate,
         Stage::Heat,
         Stage::Guard,
@@ -56,6 +63,7 @@ impl Stage {
             Stage::Neighbours => "neighbours",
             Stage::ContactForces => "contact_forces",
             Stage::WallForces => "wall_forces",
+            Stage::ParallelBond => "parallel_bond",
             Stage::Integrate => "integrate",
             Stage::Heat => "heat",
             Stage::Guard => "guard",
@@ -93,6 +101,10 @@ pub struct StepPlan {
     pub wall: Vec<PairParams>,
     /// The heat ledger's causes this plan books (all off without the ledger).
     pub heat: HeatCauses,
+    /// The parallel bonds' parameters when the scene has them (the `parallel_bond` stage).
+    pub parallel_bond: Option<ParallelBondParams>,
+    /// Parallel-bond row entries (two per bond), for the lanes' account.
+    pub parallel_bond_entries: usize,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -101,6 +113,9 @@ pub struct LaneSet {
     pub stage: &'static str,
     pub lanes: Vec<&'static str>,
     pub bytes_per_particle: usize,
+    /// Bytes per row entry of a stage with per-pair lanes (0 for the others): the
+    /// `parallel_bond` stage's bonds, two entries each.
+    pub bytes_per_entry: usize,
 }
 
 impl StepPlan {
@@ -127,13 +142,15 @@ impl StepPlan {
         let moving_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count();
         let servo_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count();
         let bonds = m.contacts.state.iter().any(|p| p.bonded);
+        let pb = &m.parallel_bonds;
+        let parallel_bond = pb.params.filter(|_| pb.intact() > 0);
         let dashpot = m.materials.iter().any(|a| a.restitution < 1.0);
         let heat = if s.heat_ledger {
             HeatCauses {
                 damping: s.damping > 0.0 || s.local_damping > 0.0,
                 contact_damping: dashpot,
                 friction: shear_springs,
-                breakage: bonds,
+                breakage: bonds || parallel_bond.is_some(),
                 // A fixed wall does no work.
                 wall_work: moving_walls + servo_walls > 0,
             }
@@ -144,7 +161,8 @@ impl StepPlan {
             normal: s.normal,
             tangential: s.tangential,
             dashpot,
-            rotation: s.rotation,
+            // Parallel bonds carry moments: they need the particles to turn.
+            rotation: s.rotation || parallel_bond.is_some(),
             gravity: s.gravity.norm() > 0.0,
             damping: s.damping,
             local_damping: s.local_damping,
@@ -156,6 +174,8 @@ impl StepPlan {
             pair,
             wall,
             heat,
+            parallel_bond,
+            parallel_bond_entries: if parallel_bond.is_some() { pb.other.len() } else { 0 },
         }
     }
 
@@ -170,6 +190,7 @@ impl StepPlan {
         match stage {
             Stage::Walls | Stage::WallForces => self.walls > 0,
             Stage::Heat => self.heat.lanes() > 0,
+            Stage::ParallelBond => self.parallel_bond.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
         }
     }
@@ -184,15 +205,31 @@ impl StepPlan {
             stage: "core",
             lanes: vec!["pos", "vel", "force", "origin", "radius", "mass", "material", "fixed"],
             bytes_per_particle: 4 * v + 2 * f + u + 1,
+            bytes_per_entry: 0,
         }];
         if self.rotation {
-            sets.push(LaneSet { stage: "rotation", lanes: vec!["ang_vel", "torque"], bytes_per_particle: 2 * v });
+            sets.push(LaneSet {
+                stage: "rotation",
+                lanes: vec!["ang_vel", "torque"],
+                bytes_per_particle: 2 * v,
+                bytes_per_entry: 0,
+            });
+        }
+        if self.has(Stage::ParallelBond) {
+            // One row start per particle; per bond entry the partner and the state.
+            sets.push(LaneSet {
+                stage: Stage::ParallelBond.name(),
+                lanes: vec!["row_start", "other", "shear", "normal", "bending", "twist", "status"],
+                bytes_per_particle: u,
+                bytes_per_entry: ParallelBonds::ENTRY_BYTES,
+            });
         }
         if self.has(Stage::Heat) {
             sets.push(LaneSet {
                 stage: Stage::Heat.name(),
                 lanes: self.heat.names(),
                 bytes_per_particle: self.heat.lanes() * f,
+                bytes_per_entry: 0,
             });
         }
         sets
@@ -201,6 +238,11 @@ impl StepPlan {
     /// Bytes per particle of the plan's lanes on the CPU ([`lane_sets`](Self::lane_sets)).
     pub fn bytes_per_particle(&self) -> usize {
         self.lane_sets().iter().map(|s| s.bytes_per_particle).sum()
+    }
+
+    /// Bytes of the plan's per-pair lanes on the CPU (the parallel bonds' row entries).
+    pub fn pair_bytes(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_entry).sum::<usize>() * self.parallel_bond_entries
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -292,6 +334,18 @@ impl fmt::Display for StepPlan {
         }
         c.push(')');
         stages.push(c);
+        if let Some(pb) = &self.parallel_bond {
+            stages.push(format!(
+                "parallel bonds({} bonds, λ̄ {}, Ē* {:e} Pa, k̄* {}, σ̄c {:e} Pa, c̄ {:e} Pa, φ̄ {}°)",
+                self.parallel_bond_entries / 2,
+                pb.lambda,
+                pb.e_star,
+                pb.k_ratio,
+                pb.sigma_c,
+                pb.cohesion,
+                pb.phi.to_degrees()
+            ));
+        }
         let mut body = Vec::new();
         if self.gravity {
             body.push("gravity".to_string());
@@ -312,7 +366,10 @@ impl fmt::Display for StepPlan {
         let sets: Vec<String> = self
             .lane_sets()
             .iter()
-            .map(|s| format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")))
+            .map(|s| match s.bytes_per_entry {
+                0 => format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
+                e => format!("{} {} B + {e} B per bond end ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
+            })
             .collect();
         writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
         let mut off = Vec::new();
@@ -321,6 +378,9 @@ impl fmt::Display for StepPlan {
         }
         if !self.bonds {
             off.push("bonds");
+        }
+        if !self.has(Stage::ParallelBond) {
+            off.push("parallel bonds");
         }
         if !self.dashpot {
             off.push("contact dashpot");

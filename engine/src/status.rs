@@ -3,6 +3,7 @@
 
 use crate::model::{Model, NormalKind};
 use crate::physics::contact_law::{normal_energy, shear_energy, Hertz, Linear, NormalLaw, TangentialLaw};
+use crate::physics::parallel_bond;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use serde::{Deserialize, Serialize};
@@ -49,6 +50,13 @@ impl Energies {
 /// (the integrator knows the velocity at the integer step).
 pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
     let mut e = crate::with_laws!(plan, spring_energies[](m, plan));
+    if plan.has(crate::plan::Stage::ParallelBond) {
+        // The parallel bonds' springs: normal and bending with the normal springs, shear and
+        // twisting with the shear springs.
+        let (normal, shear) = parallel_bond_energies(m);
+        e.normal_elastic += normal;
+        e.shear_elastic += shear;
+    }
     let p = &m.particles;
     let g = m.settings.gravity;
     e.gravity = -(0..p.len()).map(|i| p.mass[i] * g.dot(&p.pos[i])).sum::<f64>();
@@ -92,6 +100,25 @@ fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -
         }
     }
     e
+}
+
+/// Elastic energy the intact parallel bonds hold (J), as (normal + bending, shear + twisting);
+/// each bond counted once.
+pub fn parallel_bond_energies(m: &Model) -> (f64, f64) {
+    let (p, b) = (&m.particles, &m.parallel_bonds);
+    let Some(params) = &b.params else { return (0.0, 0.0) };
+    let (mut normal, mut shear) = (0.0, 0.0);
+    for i in 0..b.row_start.len().saturating_sub(1) {
+        for e in b.row(i) {
+            let j = b.other[e] as usize;
+            if j > i && b.state[e].intact() {
+                let (en, es) = parallel_bond::energy(&b.state[e], &params.section(p.radius[i], p.radius[j]));
+                normal += en;
+                shear += es;
+            }
+        }
+    }
+    (normal, shear)
 }
 
 /// Kinetic energy from the stored (half-step) velocities (J).

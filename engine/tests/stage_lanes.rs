@@ -10,6 +10,7 @@ mod common;
 use common::material;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::simple_cubic;
+use matdem_engine::physics::parallel_bond::ParallelBondParams;
 use matdem_engine::plan::Stage;
 use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall};
 
@@ -26,6 +27,8 @@ struct Effects {
     rotation: bool,
     bonds: bool,
     ledger: bool,
+    /// The bonds made parallel bonds (the `parallel_bond` stage).
+    parallel: bool,
 }
 
 /// A 4 × 4 × 4 block of touching spheres on a floor, under gravity, with `e`'s effects.
@@ -52,6 +55,17 @@ fn block(e: Effects) -> Model {
     if e.bonds {
         m.connect(None, 1e-5).unwrap();
     }
+    if e.parallel {
+        m.bond_parallel(ParallelBondParams {
+            lambda: 1.0,
+            e_star: 1e8,
+            k_ratio: 2.0,
+            sigma_c: 1e9,
+            cohesion: 1e9,
+            phi: 0.5,
+        })
+        .unwrap();
+    }
     m.set_standard_dt().unwrap();
     m
 }
@@ -60,13 +74,17 @@ fn run(sim: &mut Simulation, steps: u64) {
     sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
 }
 
-/// The plan's lane sets by name, and the bytes per particle the CPU model holds after a run.
+/// The plan's lane sets by name, and the bytes per particle the CPU model holds after a run:
+/// its particle lanes, and the parallel bonds' rows less their per-pair entries (which the
+/// plan accounts per bond end, [`StepPlan::pair_bytes`]) and the last row's end.
 fn cpu_lanes(e: Effects) -> (Vec<&'static str>, usize, usize, Simulation) {
     let mut sim = Simulation::new(block(e));
     run(&mut sim, 20);
     let plan = sim.plan().clone();
     let sets = plan.lane_sets().iter().map(|s| s.stage).collect();
-    let held = sim.model.particles.bytes();
+    let bonds = sim.model.parallel_bonds.bytes();
+    let rows = if bonds > 0 { bonds - plan.pair_bytes() - 4 } else { 0 };
+    let held = sim.model.particles.bytes() + rows;
     assert_eq!(held % N, 0);
     (sets, plan.bytes_per_particle(), held / N, sim)
 }
@@ -97,9 +115,23 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
             vec!["friction"],
         ),
         (
-            Effects { rotation: true, friction: true, dashpot: true, bonds: true, ledger: false },
+            Effects { rotation: true, friction: true, dashpot: true, bonds: true, ledger: false, parallel: false },
             vec!["core", "rotation"],
             CORE + 48,
+            vec![],
+        ),
+        // Parallel bonds: rotation (which they need), their rows (a u32 row start a particle,
+        // plus per bond end an id and the state, counted apart) and the breakage lane.
+        (
+            Effects { bonds: true, parallel: true, ..on },
+            vec!["core", "rotation", "parallel_bond", "heat"],
+            CORE + 48 + 4 + 8,
+            vec!["breakage"],
+        ),
+        (
+            Effects { bonds: true, parallel: true, ledger: false, ..on },
+            vec!["core", "rotation", "parallel_bond"],
+            CORE + 52,
             vec![],
         ),
     ];
@@ -113,7 +145,14 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
         assert_eq!(sim.plan().stages().contains(&Stage::Heat), !heat.is_empty(), "case {k}: heat stage");
         let allocated: Vec<usize> = sim.model.particles.heat.lanes().iter().map(|l| l.len()).collect();
         assert_eq!(allocated.iter().filter(|&&l| l == N).count(), heat.len(), "case {k}: {allocated:?}");
-        assert_eq!(sim.model.particles.rotation.is_some(), effects.rotation, "case {k}: rotation lanes");
+        assert_eq!(sim.model.particles.rotation.is_some(), effects.rotation || effects.parallel, "case {k}: rotation");
+        // Per bond end: the partner's id (4 B) and the bond's state (shear, normal, bending, twist as
+        // f64, the status: 72 B); nothing without the stage.
+        let plan = sim.plan().clone();
+        let pb = &sim.model.parallel_bonds;
+        assert_eq!(plan.stages().contains(&Stage::ParallelBond), effects.parallel, "case {k}: stage");
+        assert_eq!(plan.pair_bytes(), pb.other.len() * (4 + 72), "case {k}: per-pair bytes");
+        assert_eq!(pb.bytes() == 0, !effects.parallel, "case {k}: parallel bond lanes");
     }
 }
 
@@ -122,7 +161,7 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
 // some bonds breaking or not); only the energies' heat differs, positive with it, 0 without.
 #[test]
 fn the_heat_ledger_changes_no_motion() {
-    let effects = Effects { friction: true, dashpot: true, rotation: true, bonds: true, ledger: true };
+    let effects = Effects { friction: true, dashpot: true, rotation: true, bonds: true, ledger: true, parallel: false };
     let mut with = Simulation::new(block(effects));
     let mut without = Simulation::new(block(Effects { ledger: false, ..effects }));
     // Shake the block so that contacts slide and the dashpots work.

@@ -2,6 +2,7 @@
 //! functions are the specification; backends call them (CPU) or mirror them (WGSL).
 
 pub mod contact_law;
+pub mod parallel_bond;
 pub mod restitution;
 pub mod timestep;
 

@@ -2,4 +2,5 @@
 
 pub mod contacts;
 pub mod groups;
+pub mod parallel_bonds;
 pub mod particles;

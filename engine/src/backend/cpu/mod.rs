@@ -8,6 +8,7 @@ pub mod contact_forces;
 pub mod fused;
 pub mod heat;
 pub mod integrate;
+pub mod parallel_bond;
 mod prefetch;
 pub mod wall_forces;
 
@@ -81,6 +82,12 @@ impl CpuBackend {
         let t = Instant::now();
         compute_wall_forces(m, &self.plan);
         times.add(Stage::WallForces, t.elapsed());
+        if self.plan.has(Stage::ParallelBond) {
+            let t = Instant::now();
+            let breaks = parallel_bond::parallel_bond(m, &self.plan);
+            record_breaks(m, breaks);
+            times.add(Stage::ParallelBond, t.elapsed());
+        }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
@@ -111,7 +118,9 @@ impl CpuBackend {
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
         }
-        if !observe {
+        // The parallel bonds add their loads between the core's forces and the move, so a plan
+        // with them runs the core's passes apart instead of fused.
+        if !observe && !self.plan.has(Stage::ParallelBond) {
             // Nothing is read between the forces and the move: finish each particle in one pass.
             let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
             record_breaks(m, breaks);
@@ -123,6 +132,16 @@ impl CpuBackend {
         let work_before: f64 = m.particles.heat.wall_work.iter().sum();
         compute_wall_forces(m, &self.plan);
         record_breaks(m, breaks);
+        if self.plan.has(Stage::ParallelBond) {
+            let breaks = parallel_bond::parallel_bond(m, &self.plan);
+            record_breaks(m, breaks);
+        }
+        if !observe {
+            let _ = integrate(m, &self.plan, &self.damping_c);
+            m.clock.step += 1;
+            m.clock.time += dt;
+            return None;
+        }
         let mut e = potential_energies(m, &self.plan);
         // This step's wall work, F·Δp over the wall's move to its position now, was booked
         // with the force at the end of the move; count half of it (the trapezoid rule), or

@@ -35,6 +35,7 @@ pub mod heat;
 pub mod integrate;
 pub mod memory;
 pub mod neighbours;
+pub mod parallel_bond;
 pub mod rows;
 pub mod shaders;
 pub mod wall_forces;
@@ -162,6 +163,7 @@ impl GpuBackend {
     /// Builds the pipelines `plan` needs; `damping` holds the particles' viscous damping
     /// coefficients ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(ctx: Arc<GpuContext>, m: &Model, plan: StepPlan, damping: &[f64]) -> Result<Self> {
+        parallel_bond::check_plan(&plan)?;
         let errors = Arc::new(Mutex::new(None::<String>));
         let sink = errors.clone();
         ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
