@@ -74,10 +74,8 @@ fn drive(p: ParallelBondParams, v: [Vec3; 2], w: [Vec3; 2], max: usize) -> Drive
     let mut d = Drive { states: Vec::new(), disp: Vec::new(), rot: Vec::new(), broke: None };
     for k in 0..max {
         let m = &mut sim.model;
-        for i in 0..2 {
-            m.particles.vel[i] = v[i];
-            m.particles.rotation.as_mut().unwrap().ang_vel[i] = w[i];
-        }
+        m.particles.vel.copy_from_slice(&v);
+        m.particles.rotation.as_mut().unwrap().ang_vel.copy_from_slice(&w);
         // The bond's update at this step sees the positions before the move; a new bond takes
         // no increment at its first step, so its load is that of the motion since.
         let disp = m.particles.pos[1] - m.particles.pos[0] - x0;
