@@ -204,4 +204,10 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
     assert_eq!(on - off, N * 2 * 8 - 128, "heat ledger: 2 causes");
     let rot = device_bytes(Effects { rotation: true, ..base });
     assert_eq!(rot - off, 2 * (N * 16 - 128), "rotation lanes");
+    // Parallel bonds against the same bonds as MatDEM's, rotation on in both: their row starts
+    // (N + 1 u32), per bond end an id and a 48-byte f32 state, and a 32-byte uniform.
+    let bonded = Effects { rotation: true, bonds: true, ..base };
+    let entries = Simulation::new(block(Effects { parallel: true, ..bonded })).model.parallel_bonds.other.len();
+    let pb = device_bytes(Effects { parallel: true, ..bonded }) - device_bytes(bonded);
+    assert_eq!(pb, 4 * (N + 1) + entries * (4 + 48) + 32, "parallel bond lanes");
 }

@@ -4,7 +4,7 @@
 //! brings back only what the host needs: between batches a few counters (the largest drift
 //! and speed, the guard's findings), at the end of the run the state a script reads. One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → integration; when the drift reaches half the skin the rows are rebuilt on
+//! wall forces → parallel bonds (when the scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on
 //! the device ([`rows`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
@@ -74,6 +74,8 @@ struct Pipelines {
     rows: rows::Pipelines,
     contact_forces: wgpu::ComputePipeline,
     walls: Option<WallPipelines>,
+    /// Only when the plan has parallel bonds.
+    parallel_bond: Option<wgpu::ComputePipeline>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
 }
@@ -93,6 +95,7 @@ struct Kernels {
     rows: rows::Kernels,
     contact_forces: Vec<Kernel>,
     walls: Option<WallKernels>,
+    parallel_bond: Option<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
 }
@@ -109,6 +112,8 @@ struct Session {
     host: HostLanes,
     lanes: DeviceLanes,
     kernels: Kernels,
+    /// The parallel bonds' buffers, when the plan has them.
+    bonds: Option<parallel_bond::BondLanes>,
     /// Steps run since the upload.
     steps: u64,
 }
@@ -163,7 +168,6 @@ impl GpuBackend {
     /// Builds the pipelines `plan` needs; `damping` holds the particles' viscous damping
     /// coefficients ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(ctx: Arc<GpuContext>, m: &Model, plan: StepPlan, damping: &[f64]) -> Result<Self> {
-        parallel_bond::check_plan(&plan)?;
         let errors = Arc::new(Mutex::new(None::<String>));
         let sink = errors.clone();
         ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -186,6 +190,7 @@ impl GpuBackend {
                 forces: wall_forces::pipeline(device, &constants),
                 sum_loads: walls::sum_pipeline(device, &constants),
             }),
+            parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
         };
@@ -260,7 +265,8 @@ impl GpuBackend {
         let n = m.len();
         let c = &m.contacts;
         let longest = (0..n).map(|i| c.row(i).len()).max().unwrap_or(0);
-        let bonds = c.state.iter().filter(|s| s.bonded).count() / 2;
+        // Each bond, MatDEM's or parallel, may break once: room for an event each.
+        let bonds = c.state.iter().filter(|s| s.bonded).count() / 2 + m.parallel_bonds.intact();
         let scene = memory::Scene {
             particles: n,
             longest_row: longest,
@@ -294,7 +300,14 @@ impl GpuBackend {
             one: 1.0,
             pad: [0.0; 3],
         };
-        let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limits.binding.min(limits.buffer))?;
+        let limit = limits.binding.min(limits.buffer);
+        let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
+        let bonds = match &self.plan.parallel_bond {
+            Some(pb) if self.pipelines.parallel_bond.is_some() => {
+                Some(parallel_bond::BondLanes::upload(&self.ctx, m, pb, limit)?)
+            }
+            _ => None,
+        };
         let device = &self.ctx.device;
         let p = &self.pipelines;
         let kernels = Kernels {
@@ -306,14 +319,18 @@ impl GpuBackend {
                 forces: wall_forces::kernels(device, &w.forces, &lanes),
                 sum_loads: walls::kernel(device, &w.sum_loads, &lanes),
             }),
+            parallel_bond: match (&p.parallel_bond, &bonds) {
+                (Some(pipeline), Some(b)) => Some(b.kernel(device, pipeline, &lanes)),
+                _ => None,
+            },
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
         };
-        self.device_bytes = lanes.bytes;
+        self.device_bytes = lanes.bytes + bonds.as_ref().map_or(0, |b| b.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session { host, lanes, kernels, steps: 0 })
+        Ok(Session { host, lanes, kernels, bonds, steps: 0 })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -366,6 +383,9 @@ impl GpuBackend {
                 if let Some(w) = &kr.walls {
                     dispatch_stage(&mut pass, Stage::WallForces, &w.forces);
                 }
+                if let Some(k) = &kr.parallel_bond {
+                    dispatch_stage(&mut pass, Stage::ParallelBond, [k]);
+                }
                 dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
             }
             dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
@@ -391,6 +411,9 @@ impl GpuBackend {
             self.ctx.queue.submit([enc.finish()]);
         }
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
+        if let Some(b) = &s.bonds {
+            b.download(&self.ctx, m)?;
+        }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
         let count = counters[C_EVENTS] as usize;

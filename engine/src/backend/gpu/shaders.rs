@@ -11,6 +11,7 @@ pub const NEIGHBOURS: &str = include_str!("../../../../shaders/neighbours.wgsl")
 pub const CONTACT_FORCES: &str = include_str!("../../../../shaders/contact_forces.wgsl");
 pub const WALL_FORCES: &str = include_str!("../../../../shaders/wall_forces.wgsl");
 pub const WALLS: &str = include_str!("../../../../shaders/walls.wgsl");
+pub const PARALLEL_BOND: &str = include_str!("../../../../shaders/parallel_bond.wgsl");
 pub const INTEGRATE: &str = include_str!("../../../../shaders/integrate.wgsl");
 pub const GUARD: &str = include_str!("../../../../shaders/guard.wgsl");
 pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
@@ -18,7 +19,7 @@ pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
 pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 9] = [
+pub const STAGES: [(&str, &str); 10] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -26,6 +27,7 @@ pub const STAGES: [(&str, &str); 9] = [
     ("contact_forces", CONTACT_FORCES),
     ("wall_forces", WALL_FORCES),
     ("walls", WALLS),
+    ("parallel_bond", PARALLEL_BOND),
     ("integrate", INTEGRATE),
     ("guard", GUARD),
 ];
