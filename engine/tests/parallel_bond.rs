@@ -355,8 +355,12 @@ fn parallel_bonds_are_bitwise_deterministic() {
     }
 }
 
-/// The pair of the stiffness tests driven `steps` steps in chunks of `chunk` on both backends:
-/// the bond's state at the end of each chunk, and the breakage (step, kind), on each.
+/// One backend's driven pair: the bond's state at the end of each chunk, and its break (step, kind).
+#[cfg(feature = "gpu")]
+type Driven = (Vec<BondState>, Option<(u64, BreakKind)>);
+
+/// The pair of the stiffness tests driven `steps` steps in chunks of `chunk` on both backends
+/// (CPU first).
 #[cfg(feature = "gpu")]
 fn driven_on_both(
     ctx: &std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>,
@@ -364,7 +368,7 @@ fn driven_on_both(
     w: [Vec3; 2],
     steps: u64,
     chunk: u64,
-) -> [(Vec<BondState>, Option<(u64, BreakKind)>); 2] {
+) -> [Driven; 2] {
     let mut m = heavy_pair(params());
     m.particles.vel.copy_from_slice(&v);
     m.particles.rotation.as_mut().unwrap().ang_vel.copy_from_slice(&w);
