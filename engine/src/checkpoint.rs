@@ -13,16 +13,20 @@
 //!
 //! The model is saved whole, derived rows included: positions, half-step velocities, forces,
 //! per-pair shear and bond state, wall contact states, walls with their servo state, groups,
-//! materials, settings, clock (time, step, dt), breakages, the heat ledger and the parallel
+//! materials, settings, clock (time, step, dt), breakages, the heat ledger, the parallel
 //! bonds with their forces and moments (after the annex, from format 3: a format-2 file, which
-//! ends at the annex, loads with none). The engine
+//! ends at the annex, loads with none) and the fields — heat and water settings, the thermal
+//! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
+//! file loads with heat off and no water). The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
 //!
 //! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
 
+use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
+use crate::state::thermal::ThermalLanes;
 use crate::state::parallel_bonds::ParallelBonds;
 use serde::{Deserialize, Serialize};
 
@@ -30,8 +34,9 @@ use serde::{Deserialize, Serialize};
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; files of a version this build does not know
 /// are refused, not misread.
-pub const FORMAT_VERSION: u32 = 3;
-/// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them).
+pub const FORMAT_VERSION: u32 = 4;
+/// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
+/// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -80,10 +85,36 @@ struct PayloadOut<'a> {
     model: &'a Model,
     annex: &'a [u8],
     parallel_bonds: &'a ParallelBonds,
+    fields: FieldsOut<'a>,
 }
 
 #[derive(Deserialize)]
 struct PayloadIn {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+    parallel_bonds: ParallelBonds,
+    fields: Fields,
+}
+
+/// The fields' settings and lanes (format 4), saved after the parallel bonds.
+#[derive(Serialize)]
+struct FieldsOut<'a> {
+    heat: &'a HeatSettings,
+    water: &'a WaterTable,
+    thermal: &'a ThermalLanes,
+}
+
+#[derive(Deserialize, Default)]
+struct Fields {
+    heat: HeatSettings,
+    water: WaterTable,
+    thermal: ThermalLanes,
+}
+
+/// Format 3: the payload ends at the parallel bonds.
+#[derive(Deserialize)]
+struct PayloadInV3 {
     writer: String,
     model: Model,
     annex: Vec<u8>,
@@ -103,7 +134,9 @@ pub const WRITER: &str = env!("CARGO_PKG_VERSION");
 
 /// Encodes `model` and the host's `annex` as checkpoint bytes.
 pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
-    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds };
+    let fields =
+        FieldsOut { heat: &model.settings.heat, water: &model.settings.water, thermal: &model.particles.thermal };
+    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds, fields };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
         // unsupported serde features), so a failure here is an engine bug, not a user error.
@@ -154,7 +187,22 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     let read = |payload| -> Result<PayloadIn, postcard::Error> {
         if version == 2 {
             let p: PayloadInV2 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn { writer: p.writer, model: p.model, annex: p.annex, parallel_bonds: ParallelBonds::default() })
+            Ok(PayloadIn {
+                writer: p.writer,
+                model: p.model,
+                annex: p.annex,
+                parallel_bonds: ParallelBonds::default(),
+                fields: Fields::default(),
+            })
+        } else if version == 3 {
+            let p: PayloadInV3 = postcard::from_bytes(payload)?;
+            Ok(PayloadIn {
+                writer: p.writer,
+                model: p.model,
+                annex: p.annex,
+                parallel_bonds: p.parallel_bonds,
+                fields: Fields::default(),
+            })
         } else {
             postcard::from_bytes(payload)
         }
@@ -166,6 +214,9 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         CheckpointError::Incompatible { writer, reason: e.to_string() }
     })?;
     p.model.parallel_bonds = p.parallel_bonds;
+    p.model.settings.heat = p.fields.heat;
+    p.model.settings.water = p.fields.water;
+    p.model.particles.thermal = p.fields.thermal;
     check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
     Ok(Checkpoint { model: p.model, annex: p.annex })
 }
@@ -182,6 +233,9 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     // A ledger lane is allocated (one entry per particle) or absent (empty) until a plan books it.
     if p.heat.lanes().iter().any(|l| !l.is_empty() && l.len() != n) {
         return Err("heat ledger does not match the particles".into());
+    }
+    if !p.thermal.consistent(n) {
+        return Err("thermal lanes do not match the particles".into());
     }
     if let Some(rot) = &p.rotation {
         if rot.ang_vel.len() != n || rot.torque.len() != n {

@@ -34,7 +34,8 @@ pub fn check_time_step(m: &Model) -> Result<()> {
             ));
         }
     }
-    check_gravity(m)
+    check_gravity(m)?;
+    m.check_conduction()
 }
 
 /// Refuses a gravity that by itself moves a free particle more than

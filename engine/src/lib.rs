@@ -17,6 +17,8 @@
 //!   f32) runs one step as named stages, a chunk of steps at a time, ending with the guard.
 //! - [`simulation::Simulation`] runs many steps on either, with one run loop (chunks, the
 //!   stability [`guard`]'s cadence, sampling, observers, cancellation) and MatDEM's `balance`.
+//! - [`fields`] holds the scene's fields: heat conduction with thermal expansion (the
+//!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage).
 //! - [`status`] measures energies, heat, coordination number and porosity.
 //! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
 //!   later run continues it bit for bit.
@@ -33,6 +35,7 @@ pub mod bench;
 pub mod builder;
 pub mod checkpoint;
 pub mod error;
+pub mod fields;
 pub mod geometry;
 pub mod guard;
 #[macro_use]

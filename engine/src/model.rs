@@ -81,6 +81,13 @@ pub struct Settings {
     /// do (`Energies`' heat and wall work). Off, a plan allocates and books none of its lanes
     /// and the energies report no heat.
     pub heat_ledger: bool,
+    /// Heat conduction and thermal expansion (the `conduction` stage; off by default). Saved
+    /// after the model in a checkpoint (format 4), so that older checkpoints still read.
+    #[serde(skip)]
+    pub heat: crate::fields::HeatSettings,
+    /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
+    #[serde(skip)]
+    pub water: crate::fields::WaterTable,
 }
 
 impl Default for Settings {
@@ -97,6 +104,8 @@ impl Default for Settings {
             max_overlap_ratio: 0.5,
             guard: crate::guard::GuardMode::Stop,
             heat_ledger: true,
+            heat: crate::fields::HeatSettings::default(),
+            water: crate::fields::WaterTable::default(),
         }
     }
 }
@@ -216,6 +225,10 @@ impl Model {
         let mass = self.sphere_mass(material as usize, radius);
         let id = self.particles.push(pos, radius, mass, material);
         self.parallel_bonds.fit(self.particles.len());
+        if self.particles.thermal.temperature.len() == self.len() {
+            self.particles.thermal.temperature[id] = self.settings.heat.reference;
+            self.init_thermal(id);
+        }
         let w = self.walls.len();
         self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
         self.contacts.stale = true;
@@ -264,6 +277,10 @@ impl Model {
             let i = i as usize;
             self.particles.radius[i] = r;
             self.particles.mass[i] = self.sphere_mass(self.particles.material[i] as usize, r);
+            // A radius set by hand is the element's radius at the reference temperature.
+            if let Some(r0) = self.particles.thermal.radius0.get_mut(i) {
+                *r0 = r;
+            }
         }
         self.positions_changed();
         self.touch();

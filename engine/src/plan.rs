@@ -2,6 +2,7 @@
 //! An effect that is off has no lane, no loop and no branch in a hot loop: the CPU backend
 //! picks a loop monomorphised for the plan's laws.
 
+use crate::fields::{BuoyancyPlan, ConductionPlan};
 use crate::materials::Material;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairParams;
@@ -39,13 +40,19 @@ pub enum Stage {
     /// as they dissipate, because each cause is a by-product of a core law (see
     /// docs/adding-an-effect.md).
     Heat,
+    /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
+    /// below the level, a velocity kick after integration (fields.rs).
+    Buoyancy,
+    /// Optional: heat conduction between elements in contact or bonded, sources, fixed and
+    /// insulated groups, thermal expansion of radii, every field step (fields.rs).
+    Conduction,
     /// The stability guard's checks, every `guard_every` steps.
     Guard,
 }
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
@@ -53,6 +60,8 @@ impl Stage {
         Stage::ParallelBond,
         Stage::Integrate,
         Stage::Heat,
+        Stage::Buoyancy,
+        Stage::Conduction,
         Stage::Guard,
     ];
 
@@ -66,6 +75,8 @@ impl Stage {
             Stage::ParallelBond => "parallel_bond",
             Stage::Integrate => "integrate",
             Stage::Heat => "heat",
+            Stage::Buoyancy => "buoyancy",
+            Stage::Conduction => "conduction",
             Stage::Guard => "guard",
         }
     }
@@ -105,6 +116,10 @@ pub struct StepPlan {
     pub parallel_bond: Option<ParallelBondParams>,
     /// Parallel-bond row entries (two per bond), for the lanes' account.
     pub parallel_bond_entries: usize,
+    /// Heat conduction (the scene enables heat).
+    pub conduction: Option<ConductionPlan>,
+    /// The water table's buoyancy (the scene sets a level).
+    pub buoyancy: Option<BuoyancyPlan>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -176,6 +191,8 @@ impl StepPlan {
             heat,
             parallel_bond,
             parallel_bond_entries: if parallel_bond.is_some() { pb.other.len() } else { 0 },
+            conduction: ConductionPlan::of(m),
+            buoyancy: BuoyancyPlan::of(m),
         }
     }
 
@@ -191,6 +208,8 @@ impl StepPlan {
             Stage::Walls | Stage::WallForces => self.walls > 0,
             Stage::Heat => self.heat.lanes() > 0,
             Stage::ParallelBond => self.parallel_bond.is_some(),
+            Stage::Buoyancy => self.buoyancy.is_some(),
+            Stage::Conduction => self.conduction.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
         }
     }
@@ -232,6 +251,14 @@ impl StepPlan {
                 bytes_per_entry: 0,
             });
         }
+        if let Some(c) = &self.conduction {
+            sets.push(LaneSet {
+                stage: Stage::Conduction.name(),
+                lanes: c.lanes(),
+                bytes_per_particle: c.bytes_per_particle(),
+            });
+        }
+        // Buoyancy reads the core's lanes and keeps none of its own.
         sets
     }
 
@@ -360,6 +387,22 @@ impl fmt::Display for StepPlan {
             stages.push(body.join(" + "));
         }
         stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
+        if let Some(b) = &self.buoyancy {
+            let drag =
+                if b.viscosity > 0.0 { format!(", stokes drag μ = {:.3e} Pa·s", b.viscosity) } else { String::new() };
+            stages.push(format!("buoyancy(water level z = {} m, ρ_f = {} kg/m³{drag})", b.level, b.density));
+        }
+        if let Some(c) = &self.conduction {
+            let mut w = format!("conduction(forward euler every {} step(s) in {} sub-step(s)", c.every, c.substeps);
+            if c.expansion {
+                w.push_str(", thermal expansion");
+            }
+            if c.dissipation {
+                w.push_str(", dissipated heat fed in");
+            }
+            w.push(')');
+            stages.push(w);
+        }
         writeln!(f, "step plan: {}", stages.join(" → "))?;
         let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
         writeln!(f, "stages: {}", names.join(" → "))?;
@@ -400,7 +443,13 @@ impl fmt::Display for StepPlan {
         if !self.has(Stage::Heat) {
             off.push("heat ledger");
         }
-        off.extend(["heat conduction", "fluid", "rolling resistance"]);
+        if self.conduction.is_none() {
+            off.push("heat conduction");
+        }
+        if self.buoyancy.is_none() {
+            off.push("buoyancy");
+        }
+        off.extend(["fluid flow", "rolling resistance"]);
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

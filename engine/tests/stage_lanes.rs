@@ -211,3 +211,70 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
     let pb = device_bytes(Effects { parallel: true, ..bonded }) - device_bytes(bonded);
     assert_eq!(pb, 4 * (N + 1) + entries * (4 + 48) + 32, "parallel bond lanes");
 }
+
+// The field stages: with heat and water off (every plan above) the plan has neither stage and
+// the model holds none of their lanes. Heat on adds the conduction lanes (temperature,
+// capacity, conductivity, source, conductance: f64; the mode: a byte) = 41 B a particle, and
+// expansion its coefficient and reference radius (16 B); the water table adds a stage and no
+// lane (it reads the core's).
+#[test]
+fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them() {
+    use matdem_engine::fields::ThermalProps;
+    let on = Effects { ledger: false, ..Default::default() };
+    let (sets, planned, held, mut sim) = cpu_lanes(on);
+    assert_eq!((sets, planned, held), (vec!["core"], CORE, CORE));
+    assert!(!sim.plan().has(Stage::Conduction) && !sim.plan().has(Stage::Buoyancy));
+    assert_eq!(sim.model.particles.thermal.bytes(), 0);
+    assert!(sim.plan().to_string().contains("heat conduction, buoyancy"));
+
+    for (expansion, bytes) in [(0.0, 41), (1e-5, 57)] {
+        let mut m = block(on);
+        m.enable_heat();
+        m.set_thermal_material("m", ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion }).unwrap();
+        m.settings.water.level = Some(2e-3);
+        let mut sim = Simulation::new(m);
+        run(&mut sim, 20);
+        let plan = sim.plan().clone();
+        assert!(plan.has(Stage::Conduction) && plan.has(Stage::Buoyancy));
+        let names: Vec<&str> = plan.stages().iter().map(|s| s.name()).collect();
+        assert_eq!(names.join(" "), "walls neighbours contact_forces wall_forces integrate buoyancy conduction guard");
+        let sets: Vec<&str> = plan.lane_sets().iter().map(|s| s.stage).collect();
+        assert_eq!(sets, ["core", "conduction"]);
+        assert_eq!(plan.bytes_per_particle(), CORE + bytes, "expansion {expansion}");
+        assert_eq!(sim.model.particles.bytes(), N * (CORE + bytes), "expansion {expansion}");
+        let text = plan.to_string();
+        let lanes =
+            format!("conduction {bytes} B (temperature, capacity, conductivity, source, conductance, thermal_mode");
+        assert!(text.contains(&lanes) && text.contains("buoyancy(water level z = 0.002 m"), "{text}");
+    }
+}
+
+// On the GPU the conduction lanes are (T, C, k, P) as a vec4<f32>, the next temperature, the
+// conductance and the mode (4 B each): 28 B a particle, and a 128-byte placeholder for the
+// expansion lane when no element expands; buoyancy adds no lane.
+#[cfg(feature = "gpu")]
+#[test]
+fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them_on_the_gpu() {
+    use matdem_engine::backend::gpu::GpuBackend;
+    use matdem_engine::backend::Backend;
+    use matdem_engine::fields::ThermalProps;
+    let Some(ctx) = common::gpu("field_lanes_gpu") else { return };
+    let device_bytes = |heat: bool, water: bool| {
+        let mut m = block(Effects::default());
+        if heat {
+            m.enable_heat();
+            m.set_thermal_material("m", ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 0.0 })
+                .unwrap();
+        }
+        if water {
+            m.settings.water.level = Some(2e-3);
+        }
+        let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+        matdem_engine::simulation::run_steps(&mut b, &mut m, 5, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})
+            .unwrap();
+        b.bytes()
+    };
+    let off = device_bytes(false, false);
+    assert_eq!(device_bytes(true, false) - off, N * 28 + 128, "conduction lanes");
+    assert_eq!(device_bytes(false, true), off, "buoyancy has no lane");
+}

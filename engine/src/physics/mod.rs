@@ -1,6 +1,8 @@
 //! Pure physics: contact laws, dashpots from restitution and time-step estimates. These
 //! functions are the specification; backends call them (CPU) or mirror them (WGSL).
 
+pub mod buoyancy;
+pub mod conduction;
 pub mod contact_law;
 pub mod parallel_bond;
 pub mod restitution;

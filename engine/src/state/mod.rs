@@ -4,3 +4,4 @@ pub mod contacts;
 pub mod groups;
 pub mod parallel_bonds;
 pub mod particles;
+pub mod thermal;

@@ -2,6 +2,7 @@
 //! (0-based), so a stage touches only the lanes it needs and a GPU upload is a lane copy.
 
 use crate::physics::Vec3;
+use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
 
 /// Blocked translational degrees of freedom, as bits.
@@ -35,6 +36,10 @@ pub struct Particles {
     /// Heat released per particle since the start (J), by cause: only the lanes of the causes
     /// a plan with the ledger can produce are allocated ([`HeatLedger::fit`]).
     pub heat: HeatLedger,
+    /// The `conduction` stage's lanes: temperature, capacity, … (empty while heat is off).
+    /// Saved after the model in a checkpoint (format 4), so that older checkpoints still read.
+    #[serde(skip)]
+    pub thermal: ThermalLanes,
 }
 
 /// Angular velocity and torque lanes.
@@ -87,6 +92,8 @@ impl Particles {
                 lane.push(0.0);
             }
         }
+        // The reference temperature is the model's: it sets it after the push.
+        self.thermal.push(n, 0.0, radius);
         n
     }
 
@@ -121,6 +128,7 @@ impl Particles {
                 filter(lane, keep);
             }
         }
+        self.thermal.retain(keep);
         map
     }
 
@@ -132,12 +140,12 @@ impl Particles {
         }
     }
 
-    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger).
+    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         let core = self.pos.len() * (4 * size_of::<Vec3>() + 2 * size_of::<f64>() + size_of::<u32>() + 1);
         let rotation = self.rotation.as_ref().map_or(0, |r| (r.ang_vel.len() + r.torque.len()) * size_of::<Vec3>());
-        core + rotation + self.heat.bytes()
+        core + rotation + self.heat.bytes() + self.thermal.bytes()
     }
 
     /// Moment of inertia of a solid sphere, 2/5·m·r².

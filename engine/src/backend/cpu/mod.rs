@@ -4,6 +4,8 @@
 //! simulation's ([`crate::simulation`]).
 
 pub mod blocks;
+pub mod buoyancy;
+pub mod conduction;
 pub mod contact_forces;
 pub mod fused;
 pub mod heat;
@@ -30,6 +32,8 @@ pub struct CpuBackend {
     damping_c: Vec<f64>,
     /// Per-pair results passed between the two contact passes.
     pairs: PairScratch,
+    /// The conduction stage's next temperatures (empty without it).
+    next_temperature: Vec<f64>,
 }
 
 impl CpuBackend {
@@ -43,12 +47,12 @@ impl CpuBackend {
     /// The backend for `plan`, with the particles' viscous damping coefficients
     /// ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(plan: StepPlan, damping_c: Vec<f64>) -> Self {
-        CpuBackend { plan, damping_c, pairs: PairScratch::default() }
+        CpuBackend { plan, damping_c, pairs: PairScratch::default(), next_temperature: Vec::new() }
     }
 
     /// Heap bytes of the backend's own per-particle and per-pair buffers.
     pub fn scratch_bytes(&self) -> usize {
-        self.damping_c.capacity() * std::mem::size_of::<f64>() + self.pairs.bytes()
+        (self.damping_c.capacity() + self.next_temperature.capacity()) * std::mem::size_of::<f64>() + self.pairs.bytes()
     }
 
     /// Advances the model by one step as separate passes, one per named stage (what an
@@ -91,6 +95,16 @@ impl CpuBackend {
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
+        if let Some(b) = &self.plan.buoyancy {
+            let t = Instant::now();
+            buoyancy::buoyancy(m, b, &self.damping_c);
+            times.add(Stage::Buoyancy, t.elapsed());
+        }
+        if let Some(c) = &self.plan.conduction {
+            let t = Instant::now();
+            conduction::conduction(m, c, &mut self.next_temperature);
+            times.add(Stage::Conduction, t.elapsed());
+        }
         m.clock.step += 1;
         m.clock.time += dt;
     }
@@ -124,6 +138,7 @@ impl CpuBackend {
             // Nothing is read between the forces and the move: finish each particle in one pass.
             let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
             record_breaks(m, breaks);
+            self.field_stages(m);
             m.clock.step += 1;
             m.clock.time += dt;
             return None;
@@ -155,9 +170,23 @@ impl CpuBackend {
         if self.plan.heat.damping {
             e.heat_damping += 0.5 * obs.damping_heat;
         }
+        self.field_stages(m);
         m.clock.step += 1;
         m.clock.time += dt;
         Some(e)
+    }
+}
+
+impl CpuBackend {
+    /// The optional stages after integration, each when the plan has it: the water table's
+    /// buoyancy, then heat conduction (its field step).
+    fn field_stages(&mut self, m: &mut Model) {
+        if let Some(b) = &self.plan.buoyancy {
+            buoyancy::buoyancy(m, b, &self.damping_c);
+        }
+        if let Some(c) = &self.plan.conduction {
+            conduction::conduction(m, c, &mut self.next_temperature);
+        }
     }
 }
 
@@ -181,7 +210,8 @@ impl Backend for CpuBackend {
             }
         });
         samples.into_iter().for_each(sample);
-        check_state(m)
+        check_state(m)?;
+        m.check_conduction()
     }
 
     /// The model is the state: the stiffest contact is found on it directly, O(contacts).

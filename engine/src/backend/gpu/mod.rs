@@ -28,6 +28,8 @@
 //! the host for each sample).
 
 pub mod buffers;
+pub mod buoyancy;
+pub mod conduction;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
@@ -78,6 +80,9 @@ struct Pipelines {
     parallel_bond: Option<wgpu::ComputePipeline>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
+    /// The optional field stages, only when the plan has them.
+    buoyancy: Option<wgpu::ComputePipeline>,
+    conduction: Option<conduction::Pipelines>,
 }
 
 /// The pipelines of the walls and wall_forces stages.
@@ -98,6 +103,8 @@ struct Kernels {
     parallel_bond: Option<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
+    buoyancy: Option<Kernel>,
+    conduction: Option<conduction::Kernels>,
 }
 
 /// [`WallPipelines`] bound to one upload; the wall forces one per slab.
@@ -116,6 +123,11 @@ struct Session {
     bonds: Option<parallel_bond::BondLanes>,
     /// Steps run since the upload.
     steps: u64,
+    /// The model's step at the upload (the conduction stage runs after every `every`-th).
+    step0: u64,
+    /// The conduction stage's lanes, when the plan has it (the water's uniform lives in its
+    /// kernel's bind group).
+    thermal: Option<conduction::Lanes>,
 }
 
 /// How the rows of a backend's runs were built, for tests and benchmarks: a rebuild on the
@@ -177,6 +189,13 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
+        if plan.conduction.is_some_and(|c| c.dissipation) {
+            return Err(Error::InvalidScene(
+                "feeding the dissipated heat into temperature (d.heat_dissipation = true) runs on the CPU backend \
+                 only: run with --backend cpu, or switch it off"
+                    .into(),
+            ));
+        }
         let device = &ctx.device;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
@@ -193,6 +212,8 @@ impl GpuBackend {
             parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
+            buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
+            conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
         };
         // The kernels scale velocities, so they take c_i/m_i.
         let damping_rate = damping.iter().zip(&m.particles.mass).map(|(c, mass)| c / mass).collect();
@@ -259,6 +280,9 @@ impl GpuBackend {
         if self.plan.rotation && m.particles.rotation.is_none() {
             m.particles.enable_rotation();
         }
+        if self.plan.conduction.is_some() {
+            m.fit_thermal();
+        }
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
@@ -310,6 +334,8 @@ impl GpuBackend {
         };
         let device = &self.ctx.device;
         let p = &self.pipelines;
+        let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
+        let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
             rows: rows::kernels(device, &p.rows, &lanes),
@@ -325,12 +351,20 @@ impl GpuBackend {
             },
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
+            buoyancy: p.buoyancy.as_ref().zip(water.as_ref()).map(|(b, w)| buoyancy::kernel(device, b, &lanes, w)),
+            conduction: p
+                .conduction
+                .as_ref()
+                .zip(thermal.as_ref())
+                .zip(self.plan.conduction.as_ref())
+                .map(|((c, f), plan)| conduction::kernels(device, c, &lanes, f, plan)),
         };
-        self.device_bytes = lanes.bytes + bonds.as_ref().map_or(0, |b| b.bytes);
+        self.device_bytes =
+            lanes.bytes + bonds.as_ref().map_or(0, |b| b.bytes) + thermal.as_ref().map_or(0, |t| t.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session { host, lanes, kernels, bonds, steps: 0 })
+        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -375,7 +409,7 @@ impl GpuBackend {
             let mut pass = enc
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
             let kr = &s.kernels;
-            for _ in 0..k {
+            for t in 0..k {
                 if let Some(w) = &kr.walls {
                     dispatch_stage(&mut pass, Stage::Walls, [&w.advance]);
                 }
@@ -387,6 +421,14 @@ impl GpuBackend {
                     dispatch_stage(&mut pass, Stage::ParallelBond, [k]);
                 }
                 dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
+                if let Some(b) = &kr.buoyancy {
+                    dispatch_stage(&mut pass, Stage::Buoyancy, [b]);
+                }
+                if let (Some(c), Some(plan)) = (&kr.conduction, &self.plan.conduction) {
+                    if plan.runs_after(s.step0 + s.steps + t) {
+                        c.dispatch(&mut pass);
+                    }
+                }
             }
             dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
             if guard {
@@ -413,6 +455,9 @@ impl GpuBackend {
         download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
         if let Some(b) = &s.bonds {
             b.download(&self.ctx, m)?;
+        }
+        if let (Some(t), Some(plan)) = (&s.thermal, &self.plan.conduction) {
+            t.download(&self.ctx, &s.lanes, m, plan)?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;

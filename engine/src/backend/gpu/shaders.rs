@@ -17,9 +17,11 @@ pub const GUARD: &str = include_str!("../../../../shaders/guard.wgsl");
 pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
 pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
 pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
+pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
+pub const CONDUCTION: &str = include_str!("../../../../shaders/conduction.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 10] = [
+pub const STAGES: [(&str, &str); 12] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -30,6 +32,8 @@ pub const STAGES: [(&str, &str); 10] = [
     ("parallel_bond", PARALLEL_BOND),
     ("integrate", INTEGRATE),
     ("guard", GUARD),
+    ("buoyancy", BUOYANCY),
+    ("conduction", CONDUCTION),
 ];
 
 /// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and

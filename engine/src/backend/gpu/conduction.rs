@@ -1,0 +1,179 @@
+//! The `conduction` stage on the GPU (shaders/conduction.wgsl): its lanes, pipelines and the
+//! dispatch of one field step (per sub-step: `conduct` once per slab of rows, then `settle`;
+//! then `expand` when some element expands). Built only when the plan has the stage; its
+//! buffers are made at upload and the temperatures, conductances (and radii, with expansion)
+//! come back at each download. CPU twin: `backend/cpu/conduction.rs`.
+//!
+//! Not on the device: feeding the ledger's heat into temperature (the plan's `dissipation`),
+//! which the GPU backend refuses with a message; the CPU backend runs it.
+
+use super::buffers::DeviceLanes;
+use super::device::GpuContext;
+use super::shaders::{self, groups_for, Kernel};
+use crate::error::Result;
+use crate::fields::ConductionPlan;
+use crate::model::Model;
+use crate::plan::Stage;
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// `Conduction` in conduction.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct FieldParams {
+    dt: f32,
+    bond_radius: f32,
+    reference: f32,
+    pad: f32,
+}
+
+/// The stage's pipelines.
+pub struct Pipelines {
+    conduct: wgpu::ComputePipeline,
+    settle: wgpu::ComputePipeline,
+    expand: Option<wgpu::ComputePipeline>,
+}
+
+pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
+    let mut c = constants.to_vec();
+    c.push(("EXPANSION", if plan.expansion { 1.0 } else { 0.0 }));
+    let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), shaders::CONDUCTION, entry, &c);
+    Pipelines { conduct: make("conduct"), settle: make("settle"), expand: plan.expansion.then(|| make("expand")) }
+}
+
+/// The stage's device lanes.
+pub struct Lanes {
+    params: wgpu::Buffer,
+    /// (T, C, k, P) per particle.
+    thermal: wgpu::Buffer,
+    next: wgpu::Buffer,
+    conductance: wgpu::Buffer,
+    mode: wgpu::Buffer,
+    /// (α, r0) per particle; a placeholder without expansion.
+    expansion: wgpu::Buffer,
+    /// Bytes of the lanes.
+    pub bytes: u64,
+}
+
+const STORAGE: wgpu::BufferUsages =
+    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
+
+impl Lanes {
+    /// The model's thermal lanes in f32 (the model's lanes must be fitted).
+    pub fn upload(ctx: &GpuContext, m: &Model, plan: &ConductionPlan) -> Self {
+        let th = &m.particles.thermal;
+        let n = m.len();
+        let mut bytes = 0u64;
+        let mut make = |label: &str, data: &[u8]| {
+            let zeros = [0u8; 128];
+            let contents = if data.is_empty() { &zeros[..] } else { data };
+            bytes += contents.len() as u64;
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: STORAGE,
+            })
+        };
+        let thermal: Vec<[f32; 4]> = (0..n)
+            .map(|i| [th.temperature[i] as f32, th.capacity[i] as f32, th.conductivity[i] as f32, th.source[i] as f32])
+            .collect();
+        let mode: Vec<u32> = th.mode.iter().map(|&b| u32::from(b)).collect();
+        let expansion: Vec<[f32; 2]> = if plan.expansion {
+            (0..n).map(|i| [th.expansion[i] as f32, th.radius0[i] as f32]).collect()
+        } else {
+            Vec::new()
+        };
+        let params = FieldParams {
+            dt: plan.substep(m.clock.dt) as f32,
+            bond_radius: plan.bond_radius as f32,
+            reference: plan.reference as f32,
+            pad: 0.0,
+        };
+        Lanes {
+            thermal: make("temperature", bytemuck::cast_slice(&thermal)),
+            next: make("next temperature", &vec![0u8; 4 * n]),
+            conductance: make("conductance", &vec![0u8; 4 * n]),
+            mode: make("thermal mode", bytemuck::cast_slice(&mode)),
+            expansion: make("expansion", bytemuck::cast_slice(&expansion)),
+            params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("conduction"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            }),
+            bytes,
+        }
+    }
+
+    /// Brings the temperatures and conductances back (and the radii, with expansion).
+    pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &ConductionPlan) -> Result<()> {
+        let n = d.n;
+        let thermal: Vec<[f32; 4]> = super::buffers::read(ctx, &self.thermal, n)?;
+        let g: Vec<f32> = super::buffers::read(ctx, &self.conductance, n)?;
+        let th = &mut m.particles.thermal;
+        for i in 0..n {
+            th.temperature[i] = f64::from(thermal[i][0]);
+            th.conductance[i] = f64::from(g[i]);
+        }
+        if plan.expansion {
+            let origin: Vec<[f32; 4]> = super::buffers::read(ctx, &d.origin, n)?;
+            for (r, o) in m.particles.radius.iter_mut().zip(&origin) {
+                *r = f64::from(o[3]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The pipelines bound to one upload.
+pub struct Kernels {
+    conduct: Vec<Kernel>,
+    settle: Kernel,
+    expand: Option<Kernel>,
+    substeps: u32,
+}
+
+pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes, plan: &ConductionPlan) -> Kernels {
+    let conduct = d.per_slab(device, &p.conduct, |s| {
+        vec![
+            &d.params,
+            &d.origin,
+            &d.disp,
+            &d.row_len,
+            &s.other,
+            &s.state,
+            &s.uniform,
+            &f.params,
+            &f.thermal,
+            &f.next,
+            &f.conductance,
+            &f.mode,
+        ]
+    });
+    let settle = Kernel::bind_at(device, &p.settle, &[(0, &d.params), (8, &f.thermal), (9, &f.next)], groups_for(d.n));
+    let expand = p.expand.as_ref().map(|e| {
+        Kernel::bind_at(
+            device,
+            e,
+            &[(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.thermal), (12, &f.expansion)],
+            groups_for(d.n),
+        )
+    });
+    Kernels { conduct, settle, expand, substeps: plan.substeps }
+}
+
+impl Kernels {
+    /// One field step, in the kernels' order (each in the stage's debug group).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.push_debug_group(Stage::Conduction.name());
+        for _ in 0..self.substeps {
+            for k in &self.conduct {
+                k.dispatch(pass);
+            }
+            self.settle.dispatch(pass);
+        }
+        if let Some(e) = &self.expand {
+            e.dispatch(pass);
+        }
+        pass.pop_debug_group();
+    }
+}

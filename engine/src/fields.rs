@@ -1,0 +1,425 @@
+//! The scene's fields (paper 003 §3.3): a temperature on every element, exchanged with its
+//! neighbours over the contact network and acting back on the mechanics by thermal expansion,
+//! and a water table whose buoyancy acts on the elements below it. Each is an optional stage
+//! (`conduction`, `buoyancy`) that a scene switches on and pays for only then.
+//!
+//! This file holds what a scene chooses (its settings, part of [`crate::model::Settings`]),
+//! what a plan takes from them, and the model-level calls that switch heat on and write its
+//! lanes; the pair conductance and the submerged volume are in `physics/`, the passes in the
+//! backends.
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::physics::conduction::pair_conductance;
+use crate::state::thermal::{ThermalLanes, FIXED, FREE, INSULATED};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A material's thermal properties.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThermalProps {
+    /// Thermal conductivity k (W/(m·K)) of the element's solid.
+    pub conductivity: f64,
+    /// Specific heat c (J/(kg·K)): an element's heat capacity is C = m·c.
+    pub specific_heat: f64,
+    /// Linear thermal expansion coefficient α (1/K): r = r0·(1 + α·(T − T0)).
+    pub expansion: f64,
+}
+
+impl Default for ThermalProps {
+    fn default() -> Self {
+        // No conduction and no expansion until the script says so; a capacity of zero is
+        // refused before a run (it would make any heat an infinite temperature).
+        ThermalProps { conductivity: 0.0, specific_heat: 0.0, expansion: 0.0 }
+    }
+}
+
+impl ThermalProps {
+    pub fn validate(&self, what: &str) -> Result<()> {
+        for (name, v) in
+            [("conductivity", self.conductivity), ("specific_heat", self.specific_heat), ("expansion", self.expansion)]
+        {
+            if !v.is_finite() || (name != "expansion" && v < 0.0) {
+                return Err(Error::InvalidScene(format!(
+                    "{what}: `{name}` = {v} must be a finite number{}",
+                    if name == "expansion" { "" } else { " ≥ 0" }
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Heat conduction between elements (the `conduction` stage), off by default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeatSettings {
+    pub enabled: bool,
+    /// Reference temperature T0: elements start at it, and expand from it.
+    pub reference: f64,
+    /// The field step is `every` mechanical steps: conduction runs after every `every`-th step
+    /// with Δt_f = every·dt (the temperature changes far more slowly than the contacts).
+    pub every: u32,
+    /// Forward-Euler sub-steps of each field step, each Δt_f/substeps long: the way to keep a
+    /// long field step under the stability limit C/ΣH.
+    pub substeps: u32,
+    /// Feed the heat the ledger books (damping, contact damping, friction, breakage; not wall
+    /// work) into the temperature of the element it belongs to.
+    pub dissipation: bool,
+    /// A bond's contact radius as a fraction of the smaller element's radius: bonded elements
+    /// conduct through this neck even where they barely touch.
+    pub bond_radius: f64,
+    /// Thermal properties by material name (a material not named has none).
+    pub materials: BTreeMap<String, ThermalProps>,
+}
+
+impl Default for HeatSettings {
+    fn default() -> Self {
+        HeatSettings {
+            enabled: false,
+            reference: 293.15,
+            every: 1,
+            substeps: 1,
+            dissipation: false,
+            bond_radius: 0.5,
+            materials: BTreeMap::new(),
+        }
+    }
+}
+
+/// The water table (the `buoyancy` stage), off until a level is set.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WaterTable {
+    /// Height (z) of the free surface (m); `None`: no water.
+    pub level: Option<f64>,
+    /// Fluid density ρ_f (kg/m³).
+    pub density: f64,
+    /// Dynamic viscosity μ (Pa·s) of a linear (Stokes) drag −6π·μ·r·v on the submerged part of
+    /// an element; 0 = no drag.
+    pub viscosity: f64,
+}
+
+impl Default for WaterTable {
+    fn default() -> Self {
+        WaterTable { level: None, density: 1000.0, viscosity: 0.0 }
+    }
+}
+
+/// What a plan with the `conduction` stage runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConductionPlan {
+    pub reference: f64,
+    pub every: u32,
+    pub substeps: u32,
+    pub bond_radius: f64,
+    /// Some element has α ≠ 0: radii follow temperature (the `expansion` and `radius0` lanes).
+    pub expansion: bool,
+    /// The ledger's heat is fed into temperature (the `fed` lane).
+    pub dissipation: bool,
+}
+
+impl ConductionPlan {
+    /// The plan's conduction, when the scene enables heat.
+    pub fn of(m: &Model) -> Option<Self> {
+        let h = &m.settings.heat;
+        h.enabled.then(|| ConductionPlan {
+            reference: h.reference,
+            every: h.every.max(1),
+            substeps: h.substeps.max(1),
+            bond_radius: h.bond_radius,
+            expansion: !m.particles.thermal.expansion.is_empty() || h.materials.values().any(|p| p.expansion != 0.0),
+            dissipation: h.dissipation,
+        })
+    }
+
+    /// Whether conduction runs after the step that starts at `step`.
+    pub fn runs_after(&self, step: u64) -> bool {
+        (step + 1).is_multiple_of(u64::from(self.every))
+    }
+
+    /// One forward-Euler sub-step (s).
+    pub fn substep(&self, dt: f64) -> f64 {
+        dt * f64::from(self.every) / f64::from(self.substeps)
+    }
+
+    /// The lanes a particle carries, in [`ThermalLanes`]' order.
+    pub fn lanes(&self) -> Vec<&'static str> {
+        let mut l = vec!["temperature", "capacity", "conductivity", "source", "conductance", "thermal_mode"];
+        if self.expansion {
+            l.extend(["expansion", "radius0"]);
+        }
+        if self.dissipation {
+            l.push("fed");
+        }
+        l
+    }
+
+    /// Bytes per particle of [`lanes`](Self::lanes) on the CPU (f64, the mode a byte).
+    pub fn bytes_per_particle(&self) -> usize {
+        8 * (self.lanes().len() - 1) + 1
+    }
+}
+
+/// What a plan with the `buoyancy` stage runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BuoyancyPlan {
+    pub level: f64,
+    pub density: f64,
+    pub viscosity: f64,
+}
+
+impl BuoyancyPlan {
+    pub fn of(m: &Model) -> Option<Self> {
+        let w = &m.settings.water;
+        w.level.map(|level| BuoyancyPlan { level, density: w.density, viscosity: w.viscosity })
+    }
+}
+
+impl Model {
+    /// Switches heat conduction on and allocates its lanes (every element at the reference
+    /// temperature, with its material's properties).
+    pub fn enable_heat(&mut self) {
+        self.settings.heat.enabled = true;
+        self.fit_thermal();
+    }
+
+    /// Allocates the thermal lanes the settings call for, for every element (a no-op once
+    /// they are); the expansion lanes only when some element expands.
+    pub fn fit_thermal(&mut self) {
+        let Some(plan) = ConductionPlan::of(self) else { return };
+        let n = self.len();
+        let t = &self.particles.thermal;
+        let fresh = t.temperature.len() != n;
+        if fresh {
+            let th = &mut self.particles.thermal;
+            th.temperature = vec![plan.reference; n];
+            th.capacity = vec![0.0; n];
+            th.conductivity = vec![0.0; n];
+            th.source = vec![0.0; n];
+            th.conductance = vec![0.0; n];
+            th.mode = vec![FREE; n];
+        }
+        if plan.expansion && self.particles.thermal.expansion.len() != n {
+            self.particles.thermal.expansion = vec![0.0; n];
+            self.particles.thermal.radius0 = self.particles.radius.clone();
+        }
+        if plan.dissipation && self.particles.thermal.fed.len() != n {
+            // Heat booked before feeding was switched on stays out of the temperature.
+            self.particles.thermal.fed = (0..n).map(|i| self.booked_heat(i)).collect();
+        }
+        if fresh {
+            for i in 0..n {
+                self.init_thermal(i);
+            }
+        }
+    }
+
+    /// Sets element `i`'s capacity, conductivity and expansion from its material.
+    pub(crate) fn init_thermal(&mut self, i: usize) {
+        let name = &self.materials[self.particles.material[i] as usize].name;
+        let p = self.settings.heat.materials.get(name).copied().unwrap_or_default();
+        let n = self.particles.len();
+        let mass = self.particles.mass[i];
+        let th = &mut self.particles.thermal;
+        if th.temperature.len() != n {
+            return;
+        }
+        th.capacity[i] = mass * p.specific_heat;
+        th.conductivity[i] = p.conductivity;
+        if !th.expansion.is_empty() {
+            th.expansion[i] = p.expansion;
+        }
+    }
+
+    /// The heat the ledger has booked on element `i` (J), wall work excluded.
+    pub fn booked_heat(&self, i: usize) -> f64 {
+        let h = &self.particles.heat;
+        [&h.damping, &h.contact_damping, &h.friction, &h.breakage]
+            .iter()
+            .map(|l| l.get(i).copied().unwrap_or(0.0))
+            .sum()
+    }
+
+    /// Sets a material's thermal properties (and those of its elements, when the lanes exist).
+    pub fn set_thermal_material(&mut self, material: &str, props: ThermalProps) -> Result<()> {
+        let k = self.material_index(material)?;
+        props.validate(&format!("thermal properties of material `{material}`"))?;
+        self.settings.heat.materials.insert(material.to_string(), props);
+        self.fit_thermal();
+        for i in 0..self.len() {
+            if self.particles.material[i] == k {
+                self.init_thermal(i);
+            }
+        }
+        Ok(())
+    }
+
+    /// Overrides the thermal properties of the elements of group `group` (heat must be on).
+    pub fn set_thermal_group(&mut self, group: &str, props: ThermalProps) -> Result<()> {
+        props.validate(&format!("thermal properties of group `{group}`"))?;
+        let ids = self.groups.get(group)?.to_vec();
+        if props.expansion != 0.0 && self.particles.thermal.expansion.is_empty() {
+            let n = self.len();
+            self.particles.thermal.expansion = vec![0.0; n];
+            self.particles.thermal.radius0 = self.particles.radius.clone();
+        }
+        self.thermal_lanes("set the thermal properties of a group")?;
+        let p = &mut self.particles;
+        let th = &mut p.thermal;
+        for &i in &ids {
+            let i = i as usize;
+            th.capacity[i] = p.mass[i] * props.specific_heat;
+            th.conductivity[i] = props.conductivity;
+            if !th.expansion.is_empty() {
+                th.expansion[i] = props.expansion;
+            }
+        }
+        self.touch_plan();
+        Ok(())
+    }
+
+    /// Holds group `group` at its current temperature (`Some(t)`: at `t`), or frees it.
+    pub fn set_thermal_mode(&mut self, group: &str, mode: ThermalMode) -> Result<()> {
+        let ids = self.groups.get(group)?.to_vec();
+        let th = self.thermal_lanes("set a fixed-temperature or insulated group")?;
+        for &i in &ids {
+            let i = i as usize;
+            th.mode[i] = match mode {
+                ThermalMode::Free => FREE,
+                ThermalMode::Fixed(t) => {
+                    if let Some(t) = t {
+                        th.temperature[i] = t;
+                    }
+                    FIXED
+                }
+                ThermalMode::Insulated => INSULATED,
+            };
+        }
+        Ok(())
+    }
+
+    /// A heat source: `power` watts shared equally among the elements of `group` (replaces an
+    /// earlier source on them; 0 removes it).
+    pub fn set_heat_source(&mut self, group: &str, power: f64) -> Result<()> {
+        if !power.is_finite() {
+            return Err(Error::InvalidScene(format!("heat source of group `{group}`: power {power} W is not finite")));
+        }
+        let ids = self.groups.get(group)?.to_vec();
+        if ids.is_empty() {
+            return Err(Error::InvalidScene(format!("heat source: group `{group}` is empty")));
+        }
+        let th = self.thermal_lanes("add a heat source")?;
+        let each = power / ids.len() as f64;
+        for &i in &ids {
+            th.source[i as usize] = each;
+        }
+        Ok(())
+    }
+
+    /// The thermal lanes, or an error saying heat is off.
+    pub fn thermal_lanes(&mut self, to: &str) -> Result<&mut ThermalLanes> {
+        if !self.settings.heat.enabled {
+            return Err(Error::InvalidScene(format!("heat is off: call d.enable(\"heat\") before you {to}")));
+        }
+        self.fit_thermal();
+        Ok(&mut self.particles.thermal)
+    }
+
+    /// Writes every element's temperature (heat must be on).
+    pub fn set_temperatures(&mut self, t: &[f64]) -> Result<()> {
+        let n = self.len();
+        if t.len() != n {
+            return Err(Error::InvalidScene(format!(
+                "temperature: {} values for {n} elements; give one per element",
+                t.len()
+            )));
+        }
+        if let Some(k) = t.iter().position(|v| !v.is_finite()) {
+            return Err(Error::InvalidScene(format!("temperature of element {k} is {}: give a finite value", t[k])));
+        }
+        self.thermal_lanes("set temperatures")?.temperature.copy_from_slice(t);
+        Ok(())
+    }
+
+    /// Invalidates a prepared plan (lanes that change the plan were added).
+    fn touch_plan(&mut self) {
+        self.revision += 1;
+    }
+
+    /// The forward-Euler stability check of conduction: every free element needs
+    /// Δt_f < C_i/ΣH_i, with ΣH_i from the current contacts (rows must be built; without rows
+    /// nothing is checked). The error names the element, its limit and the fix.
+    pub fn check_conduction(&self) -> Result<()> {
+        let Some(plan) = ConductionPlan::of(self) else { return Ok(()) };
+        let th = &self.particles.thermal;
+        let n = self.len();
+        if th.temperature.len() != n {
+            return Ok(());
+        }
+        let dt = plan.substep(self.clock.dt);
+        let p = &self.particles;
+        let c = &self.contacts;
+        let rows = c.row_start.len() == n + 1 && !c.stale;
+        for i in 0..n {
+            if th.mode[i] == FIXED {
+                continue;
+            }
+            let name = || &self.materials[p.material[i] as usize].name;
+            if th.capacity[i] <= 0.0 {
+                return Err(Error::InvalidScene(format!(
+                    "heat conduction: element {i} (material `{}`) has no heat capacity (C = m·c = {}): set its \
+                     specific heat with d.thermal(\"{}\", #{{specific_heat: …}}) or fix its temperature",
+                    name(),
+                    th.capacity[i],
+                    name()
+                )));
+            }
+            if !rows || th.mode[i] == INSULATED {
+                continue;
+            }
+            let mut g = 0.0;
+            for k in c.row(i) {
+                let j = c.other[k] as usize;
+                if th.mode[j] == INSULATED {
+                    continue;
+                }
+                let d = (p.pos[j] - p.pos[i]).norm();
+                g += pair_conductance(
+                    th.conductivity[i],
+                    th.conductivity[j],
+                    p.radius[i],
+                    p.radius[j],
+                    d,
+                    c.state[k].bonded,
+                    plan.bond_radius,
+                );
+            }
+            let limit = th.capacity[i] / g;
+            if g > 0.0 && dt >= limit {
+                let need = (f64::from(plan.every) * self.clock.dt / limit).floor() as u64 + 1;
+                return Err(Error::InvalidScene(format!(
+                    "heat conduction is unstable at element {i} (material `{}`): its capacity C = {:.3e} J/K and \
+                     conductance ΣH = {g:.3e} W/K allow a field step below C/ΣH = {limit:.3e} s (forward Euler), but \
+                     the field step is {dt:.3e} s ({} mechanical steps of {:.3e} s in {} sub-steps). Fix: set \
+                     d.heat_substeps to {need} or more, or a smaller d.heat_every",
+                    name(),
+                    th.capacity[i],
+                    plan.every,
+                    self.clock.dt,
+                    plan.substeps
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How an element takes part in conduction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ThermalMode {
+    /// Exchanges heat with its neighbours.
+    Free,
+    /// Held at its temperature (or at the one given): a boundary at a fixed temperature.
+    Fixed(Option<f64>),
+    /// Exchanges no heat with any neighbour (an adiabatic element); sources still heat it.
+    Insulated,
+}

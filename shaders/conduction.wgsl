@@ -1,0 +1,108 @@
+// The `conduction` stage on the GPU: one field step of heat conduction in forward-Euler
+// sub-steps, then thermal expansion. Each element sums its own row (the pairs that overlap or
+// are bonded, H = 4·a·k1·k2/(k1 + k2) with a the Hertz radius √(R*·δ), at least the bond's neck
+// for a bonded pair) and writes only its own next temperature and ΣH; `settle` then makes the
+// next temperatures current, and `expand` sets r = r0·(1 + α·(T − T0)) in origin.w, which every
+// stage reads as the radius. No atomics. CPU twin: backend/cpu/conduction.rs.
+
+// Some element expands (the plan's `expansion`).
+override EXPANSION: bool = false;
+
+const FIXED: u32 = 1u;
+const INSULATED: u32 = 2u;
+
+struct Conduction {
+    // One forward-Euler sub-step (s).
+    dt: f32,
+    // A bond's neck radius as a fraction of the smaller radius.
+    bond_radius: f32,
+    // T0, where radii are r0.
+    reference: f32,
+    pad: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> row_len: array<u32>;
+@group(0) @binding(4) var<storage, read> other: array<u32>;
+@group(0) @binding(5) var<storage, read> state: array<vec4<f32>>;
+@group(0) @binding(6) var<uniform> slab: Slab;
+@group(0) @binding(7) var<uniform> field: Conduction;
+// x temperature, y capacity C = m·c, z conductivity k, w source (W).
+@group(0) @binding(8) var<storage, read_write> thermal: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> next: array<f32>;
+@group(0) @binding(10) var<storage, read_write> conductance: array<f32>;
+@group(0) @binding(11) var<storage, read> mode: array<u32>;
+// x expansion coefficient α, y radius r0 at T0.
+@group(0) @binding(12) var<storage, read> expansion: array<vec2<f32>>;
+
+fn pair_conductance(ki: f32, kj: f32, ri: f32, rj: f32, dist: f32, bonded: bool) -> f32 {
+    let overlap = ri + rj - dist;
+    var a = 0.0;
+    if overlap > 0.0 {
+        a = sqrt(ri * rj / (ri + rj) * overlap);
+    }
+    if bonded {
+        a = max(a, field.bond_radius * min(ri, rj));
+    }
+    if a > 0.0 && ki + kj > 0.0 {
+        return 4.0 * a * ki * kj / (ki + kj);
+    }
+    return 0.0;
+}
+
+@compute @workgroup_size(64)
+fn conduct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
+        return;
+    }
+    let i = slab.first + local;
+    let ti = thermal[i];
+    let oi = origin[i].xyz;
+    let ri = origin[i].w;
+    let ui = disp[i].xyz;
+    var q = ti.w;
+    var sum_h = 0.0;
+    if mode[i] != INSULATED {
+        let start = local * params.cap;
+        let end = start + row_len[i];
+        for (var e = start; e < end; e++) {
+            let j = other[e];
+            if mode[j] == INSULATED {
+                continue;
+            }
+            let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+            let tj = thermal[j];
+            let h = pair_conductance(ti.z, tj.z, ri, origin[j].w, length(d), state[e].w != 0.0);
+            q += h * (tj.x - ti.x);
+            sum_h += h;
+        }
+    }
+    conductance[i] = sum_h;
+    if mode[i] == FIXED {
+        next[i] = ti.x;
+    } else {
+        next[i] = ti.x + field.dt * q / ti.y;
+    }
+}
+
+@compute @workgroup_size(64)
+fn settle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n {
+        return;
+    }
+    thermal[i].x = next[i];
+}
+
+@compute @workgroup_size(64)
+fn expand(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n || !EXPANSION {
+        return;
+    }
+    let e = expansion[i];
+    origin[i].w = e.y * (1.0 + e.x * (thermal[i].x - field.reference));
+}
