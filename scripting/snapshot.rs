@@ -1,5 +1,5 @@
 //! ParaView snapshots: the particles as VTK PolyData XML (`.vtp`) — one point per particle
-//! with radius, velocity, displacement, force, group and material, and each intact bond as a
+//! with radius, velocity, displacement, force, group, material (and temperature, with heat on), and each intact bond as a
 //! line — and a `.pvd` collection that lists a series of them by time, so ParaView plays
 //! them as an animation (open the `.pvd`, then apply a Glyph filter scaled by `radius`).
 
@@ -45,6 +45,9 @@ pub fn vtp(m: &Model) -> String {
     array(&mut s, "Float64", "force", 3, vec3(n, |i| p.force[i]), "");
     array(&mut s, "Int64", "group", 1, group.iter().map(|g| g.to_string()), "");
     array(&mut s, "Int64", "material", 1, p.material.iter().map(|k| k.to_string()), "");
+    if m.settings.heat.enabled && p.thermal.temperature.len() == n {
+        array(&mut s, "Float64", "temperature", 1, p.thermal.temperature.iter().map(|&t| num(t)), "");
+    }
     s.push_str("      </PointData>\n      <Points>\n");
     array(&mut s, "Float64", "position", 3, vec3(n, |i| p.pos[i]), "");
     s.push_str("      </Points>\n      <Verts>\n");

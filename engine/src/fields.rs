@@ -253,27 +253,38 @@ impl Model {
         Ok(())
     }
 
-    /// Overrides the thermal properties of the elements of group `group` (heat must be on).
-    pub fn set_thermal_group(&mut self, group: &str, props: ThermalProps) -> Result<()> {
-        props.validate(&format!("thermal properties of group `{group}`"))?;
+    /// Overrides the thermal properties the update names for the elements of group `group`
+    /// (heat must be on); the others keep theirs.
+    pub fn set_thermal_group(&mut self, group: &str, update: ThermalUpdate) -> Result<()> {
+        let check = ThermalProps {
+            conductivity: update.conductivity.unwrap_or(0.0),
+            specific_heat: update.specific_heat.unwrap_or(0.0),
+            expansion: update.expansion.unwrap_or(0.0),
+        };
+        check.validate(&format!("thermal properties of group `{group}`"))?;
         let ids = self.groups.get(group)?.to_vec();
-        if props.expansion != 0.0 && self.particles.thermal.expansion.is_empty() {
+        self.thermal_lanes("set the thermal properties of a group")?;
+        if update.expansion.is_some_and(|a| a != 0.0) && self.particles.thermal.expansion.is_empty() {
             let n = self.len();
             self.particles.thermal.expansion = vec![0.0; n];
             self.particles.thermal.radius0 = self.particles.radius.clone();
+            // The plan gains the expansion lanes.
+            self.touch_plan();
         }
-        self.thermal_lanes("set the thermal properties of a group")?;
         let p = &mut self.particles;
         let th = &mut p.thermal;
         for &i in &ids {
             let i = i as usize;
-            th.capacity[i] = p.mass[i] * props.specific_heat;
-            th.conductivity[i] = props.conductivity;
-            if !th.expansion.is_empty() {
-                th.expansion[i] = props.expansion;
+            if let Some(c) = update.specific_heat {
+                th.capacity[i] = p.mass[i] * c;
+            }
+            if let Some(k) = update.conductivity {
+                th.conductivity[i] = k;
+            }
+            if let (Some(a), false) = (update.expansion, th.expansion.is_empty()) {
+                th.expansion[i] = a;
             }
         }
-        self.touch_plan();
         Ok(())
     }
 
@@ -410,6 +421,25 @@ impl Model {
             }
         }
         Ok(())
+    }
+}
+
+/// Thermal properties to change, each when given.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ThermalUpdate {
+    pub conductivity: Option<f64>,
+    pub specific_heat: Option<f64>,
+    pub expansion: Option<f64>,
+}
+
+impl ThermalUpdate {
+    /// `base` with the given properties replaced.
+    pub fn apply(&self, base: ThermalProps) -> ThermalProps {
+        ThermalProps {
+            conductivity: self.conductivity.unwrap_or(base.conductivity),
+            specific_heat: self.specific_heat.unwrap_or(base.specific_heat),
+            expansion: self.expansion.unwrap_or(base.expansion),
+        }
     }
 }
 

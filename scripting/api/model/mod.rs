@@ -5,7 +5,8 @@
 //! laws, effects), `groups` (groups, materials, fixities, bonds), `boundaries` (walls and
 //! servos), `running` (run and balance, journaled for resume), `observation` (records,
 //! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
-//! `regions` (masks from geometry, layers).
+//! `regions` (masks from geometry, layers) and `fields` (temperature, heat conduction, the
+//! water table).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -20,6 +21,7 @@ macro_rules! observed {
 
 mod boundaries;
 mod elements;
+mod fields;
 mod groups;
 mod lanes;
 mod observation;
@@ -154,4 +156,5 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     observation::register(engine, &host);
     elements::register(engine, &host);
     regions::register(engine, &host);
+    fields::register(engine, &host);
 }

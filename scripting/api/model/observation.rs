@@ -120,6 +120,11 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
     for w in &m.walls {
         row.push((format!("{}_stress", w.name), w.stress()));
     }
+    let t = &m.particles.thermal.temperature;
+    if m.settings.heat.enabled && t.len() == m.len() && !t.is_empty() {
+        row.push(("mean_temperature".to_string(), t.iter().sum::<f64>() / t.len() as f64));
+        row.push(("max_temperature".to_string(), t.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
+    }
     row.extend(extra);
     Ok(row.into_iter().map(|(k, v)| Dynamic::from_array(vec![k.into(), v.into()])).collect())
 }

@@ -62,8 +62,22 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     m.particles.enable_rotation();
                     Ok(())
                 }
-                other => Err(raise(matdem_engine::Error::unknown("effect", other, &["rotation"]))),
+                "heat" => {
+                    m.enable_heat();
+                    Ok(())
+                }
+                other => Err(raise(matdem_engine::Error::unknown("effect", other, &["rotation", "heat"]))),
             }
+        })
+        .register_fn("disable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
+            let mut m = d.model();
+            match effect {
+                // The lanes stay (a later enable continues from them); the plan drops the stage.
+                "heat" => m.settings.heat.enabled = false,
+                "water" => m.settings.water.level = None,
+                other => return Err(raise(matdem_engine::Error::unknown("effect", other, &["heat", "water"]))),
+            }
+            Ok(())
         })
         .register_fn("plan", |d: &mut ModelHandle| d.data().sim.plan().to_string());
 }

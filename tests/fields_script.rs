@@ -1,0 +1,137 @@
+//! Issue 15 from a script: `d.enable("heat")`, `d.temperature` as a writable whole-array field,
+//! `d.thermal` per material and per group, fixed and heated groups, the field step settings,
+//! thermal expansion of radii, the water table, `d.plan()` listing the field stages and their
+//! lanes, records and snapshots carrying temperature, and the refusals of bad input.
+
+mod common;
+use common::SMALL_BOX;
+use matdem_rs::api::Host;
+use std::rc::Rc;
+
+fn engine(name: &str) -> rhai::Engine {
+    matdem_rs::new_engine(Rc::new(Host::new(common::temp_dir(name))))
+}
+
+fn refusal(name: &str, script: &str) -> String {
+    match engine(name).eval::<rhai::Dynamic>(script) {
+        Ok(v) => panic!("{name}: accepted ({v}) instead of refused"),
+        Err(e) => e.to_string(),
+    }
+}
+
+// Heat on: every element starts at the reference temperature; a uniform rise of 100 K with
+// α = 1e-5 grows every radius by 1e-3 of itself after one field step; a fixed hot group stays
+// at its temperature while heat flows out of it; the plan names the stage and its lanes; a
+// record carries the mean and largest temperature.
+#[test]
+fn heat_from_a_script_conducts_expands_and_is_recorded() {
+    let script = format!(
+        r#"{SMALL_BOX}
+        // Grown a tenth, so that the loose box's elements touch and conduct.
+        d.r = d.r * 1.1;
+        d.enable("heat");
+        let t0 = d.temperature.mean();
+        d.thermal("m", #{{ conductivity: 2.0, specific_heat: 800.0, expansion: 1e-5 }});
+        let r0 = d.r;
+        d.temperature = d.reference_temperature + 100.0;
+        d.run(1);
+        let growth = (d.r / r0).mean();
+        let g = d.conductance.max();
+        d.add_group("hot", d.z < 0.001);
+        d.fix_temperature("hot", 500.0);
+        d.heat_every = 10;
+        d.heat_substeps = 2;
+        d.run(200);
+        d.record();
+        let plan = d.plan();
+        let t = d.temperature;
+        #{{ t0: t0, growth: growth, hot: t.select(d.in_group("hot")).min(), rest: t.select(!d.in_group("hot")).max(),
+            plan: plan, mean: d.status["mean_temperature"][0], max: d.status["max_temperature"][0],
+            every: d.heat_every, g: g }}"#
+    );
+    let out: rhai::Map = engine("heat_script").eval(&script).unwrap_or_else(|e| panic!("{e}"));
+    let f = |k: &str| out[k].as_float().unwrap();
+    assert!((f("t0") - 293.15).abs() < 1e-9, "{}", f("t0"));
+    assert!((f("growth") - (1.0 + 1e-5 * 100.0)).abs() < 1e-12, "growth {}", f("growth"));
+    assert_eq!(f("hot"), 500.0);
+    let rest = f("rest");
+    assert!(rest > 393.15 && rest < 500.0, "heat flowed out of the hot group: {rest}");
+    assert!(f("max") == 500.0 && f("mean") > 393.15);
+    assert!(f("g") > 0.0);
+    assert_eq!(out["every"].as_int().unwrap(), 10);
+    let plan = out["plan"].clone().into_string().unwrap();
+    assert!(plan.contains("conduction(forward euler every 10 step(s) in 2 sub-step(s), thermal expansion)"), "{plan}");
+    assert!(plan.contains("conduction 57 B (temperature, capacity, conductivity, source, conductance, thermal_mode, expansion, radius0)"), "{plan}");
+    assert!(plan.contains("→ conduction → guard") && plan.contains("buoyancy"), "{plan}");
+}
+
+// A group can override its material's conductivity; a heat source warms its group; the water
+// table adds the buoyancy stage (and reads back); disabling both leaves the plan without them.
+#[test]
+fn groups_sources_and_the_water_table_from_a_script() {
+    let script = format!(
+        r#"{SMALL_BOX}
+        d.enable("heat");
+        d.thermal("m", #{{ conductivity: 2.0, specific_heat: 800.0 }});
+        d.add_group("core", d.z < 0.0015);
+        d.thermal("core", #{{ conductivity: 0.0 }});
+        d.heat_source("core", 1e-3);
+        let before = d.temperature.select(d.in_group("core")).mean();
+        d.water_level = 0.002;
+        d.fluid_density = 1000.0;
+        d.fluid_viscosity = 1e-3;
+        d.gravity = [0.0, 0.0, -9.81];
+        d.run(100);
+        let after = d.temperature.select(d.in_group("core")).mean();
+        let plan = d.plan();
+        let level = d.water_level;
+        d.disable("water");
+        d.disable("heat");
+        #{{ rise: after - before, plan: plan, level: level, off: d.plan(), dry: d.water_level }}"#
+    );
+    let out: rhai::Map = engine("fields_groups").eval(&script).unwrap_or_else(|e| panic!("{e}"));
+    assert!(out["rise"].as_float().unwrap() > 0.0);
+    assert_eq!(out["level"].as_float().unwrap(), 0.002);
+    assert!(out["dry"].is_unit());
+    let plan = out["plan"].clone().into_string().unwrap();
+    assert!(plan.contains("buoyancy(water level z = 0.002 m, ρ_f = 1000 kg/m³, stokes drag"), "{plan}");
+    let off = out["off"].clone().into_string().unwrap();
+    assert!(!off.contains("stages: walls → neighbours → contact_forces → wall_forces → integrate → buoyancy"), "{off}");
+    assert!(off.contains("heat conduction, buoyancy"), "{off}");
+}
+
+#[test]
+fn bad_field_input_is_refused_with_what_to_do() {
+    let cases = [
+        ("d.temperature", "d.enable(\"heat\")"),
+        ("d.temperature = 300.0", "d.enable(\"heat\")"),
+        ("d.enable(\"heat\"); d.temperature = [1.0, 2.0].map(|x| x) ; ", "expected a number or a Field"),
+        ("d.enable(\"heat\"); d.thermal(\"granite\", #{ conductivity: 1.0 })", "neither a material nor a group"),
+        ("d.enable(\"heat\"); d.thermal(\"m\", #{ conductivty: 1.0 })", "conductivity"),
+        ("d.enable(\"heat\"); d.thermal(\"m\", #{ conductivity: -1.0 })", "≥ 0"),
+        ("d.heat_substeps = 0", "integer ≥ 1"),
+        ("d.fluid_density = -1.0", "fluid_density"),
+        ("d.enable(\"moisture\")", "heat"),
+        ("d.fix_temperature(\"sample\", 300.0)", "d.enable(\"heat\")"),
+        // No capacity: refused before the run, naming the setting.
+        ("d.enable(\"heat\"); d.run(1)", "specific_heat"),
+    ];
+    for (k, (call, expected)) in cases.into_iter().enumerate() {
+        let e = refusal(&format!("fields_bad_{k}"), &format!("{SMALL_BOX} {call}"));
+        assert!(e.contains(expected), "{call}: {e}");
+    }
+}
+
+// ParaView snapshots carry the temperature when heat is on, and not otherwise.
+#[test]
+fn snapshots_carry_the_temperature() {
+    use matdem_engine::{Material, Model, Vec3};
+    let mut m = Model::new();
+    let k = m.add_material(Material::from_micro("m", 2650.0, 1e5, 1e4, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
+    m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+    assert!(!matdem_rs::snapshot::vtp(&m).contains("temperature"));
+    m.enable_heat();
+    m.set_temperatures(&[321.5]).unwrap();
+    let vtp = matdem_rs::snapshot::vtp(&m);
+    assert!(vtp.contains("Name=\"temperature\"") && vtp.contains("321.5"), "{vtp}");
+}
