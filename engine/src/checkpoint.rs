@@ -26,8 +26,8 @@
 
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
-use crate::state::thermal::ThermalLanes;
 use crate::state::parallel_bonds::ParallelBonds;
+use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
 
 /// The first bytes of every checkpoint.

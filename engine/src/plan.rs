@@ -256,6 +256,7 @@ impl StepPlan {
                 stage: Stage::Conduction.name(),
                 lanes: c.lanes(),
                 bytes_per_particle: c.bytes_per_particle(),
+                bytes_per_entry: 0,
             });
         }
         // Buoyancy reads the core's lanes and keeps none of its own.

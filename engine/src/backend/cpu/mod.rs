@@ -153,6 +153,7 @@ impl CpuBackend {
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
+            self.field_stages(m);
             m.clock.step += 1;
             m.clock.time += dt;
             return None;
