@@ -8,6 +8,8 @@
 // The plan's choices, fixed when a pipeline is built: a switched-off effect is folded away.
 override NORMAL_HERTZ: bool = false;
 override MINDLIN: bool = false;
+// Mindlin's spring with a tangential dashpot (MindlinDampedShear); meaningful with DASHPOT.
+override TANGENTIAL_DASHPOT: bool = false;
 override DASHPOT: bool = false;
 override ROTATION: bool = false;
 override VISCOUS: bool = false;
@@ -115,7 +117,10 @@ struct Wall {
 // One contact evaluated for one row.
 struct Contact {
     force: vec3<f32>,
+    // Tangential force on this element (spring + dashpot), for the torque.
     shear: vec3<f32>,
+    // The shear spring's force, the pair state to keep.
+    spring: vec3<f32>,
     bonded: bool,
     // 0 none, 1 tension, 2 shear (BreakKind).
     broke: u32,
@@ -158,6 +163,11 @@ fn shear_stiffness(p: Pair, r_star: f32, overlap: f32) -> f32 {
         return 8.0 * p.g_star * sqrt(r_star * max(overlap, 0.0));
     }
     return p.ks;
+}
+
+// Tangential dashpot coefficient 2·√(5/6)·ζ·√(kt·m*) (MindlinDampedShear::dashpot).
+fn tangential_dashpot(p: Pair, m_star: f32, kt: f32) -> f32 {
+    return 1.8257419 * p.zeta * sqrt(kt * m_star);
 }
 
 // Keeps the shear force's magnitude while turning it into the plane normal to n.
@@ -203,6 +213,7 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
         out.broke = 1u;
         out.bonded = false;
         out.shear = vec3<f32>(0.0);
+        out.spring = vec3<f32>(0.0);
         out.force = vec3<f32>(0.0);
         return out;
     }
@@ -216,11 +227,25 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
     } else if DASHPOT {
         out.heat_damping = 0.5 * dashpot_in * vn * dt;
     }
+    // Tangential dashpot, capped with the spring (as on the CPU; its heat c_t·|v_t|²·dt).
+    var f_td = vec3<f32>(0.0);
+    var heat_td = 0.0;
+    if TANGENTIAL_DASHPOT && DASHPOT && touching {
+        f_td = vt * -tangential_dashpot(p, m_star, kt);
+        heat_td = -dot(f_td, vt) * dt;
+        out.heat_damping += heat_td;
+    }
+    var total = s;
+    if TANGENTIAL_DASHPOT {
+        total = s + f_td;
+    }
     var limit = p.mu * max(fn_el, 0.0);
     if out.bonded {
         limit = max(p.fs0 + p.mu * fn_el, 0.0);
     }
-    let s2 = dot(s, s);
+    let s2 = dot(total, total);
+    // The dashpot force the element feels: clipped to the cap when the contact slides.
+    var f_felt = f_td;
     if s2 > limit * limit {
         if out.bonded {
             // The bond fails in shear; from now on only friction holds.
@@ -233,17 +258,36 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
             }
         }
         if s2 > limit * limit {
-            let capped = s * (limit / sqrt(s2));
+            var capped = s * (limit / sqrt(s2));
+            if TANGENTIAL_DASHPOT {
+                // The total is scaled to the cap and the spring keeps the rest; a dashpot that
+                // alone exceeds the cap is clipped to it first (as on the CPU).
+                let d2 = dot(f_td, f_td);
+                if d2 > limit * limit {
+                    f_felt = f_td * (limit / sqrt(d2));
+                }
+                capped = total * (limit / sqrt(s2)) - f_felt;
+            }
             if out.broke != 0u {
                 out.heat_breakage += released(s, capped, s_prev, kt);
+            } else if TANGENTIAL_DASHPOT {
+                // Sliding: spring and dashpot together dissipate friction heat (as on the CPU).
+                let slip = released_signed(s, capped, s_prev, kt) - dot(f_felt, vt) * dt;
+                out.heat_friction = max(slip, 0.0);
+                out.heat_damping += min(slip, 0.0) - heat_td;
             } else {
                 out.heat_friction = released(s, capped, s_prev, kt);
             }
             s = capped;
         }
     }
+    // The pair state keeps the spring; the element feels spring + dashpot.
+    out.spring = s;
     out.shear = s;
-    out.force = s - n * fn_total;
+    if TANGENTIAL_DASHPOT {
+        out.shear = s + f_felt;
+    }
+    out.force = out.shear - n * fn_total;
     return out;
 }
 
@@ -274,8 +318,13 @@ fn wall_surface_velocity(w: Wall, inward: vec3<f32>) -> vec3<f32> {
 // Energy a spring of stiffness k releases when its force drops within a step from `trial` to
 // `kept`, having carried `prev` the step before (`released` in physics/contact_law.rs).
 fn released(trial: vec3<f32>, kept: vec3<f32>, prev: vec3<f32>, k: f32) -> f32 {
+    return max(released_signed(trial, kept, prev, k), 0.0);
+}
+
+// `released` without the floor at zero (`released_signed`).
+fn released_signed(trial: vec3<f32>, kept: vec3<f32>, prev: vec3<f32>, k: f32) -> f32 {
     if k > 0.0 {
-        return max(0.5 * dot(trial - kept, kept + prev) / k, 0.0);
+        return 0.5 * dot(trial - kept, kept + prev) / k;
     }
     return 0.0;
 }

@@ -84,7 +84,7 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         if ROTATION {
             t += cross(n * ri, c.shear);
         }
-        state[e] = vec4<f32>(c.shear, select(0.0, 1.0, c.bonded));
+        state[e] = vec4<f32>(c.spring, select(0.0, 1.0, c.bonded));
         if c.broke != 0u && i < j {
             // Breakage events are few: append (step, i, j, kind); the host sorts them.
             let k = atomicAdd(&counters[C_EVENTS], 1u);

@@ -84,7 +84,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                 }
                 let c = contact(nrm, overlap, v_rel, ri, mi, wall_pairs[w * params.nmat + mati], st.xyz, false,
                                 st.w, params.dt);
-                wall_state[e] = vec4<f32>(c.shear, c.dashpot);
+                wall_state[e] = vec4<f32>(c.spring, c.dashpot);
                 f += c.force;
                 h += vec3<f32>(c.heat_damping, c.heat_friction, dot(c.force, v_wall) * params.dt);
                 if ROTATION {

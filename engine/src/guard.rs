@@ -218,7 +218,9 @@ pub fn contact_stiffness(plan: &StepPlan, p: &PairParams, r_star: f64, overlap: 
     };
     let shear = match plan.tangential {
         TangentialKind::Linear => (LinearShear::stiffness(p, r_star, overlap), "shear spring"),
-        TangentialKind::Mindlin => (MindlinShear::stiffness(p, r_star, overlap), "mindlin shear stiffness"),
+        TangentialKind::Mindlin | TangentialKind::MindlinDamped => {
+            (MindlinShear::stiffness(p, r_star, overlap), "mindlin shear stiffness")
+        }
     };
     [normal, shear]
 }

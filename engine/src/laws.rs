@@ -17,7 +17,7 @@
 macro_rules! with_laws {
     ($plan:expr, $f:ident[$($flag:expr),* $(,)?]($($arg:expr),* $(,)?)) => {{
         use $crate::model::{NormalKind, TangentialKind};
-        use $crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear};
+        use $crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinDampedShear, MindlinShear};
         match ($plan.normal, $plan.tangential) {
             (NormalKind::Linear, TangentialKind::Linear) => {
                 $crate::with_flags!(@go $f [Linear, LinearShear,] [] [$($flag),*] ($($arg),*))
@@ -30,6 +30,12 @@ macro_rules! with_laws {
             }
             (NormalKind::Hertz, TangentialKind::Mindlin) => {
                 $crate::with_flags!(@go $f [Hertz, MindlinShear,] [] [$($flag),*] ($($arg),*))
+            }
+            (NormalKind::Linear, TangentialKind::MindlinDamped) => {
+                $crate::with_flags!(@go $f [Linear, MindlinDampedShear,] [] [$($flag),*] ($($arg),*))
+            }
+            (NormalKind::Hertz, TangentialKind::MindlinDamped) => {
+                $crate::with_flags!(@go $f [Hertz, MindlinDampedShear,] [] [$($flag),*] ($($arg),*))
             }
         }
     }};

@@ -31,6 +31,16 @@ pub enum TangentialKind {
     Linear,
     /// Mindlin's 8·G*·√(R*·δ).
     Mindlin,
+    /// Mindlin's spring with a tangential dashpot from the restitution (LIGGGHTS'
+    /// `tangential_damping on`), capped at μ·Fn together.
+    MindlinDamped,
+}
+
+impl TangentialKind {
+    /// Mindlin's stiffness, with or without the dashpot.
+    pub fn is_mindlin(self) -> bool {
+        matches!(self, TangentialKind::Mindlin | TangentialKind::MindlinDamped)
+    }
 }
 
 impl FromStr for NormalKind {
@@ -50,7 +60,8 @@ impl FromStr for TangentialKind {
         match s {
             "linear" => Ok(TangentialKind::Linear),
             "mindlin" => Ok(TangentialKind::Mindlin),
-            _ => Err(Error::unknown("tangential contact law", s, &["linear", "mindlin"])),
+            "mindlin_damped" => Ok(TangentialKind::MindlinDamped),
+            _ => Err(Error::unknown("tangential contact law", s, &["linear", "mindlin", "mindlin_damped"])),
         }
     }
 }

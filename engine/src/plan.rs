@@ -153,7 +153,7 @@ impl StepPlan {
             }
         }
         let s = &m.settings;
-        let shear_springs = s.tangential == TangentialKind::Mindlin || pair.iter().chain(&wall).any(|p| p.ks > 0.0);
+        let shear_springs = s.tangential.is_mindlin() || pair.iter().chain(&wall).any(|p| p.ks > 0.0);
         let moving_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count();
         let servo_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count();
         let bonds = m.contacts.state.iter().any(|p| p.bonded);
@@ -349,6 +349,9 @@ impl fmt::Display for StepPlan {
         let tangential = match self.tangential {
             TangentialKind::Linear => "shear spring Ks",
             TangentialKind::Mindlin => "mindlin shear spring",
+            // With no material below e = 1 its coefficient is zero: the plan says so.
+            TangentialKind::MindlinDamped if self.dashpot => "mindlin shear spring + tangential dashpot",
+            TangentialKind::MindlinDamped => "mindlin shear spring + tangential dashpot (0: every e = 1)",
         };
         let mut c = format!("contacts({normal} + {tangential} + coulomb");
         if self.bonds {

@@ -20,7 +20,7 @@
 
 use crate::error::{Error, Result};
 use crate::materials::Material;
-use crate::model::{Model, NormalKind, TangentialKind};
+use crate::model::{Model, NormalKind};
 use crate::physics::Vec3;
 use crate::walls::WallShape;
 
@@ -61,7 +61,7 @@ pub fn scaled_model(m: &Model, lambda: f64, origin: Vec3, scale_materials: bool)
     // by λ: λ² under the law; with kept materials a linear spring gives λ, while Hertz and
     // Mindlin (whose stiffness grows with √(R·δ)) still give λ².
     let f_normal = if scale_materials || m.settings.normal == NormalKind::Hertz { l * l } else { l };
-    let f_shear = if scale_materials || m.settings.tangential == TangentialKind::Mindlin { l * l } else { l };
+    let f_shear = if scale_materials || m.settings.tangential.is_mindlin() { l * l } else { l };
     // Element stiffness (what the time step is set from) grows as the normal force over λ.
     let k_factor = f_normal / l;
     let dt_factor = (l * l * l / k_factor).sqrt();

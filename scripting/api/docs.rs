@@ -203,7 +203,11 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
         "Model (set)",
         "\"stop\" (default) or \"warn\": what the guard does when dt is too long for the stiffest loaded contact",
     ),
-    ("shear_law", "Model (set)", "\"linear\" or \"mindlin\" tangential stiffness"),
+    (
+        "shear_law",
+        "Model (set)",
+        "\"linear\" or \"mindlin\" tangential stiffness, or \"mindlin_damped\": Mindlin with a tangential dashpot from the restitution (LIGGGHTS' tangential_damping on)",
+    ),
     ("groups", "Model (read)", "the names of the model's groups"),
     ("bonds", "Model, TestSample (read)", "intact bonds"),
     ("broken_bonds", "Model (read)", "bonds broken so far, with time, pair and kind"),

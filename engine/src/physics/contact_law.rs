@@ -74,8 +74,11 @@ pub struct ContactResult {
     /// Normal force, elastic and dashpot, positive in compression (N); 0 once the bond broke
     /// in tension.
     pub normal_force: f64,
-    /// Shear force on this element (N), for torque.
+    /// Tangential force on this element (N), for torque: the shear spring, plus the
+    /// tangential dashpot of a damped law.
     pub shear: Vec3,
+    /// The tangential dashpot's force on this element (N); zero unless `T::DAMPED`.
+    pub tangential_dashpot: Vec3,
     pub broke: Option<BreakKind>,
     /// Energy this contact turned into heat during the step, split by cause (J, whole pair).
     pub heat_damping: f64,
@@ -153,10 +156,19 @@ impl NormalLaw for Hertz {
     }
 }
 
-/// The shear spring's stiffness.
+/// The shear spring's stiffness, and whether a tangential dashpot acts beside it.
 pub trait TangentialLaw: Copy + Send + Sync + 'static {
     const NAME: &'static str;
+    /// A tangential dashpot acts in parallel with the spring (a compile-time constant, so a
+    /// law without one carries no branch for it).
+    const DAMPED: bool = false;
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64;
+    /// Tangential dashpot coefficient c_t (N·s/m) for the spring's stiffness `kt`; read only
+    /// when [`DAMPED`](Self::DAMPED).
+    #[inline(always)]
+    fn dashpot(_p: &PairParams, _m_star: f64, _kt: f64) -> f64 {
+        0.0
+    }
 }
 
 /// A constant shear spring Ks (MatDEM).
@@ -166,6 +178,14 @@ pub struct LinearShear;
 /// Mindlin's no-slip stiffness kt = 8·G*·√(R*·δ) (as in LIGGGHTS' `tangential history`).
 #[derive(Debug, Clone, Copy)]
 pub struct MindlinShear;
+
+/// Mindlin's stiffness with LIGGGHTS' `tangential_damping on`: a dashpot
+/// c_t = 2·√(5/6)·|β|·√(S_t·m*) in parallel, with S_t = 8·G*·√(R*·δ) the Mindlin stiffness
+/// and β = ln e/√(ln²e + π²) from the restitution e of the normal dashpot (|β| is the linear
+/// damping ratio ζ of `restitution::linear_damping_ratio`, `PairParams::zeta`). The spring
+/// and the dashpot are capped at μ·Fn together.
+#[derive(Debug, Clone, Copy)]
+pub struct MindlinDampedShear;
 
 impl TangentialLaw for LinearShear {
     const NAME: &'static str = "linear shear spring";
@@ -181,6 +201,22 @@ impl TangentialLaw for MindlinShear {
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
         // √R*·√δ rather than √(R*·δ): Hertz's force has taken both roots already.
         8.0 * p.g_star * r_star.sqrt() * overlap.max(0.0).sqrt()
+    }
+}
+
+/// 2·√(5/6), LIGGGHTS' factor between the tangential dashpot and the critical one.
+pub const TANGENTIAL_DASHPOT_FACTOR: f64 = 1.825_741_858_350_553_8;
+
+impl TangentialLaw for MindlinDampedShear {
+    const NAME: &'static str = "mindlin shear spring + tangential dashpot";
+    const DAMPED: bool = true;
+    #[inline(always)]
+    fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
+        MindlinShear::stiffness(p, r_star, overlap)
+    }
+    #[inline(always)]
+    fn dashpot(p: &PairParams, m_star: f64, kt: f64) -> f64 {
+        TANGENTIAL_DASHPOT_FACTOR * p.zeta * (kt * m_star).sqrt()
     }
 }
 
@@ -239,8 +275,22 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         out.heat_damping = dashpot_release(state, vn, dt);
     }
 
+    // Tangential dashpot (a law that has one, and only where a material asks for damping: with
+    // e = 1 its coefficient is 0). Its heat is c_t·|v_t|²·dt, the force of this step over the
+    // step (not the trapezoid of the normal dashpot, which would need last step's vector in
+    // the pair state: the difference telescopes to ¼·c_t·dt·Δ|v_t|², and c_t ∝ δ^¼ vanishes
+    // where a contact opens or closes).
+    let damped = T::DAMPED && DASHPOT && touching;
+    let f_td = if damped { vt * -T::dashpot(p, g.m_star, kt) } else { Vec3::zeros() };
+    let heat_td = if damped { -f_td.dot(&vt) * dt } else { 0.0 };
+    out.heat_damping += heat_td;
+    // Spring and dashpot are capped together (LIGGGHTS, LAMMPS gran/hertz/history).
+    let total = if T::DAMPED { s + f_td } else { s };
+
     let mut limit = if state.bonded { (p.fs0 + p.mu * fn_el).max(0.0) } else { p.mu * fn_el.max(0.0) };
-    let s2 = s.norm_squared();
+    let s2 = total.norm_squared();
+    // The dashpot force the element feels: clipped to the cap when the contact slides.
+    let mut f_felt = f_td;
     if s2 > limit * limit {
         if state.bonded {
             // The bond fails in shear; from now on only friction holds.
@@ -254,10 +304,28 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         }
         if s2 > limit * limit {
             let mag = s2.sqrt();
-            let capped = s * (limit / mag);
+            // With a dashpot the total is scaled to the cap and the spring keeps the rest
+            // (LIGGGHTS, LAMMPS). A dashpot that alone exceeds the cap is clipped to it first:
+            // otherwise the spring would be wound against the slip by |f_td| − μ·Fn, energy no
+            // force supplied (with c_t·v ≫ μ·Fn, as in the first steps of a fast slide).
+            let capped = if T::DAMPED {
+                let d2 = f_td.norm_squared();
+                f_felt = if d2 > limit * limit { f_td * (limit / d2.sqrt()) } else { f_td };
+                total * (limit / mag) - f_felt
+            } else {
+                s * (limit / mag)
+            };
             if out.broke.is_some() {
                 // The failed bond's shear energy above the friction cap is released.
                 out.heat_breakage += released(s, capped, s_prev, kt);
+            } else if T::DAMPED {
+                // Sliding, the contact dissipates μ·Fn·slip whatever the split between spring
+                // and dashpot: all of it is friction heat, the spring's release and the felt
+                // dashpot's work together (the sum closes the account; a negative remainder,
+                // from a turning contact, stays with damping).
+                let slip = released_signed(s, capped, s_prev, kt) - f_felt.dot(&vt) * dt;
+                out.heat_friction = slip.max(0.0);
+                out.heat_damping += slip.min(0.0) - heat_td;
             } else {
                 // Sliding: the friction force works over the slip (|s| − limit)/kt, taken at
                 // its mean over the step, (prev + capped)/2 (`released`; in steady sliding
@@ -269,8 +337,11 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         }
     }
     state.shear = s;
-    out.shear = s;
-    out.force = s - g.n * fn_total;
+    out.tangential_dashpot = f_felt;
+    // The tangential force the element feels (its torque's lever acts on it): spring + dashpot.
+    let shear = if T::DAMPED { s + f_felt } else { s };
+    out.shear = shear;
+    out.force = shear - g.n * fn_total;
     out.normal_force = fn_total;
     out
 }
@@ -320,8 +391,15 @@ pub fn contact_opened<T: TangentialLaw>(
 /// breaking displacement per step, a few per cent of the breakage heat appears from nowhere.
 #[inline(always)]
 fn released(trial: Vec3, kept: Vec3, prev: Vec3, k: f64) -> f64 {
+    released_signed(trial, kept, prev, k).max(0.0)
+}
+
+/// [`released`] without the floor at zero: negative when the spring is left holding more than
+/// the slip paid for (a spring rescaled against a dashpot).
+#[inline(always)]
+fn released_signed(trial: Vec3, kept: Vec3, prev: Vec3, k: f64) -> f64 {
     if k > 0.0 {
-        (0.5 * (trial - kept).dot(&(kept + prev)) / k).max(0.0)
+        0.5 * (trial - kept).dot(&(kept + prev)) / k
     } else {
         0.0
     }
@@ -436,6 +514,44 @@ mod tests {
             assert!(((k - expected) / expected).abs() < 1e-14, "{k} vs {expected}");
         }
         assert_eq!(MindlinShear::stiffness(&p, 1e-3, -1e-6), 0.0);
+    }
+
+    #[test]
+    fn tangential_dashpot_is_liggghts_two_root_five_sixths_beta_root_st_m() {
+        // LIGGGHTS' gammat = −2·√(5/6)·β·√(S_t·m*), β = ln e/√(ln²e + π²).
+        let e: f64 = 0.4;
+        let beta = e.ln() / (e.ln().powi(2) + std::f64::consts::PI.powi(2)).sqrt();
+        let p = PairParams { zeta: crate::physics::restitution::linear_damping_ratio(e), ..params() };
+        let (r, m, d) = (2e-3_f64, 5e-4_f64, 3e-6_f64);
+        let st = 8.0 * p.g_star * (r * d).sqrt();
+        let kt = MindlinDampedShear::stiffness(&p, r, d);
+        let expected = -2.0 * (5.0f64 / 6.0).sqrt() * beta * (st * m).sqrt();
+        let c = MindlinDampedShear::dashpot(&p, m, kt);
+        assert!(((c - expected) / expected).abs() < 1e-12, "{c} vs {expected}");
+        assert_eq!(MindlinShear::dashpot(&p, m, kt), 0.0);
+    }
+
+    #[test]
+    fn damped_shear_total_is_capped_at_mu_fn_and_odd_between_rows() {
+        let p = PairParams { zeta: 0.3, mu: 0.2, ..params() };
+        let g = ContactGeometry {
+            n: Vec3::new(0.6, 0.0, 0.8),
+            overlap: 3e-6,
+            v_rel: Vec3::new(0.1, -7.0, 0.05),
+            r_star: 1e-3,
+            m_star: 1e-3,
+        };
+        let g2 = ContactGeometry { n: -g.n, v_rel: -g.v_rel, ..g };
+        let (mut a, mut b) = (PairState::default(), PairState::default());
+        for _ in 0..20 {
+            let ra = contact::<Hertz, MindlinDampedShear, true>(&g, &p, &mut a, 1e-6);
+            let rb = contact::<Hertz, MindlinDampedShear, true>(&g2, &p, &mut b, 1e-6);
+            assert_eq!(ra.force, -rb.force);
+            assert_eq!(a.shear, -b.shear);
+            let cap = p.mu * Hertz::force(&p, g.r_star, g.overlap);
+            assert!((ra.shear.norm() - cap).abs() < 1e-12 * cap, "{} vs μFn {cap}", ra.shear.norm());
+            assert!(ra.heat_friction > 0.0 && ra.heat_damping >= 0.0);
+        }
     }
 
     #[test]

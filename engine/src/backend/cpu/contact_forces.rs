@@ -50,21 +50,27 @@ struct PairOut {
 
 /// Per-pair results passed from the pair pass to the gather pass, indexed by pair id
 /// ([`Contacts::pair`](crate::state::contacts::Contacts::pair)). Kept between steps so a
-/// step allocates nothing.
+/// step allocates nothing. The tangential dashpot's force on the lower id (a tangential law
+/// with a dashpot only; empty otherwise, so `PairOut` stays as small for every other law).
 #[derive(Default)]
-pub struct PairScratch(Vec<PairOut>);
+pub struct PairScratch(Vec<PairOut>, Vec<Vec3>);
 
 impl PairScratch {
-    pub(super) fn fit(&mut self, pairs: usize) {
+    pub(super) fn fit<T: TangentialLaw>(&mut self, pairs: usize) {
         // Every entry is overwritten by the pair pass: only the length matters.
         if self.0.len() != pairs {
             self.0.resize(pairs, PairOut::default());
+        }
+        let dashpots = if T::DAMPED { pairs } else { 0 };
+        if self.1.len() != dashpots {
+            self.1.resize(dashpots, Vec3::zeros());
+            self.1.shrink_to_fit();
         }
     }
 
     /// Heap bytes held.
     pub fn bytes(&self) -> usize {
-        self.0.capacity() * std::mem::size_of::<PairOut>()
+        self.0.capacity() * std::mem::size_of::<PairOut>() + self.1.capacity() * std::mem::size_of::<Vec3>()
     }
 }
 
@@ -81,12 +87,12 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
 ) -> Breaks {
     let rotation = ROT && m.particles.rotation.is_some();
     debug_assert!(m.contacts.has_pair_ids(), "rows without pair ids: rebuild them first");
-    scratch.fit(m.contacts.pair_count());
+    scratch.fit::<T>(m.contacts.pair_count());
     let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
     if rotation {
-        gather_pass::<true>(m, plan, scratch);
+        gather_pass::<T, true>(m, plan, scratch);
     } else {
-        gather_pass::<false>(m, plan, scratch);
+        gather_pass::<T, false>(m, plan, scratch);
     }
     breaks
 }
@@ -102,7 +108,9 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
     let (pos, vel, radius, mass, material) = (&p.pos, &p.vel, &p.radius, &p.mass, &p.material);
     let ang_vel = p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]);
     let (row_start, other, state, pair_start) = (&c.row_start[..], &c.other[..], &c.state[..], &c.pair_start[..]);
-    for_blocks(0..p.len(), Rows::Csr(pair_start), (), &mut scratch.0[..], &|range, (), out: &mut [PairOut]| {
+    let dashpots = Some(&mut scratch.1[..]).filter(|_| T::DAMPED);
+    let outs = (&mut scratch.0[..], dashpots);
+    for_blocks(0..p.len(), Rows::Csr(pair_start), (), outs, &|range, (), (out, mut dashpots)| {
         let base = pair_start[range.start] as usize;
         let mut breaks = Breaks::default();
         for i in range.clone() {
@@ -120,6 +128,7 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
                 let touch = ri + rj;
                 let dist2 = d.norm_squared();
                 let (mut normal_force, mut nrm, mut heat) = (0.0, Vec3::zeros(), [0.0; 3]);
+                let mut td = Vec3::zeros();
                 if !st.bonded && dist2 >= touch * touch {
                     if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
                         // The contact has just opened.
@@ -150,11 +159,15 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
                     let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), &mut st, dt);
                     normal_force = r.normal_force;
                     heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
+                    td = r.tangential_dashpot;
                     if let Some(kind) = r.broke {
                         breaks.0.push((i as u32, j as u32, kind));
                     }
                 }
                 out[k] = PairOut { state: st, normal: nrm, normal_force, heat };
+                if let Some(d) = dashpots.as_deref_mut().filter(|_| T::DAMPED) {
+                    d[k] = td;
+                }
             }
         }
         breaks
@@ -162,7 +175,7 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
 }
 
 /// Pass 2: each particle sums its row in row order and mirrors the new pair states.
-fn gather_pass<const ROT: bool>(m: &mut Model, plan: &StepPlan, scratch: &PairScratch) {
+fn gather_pass<T: TangentialLaw, const ROT: bool>(m: &mut Model, plan: &StepPlan, scratch: &PairScratch) {
     let Model { particles: p, contacts: c, .. } = m;
     let radius = &p.radius;
     let torque = match &mut p.rotation {
@@ -182,7 +195,7 @@ fn gather_pass<const ROT: bool>(m: &mut Model, plan: &StepPlan, scratch: &PairSc
                 let li = i - range.start;
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
-                let row = gather_row::<ROT>(
+                let row = gather_row::<T, ROT>(
                     scratch,
                     &pair[start..end],
                     own - start,
@@ -212,7 +225,7 @@ pub(super) struct RowSum {
 /// are the row's pair ids, the pairs the particle owns start at `own`, `radius` is its
 /// radius and `state` the row's pair states.
 #[inline(always)]
-pub(super) fn gather_row<const ROT: bool>(
+pub(super) fn gather_row<T: TangentialLaw, const ROT: bool>(
     scratch: &PairScratch,
     pairs: &[u32],
     own: usize,
@@ -226,7 +239,9 @@ pub(super) fn gather_row<const ROT: bool>(
     for (e, (&k, slot)) in pairs.iter().zip(state.iter_mut()).enumerate() {
         let out = &sc[k as usize];
         let st = out.state;
-        let force = st.shear - out.normal * out.normal_force;
+        // The tangential force: the spring, and the dashpot of a damped law.
+        let tangential = if T::DAMPED { st.shear + scratch.1[k as usize] } else { st.shear };
+        let force = tangential - out.normal * out.normal_force;
         if e >= own {
             f += force;
             *slot = st;
@@ -237,7 +252,7 @@ pub(super) fn gather_row<const ROT: bool>(
         }
         if ROT {
             // (n·r_i) × s is the same product from both ends: n and s both flip.
-            t += (out.normal * radius).cross(&st.shear);
+            t += (out.normal * radius).cross(&tangential);
         }
         let [d, fr, b] = out.heat;
         hd += d;

@@ -39,7 +39,7 @@ where
     T: TangentialLaw,
 {
     debug_assert!(m.contacts.has_pair_ids(), "rows without pair ids: rebuild them first");
-    scratch.fit(m.contacts.pair_count());
+    scratch.fit::<T>(m.contacts.pair_count());
     let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
     let loads = finish::<N, T, DASHPOT, ROT, DAMP, LOCAL>(m, plan, scratch, damping_c);
     store_loads(&mut m.walls, &loads);
@@ -96,7 +96,7 @@ where
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
                 let rows = &mut state[start - base..end - base];
-                let row = gather_row::<ROT>(scratch, &pair[start..end], own - start, ri, rows);
+                let row = gather_row::<T, ROT>(scratch, &pair[start..end], own - start, ri, rows);
                 let (mut f, mut t) = (row.force, row.torque);
                 heat.book_row(li, &row);
                 // wall_forces: the walls in reach (most particles have none).

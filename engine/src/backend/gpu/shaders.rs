@@ -47,7 +47,8 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     vec![
         ("NORMAL_HERTZ", flag(plan.normal == NormalKind::Hertz)),
-        ("MINDLIN", flag(plan.tangential == TangentialKind::Mindlin)),
+        ("MINDLIN", flag(plan.tangential.is_mindlin())),
+        ("TANGENTIAL_DASHPOT", flag(plan.tangential == TangentialKind::MindlinDamped)),
         ("DASHPOT", flag(plan.dashpot)),
         ("ROTATION", flag(plan.rotation)),
         ("VISCOUS", flag(plan.damping > 0.0)),
