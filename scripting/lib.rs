@@ -19,6 +19,7 @@ pub mod run_record;
 pub mod sandbox;
 pub mod snapshot;
 pub mod stdlib;
+pub mod stop;
 pub mod study;
 pub mod sweep;
 

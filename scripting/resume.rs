@@ -27,14 +27,6 @@ use std::rc::Rc;
 pub const RESUME_DIR: &str = "resume";
 pub const JOURNAL_FILE: &str = "journal.ron";
 
-/// Marker of the error that unwinds a script once the resume folder is written. Rhai's
-/// `try`/`catch` cannot catch a termination, so a script cannot swallow it.
-pub const INTERRUPTED: &str = "__matdem_interrupted__";
-
-/// Marker of the termination a signal causes where no resume point can be saved (in a
-/// script loop, a box build): the run stops at once and keeps what it wrote.
-pub const STOPPED: &str = "__matdem_stopped__";
-
 /// A value a script saw, in a form that can be written down and given back bit for bit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Value {

@@ -2,13 +2,14 @@
 //! and turns every failure into a rendered report; writes the run record; resumes an
 //! interrupted run (see [`crate::resume`]).
 
-use crate::api::{Host, PLAN_DONE};
+use crate::api::Host;
 use crate::out_lock::OutLock;
 use crate::package::Package;
 use crate::report::{render, Sources};
-use crate::resume::{self, Pending, Session, INTERRUPTED, STOPPED};
+use crate::resume::{self, Pending, Session};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
 use crate::sandbox::{Limits, ReadRoot};
+use crate::stop::Stop;
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::RunControl;
 use rhai::{Dynamic, EvalAltResult, Scope};
@@ -229,7 +230,7 @@ fn evaluate(
     // A signal in a script loop stops the script at its next operation; a balance sees the
     // flag first and saves a resume point (see api::model::running::run_steps).
     let control = cfg.control.clone();
-    engine.on_progress(move |_| control.is_cancelled().then(|| Dynamic::from(STOPPED)));
+    engine.on_progress(move |_| control.is_cancelled().then(|| Stop::Stopped.token()));
     let sources = Sources { main_path: path, main_text: text };
     let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
     let mut scope = Scope::new();
@@ -242,39 +243,17 @@ fn evaluate(
                 .into(),
         )),
         Ok(()) => Ok(host.written.borrow().clone()),
-        Err(e) if cfg.plan_only && is_plan_done(&e) => Ok(Vec::new()),
-        Err(e) if termination(&e) == Some(STOPPED) => Err(RunError::Stopped(
+        Err(e) if cfg.plan_only && Stop::of(&e) == Some(Stop::PlanDone) => Ok(Vec::new()),
+        Err(e) if Stop::of(&e) == Some(Stop::Stopped) => Err(RunError::Stopped(
             "stopped by a signal outside a balance, where there is no resume point: the outputs written so far are \
              kept; run the script again to start over\n"
                 .into(),
         )),
-        Err(e) if termination(&e) == Some(INTERRUPTED) => Err(RunError::Interrupted(format!(
+        Err(e) if Stop::of(&e) == Some(Stop::Interrupted) => Err(RunError::Interrupted(format!(
             "interrupted: the outputs written so far are kept; continue with\n  matdem-rs run {} --resume {}\n",
             cfg.script.display(),
             cfg.out_dir.display()
         ))),
         Err(e) => Err(RunError::Script(render(&e, &sources))),
-    }
-}
-
-/// The marker a terminated script ended with ([`INTERRUPTED`] or [`STOPPED`]), if it was
-/// terminated.
-fn termination(e: &EvalAltResult) -> Option<&'static str> {
-    match e {
-        EvalAltResult::ErrorTerminated(v, _) => [INTERRUPTED, STOPPED].into_iter().find(|m| v.to_string() == *m),
-        EvalAltResult::ErrorInFunctionCall(_, _, inner, _) | EvalAltResult::ErrorInModule(_, inner, _) => {
-            termination(inner)
-        }
-        _ => None,
-    }
-}
-
-fn is_plan_done(e: &EvalAltResult) -> bool {
-    match e {
-        EvalAltResult::ErrorRuntime(v, _) => v.to_string() == PLAN_DONE,
-        EvalAltResult::ErrorInFunctionCall(_, _, inner, _) | EvalAltResult::ErrorInModule(_, inner, _) => {
-            is_plan_done(inner)
-        }
-        _ => false,
     }
 }

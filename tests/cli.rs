@@ -63,6 +63,30 @@ fn plan_prints_what_is_simulated_and_what_is_not() {
     assert!(!out.contains("not reached"));
 }
 
+/// `plan` ends the script at its first run with a value only the host can make: `try`/`catch`
+/// cannot hold it back, and a script throwing the old marker string is a plain error.
+#[test]
+fn plan_stop_cannot_be_caught_or_forged_by_a_script() {
+    let dir = temp_dir("plan_stop");
+    std::fs::write(
+        dir.join("caught.rhai"),
+        r#"let b = new_box("p"); b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.5e-3;
+           let d = b.build_initial_model(); d.set_standard_dt();
+           try { d.run(10); } catch (e) { print("caught"); }
+           print("after the plan");"#,
+    )
+    .unwrap();
+    let o = bin().arg("plan").arg(dir.join("caught.rhai")).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("step plan:"), "{out}");
+    assert!(!out.contains("caught") && !out.contains("after the plan"), "{out}");
+
+    std::fs::write(dir.join("forged.rhai"), r#"throw "__matdem_plan_done__";"#).unwrap();
+    let o = bin().arg("plan").arg(dir.join("forged.rhai")).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "a thrown string is a script error: {}", stderr(&o));
+}
+
 #[test]
 fn set_values_reach_the_script_as_params() {
     let dir = temp_dir("params");

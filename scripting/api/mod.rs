@@ -74,9 +74,6 @@ pub struct Host {
     pub warnings: RefCell<Vec<(String, String)>>,
 }
 
-/// Marker error that ends a script in `plan` mode once a plan was printed.
-pub const PLAN_DONE: &str = "__matdem_plan_done__";
-
 impl Host {
     pub fn new(out_dir: PathBuf) -> Self {
         Host {
@@ -185,9 +182,7 @@ impl Host {
 /// signal in a script loop (see run::evaluate); elsewhere it is a plain error.
 pub fn raise_build(host: &Host, e: matdem_engine::Error) -> Box<EvalAltResult> {
     match e {
-        matdem_engine::Error::Cancelled { .. } if host.resumable => {
-            Box::new(EvalAltResult::ErrorTerminated(crate::resume::STOPPED.into(), rhai::Position::NONE))
-        }
+        matdem_engine::Error::Cancelled { .. } if host.resumable => crate::stop::Stop::Stopped.unwind(),
         e => raise(e),
     }
 }

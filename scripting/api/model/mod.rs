@@ -31,8 +31,9 @@ mod settings;
 
 use super::field::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table};
-use super::{err, raise, Host, RhaiResult, PLAN_DONE};
-use crate::resume::{self, SavedBalance, INTERRUPTED};
+use super::{err, raise, Host, RhaiResult};
+use crate::resume::{self, SavedBalance};
+use crate::stop::Stop;
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;

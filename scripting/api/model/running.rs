@@ -15,7 +15,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
             println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
             data.plan_printed = true;
         }
-        return Err(err(PLAN_DONE));
+        return Err(Stop::PlanDone.unwind());
     }
     let (how, done) = {
         let s = host.session.borrow();
@@ -81,7 +81,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         let rep = match rep {
             Err(matdem_engine::Error::Cancelled { completed_steps }) => {
                 cancelled = Some(completed_steps);
-                return Err(err(INTERRUPTED));
+                return Err(Stop::Interrupted.unwind());
             }
             other => other.map_err(raise)?,
         };
@@ -105,7 +105,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
             "interrupted: `{name}` stopped after {completed} step(s) of its {call}; resume data in {}",
             dir.display()
         );
-        return Err(Box::new(EvalAltResult::ErrorTerminated(INTERRUPTED.into(), rhai::Position::NONE)));
+        return Err(Stop::Interrupted.unwind());
     }
     result
 }

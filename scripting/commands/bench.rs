@@ -1,0 +1,21 @@
+//! `bench`: the standard scene, timed.
+
+use super::{open_backend, Failure, Outcome};
+use crate::cli::Backend;
+use matdem_rs::bench::{run_bench, BenchConfig};
+use std::process::ExitCode;
+
+pub fn bench(
+    backend: Backend,
+    particles: Option<usize>,
+    steps: u64,
+    warmup: u64,
+    json: bool,
+    profile: bool,
+) -> Outcome {
+    let gpu = open_backend(backend)?;
+    let cfg = BenchConfig { particles, warmup, steps, json, profile, gpu };
+    let out = run_bench(&cfg).map_err(|msg| Failure::said(2, msg))?;
+    print!("{out}");
+    Ok(ExitCode::SUCCESS)
+}
