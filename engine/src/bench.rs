@@ -99,6 +99,7 @@ impl LatticeScene {
             young: self.young,
             poisson: self.poisson,
             restitution: self.restitution,
+            provenance: Default::default(),
         })?;
         m.settings.normal = NormalKind::Hertz;
         m.settings.tangential = TangentialKind::Mindlin;

@@ -26,6 +26,7 @@
 
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
+use crate::provenance::Provenance;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
@@ -34,9 +35,10 @@ use serde::{Deserialize, Serialize};
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; files of a version this build does not know
 /// are refused, not misread.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
-/// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water).
+/// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water),
+/// 2 to 4 the materials' provenance (their values then have none recorded).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -86,10 +88,24 @@ struct PayloadOut<'a> {
     annex: &'a [u8],
     parallel_bonds: &'a ParallelBonds,
     fields: FieldsOut<'a>,
+    provenance: Vec<&'a Provenance>,
 }
 
 #[derive(Deserialize)]
 struct PayloadIn {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+    parallel_bonds: ParallelBonds,
+    fields: Fields,
+    /// Each material's provenance, in material order (format 5; kept out of `Material`'s own
+    /// serialisation so material files and older checkpoints stay readable).
+    provenance: Vec<Provenance>,
+}
+
+/// Format 4: the payload ends at the fields.
+#[derive(Deserialize)]
+struct PayloadInV4 {
     writer: String,
     model: Model,
     annex: Vec<u8>,
@@ -136,7 +152,8 @@ pub const WRITER: &str = env!("CARGO_PKG_VERSION");
 pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
     let fields =
         FieldsOut { heat: &model.settings.heat, water: &model.settings.water, thermal: &model.particles.thermal };
-    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds, fields };
+    let provenance = model.materials.iter().map(|m| &m.provenance).collect();
+    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds, fields, provenance };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
         // unsupported serde features), so a failure here is an engine bug, not a user error.
@@ -193,6 +210,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 annex: p.annex,
                 parallel_bonds: ParallelBonds::default(),
                 fields: Fields::default(),
+                provenance: Vec::new(),
             })
         } else if version == 3 {
             let p: PayloadInV3 = postcard::from_bytes(payload)?;
@@ -202,6 +220,17 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 annex: p.annex,
                 parallel_bonds: p.parallel_bonds,
                 fields: Fields::default(),
+                provenance: Vec::new(),
+            })
+        } else if version == 4 {
+            let p: PayloadInV4 = postcard::from_bytes(payload)?;
+            Ok(PayloadIn {
+                writer: p.writer,
+                model: p.model,
+                annex: p.annex,
+                parallel_bonds: p.parallel_bonds,
+                fields: p.fields,
+                provenance: Vec::new(),
             })
         } else {
             postcard::from_bytes(payload)
@@ -217,6 +246,9 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.settings.heat = p.fields.heat;
     p.model.settings.water = p.fields.water;
     p.model.particles.thermal = p.fields.thermal;
+    for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
+        m.provenance = prov;
+    }
     check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
     Ok(Checkpoint { model: p.model, annex: p.annex })
 }

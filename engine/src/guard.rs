@@ -403,6 +403,7 @@ mod tests {
             young,
             poisson,
             restitution: 1.0,
+            provenance: Default::default(),
         }
     }
 

@@ -47,6 +47,7 @@ pub mod neighbours;
 pub mod physics;
 pub mod plan;
 pub mod pores;
+pub mod provenance;
 pub mod scaling;
 pub mod simulation;
 pub mod state;

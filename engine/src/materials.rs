@@ -2,6 +2,7 @@
 //! paper 003, appendix A (close-packed lattice loaded normal to its close-packed planes).
 
 use crate::error::{check_positive, Error, Result};
+use crate::provenance::{Provenance, Source};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::SQRT_2;
 
@@ -46,7 +47,15 @@ pub struct Material {
     pub poisson: f64,
     /// Coefficient of restitution of the normal contact dashpot; 1 means no dashpot.
     pub restitution: f64,
+    /// Where each value came from (given, derived, default, trained), for `print(m)`. Not
+    /// part of the material's own serialisation: checkpoints carry it beside the model, and a
+    /// trained material file says what it was trained for in its own fields.
+    #[serde(skip)]
+    pub provenance: Provenance,
 }
+
+/// The micro values, as scripts name them.
+const MICRO: [&str; 5] = ["kn", "ks", "xb", "fs0", "mu_p"];
 
 impl Material {
     /// A material from micro values. Hertz constants default to E = Kn/(π·R) at `radius`
@@ -81,8 +90,46 @@ impl Material {
             young: kn / (std::f64::consts::PI * radius),
             poisson: 0.0,
             restitution: 1.0,
+            provenance: Provenance::default(),
         };
         m.validate()?;
+        let mut m = m;
+        let p = &mut m.provenance;
+        p.set_all(&["density"], Source::Given);
+        p.set_all(&MICRO, Source::Given);
+        p.set("young", Source::Derived(format!("E = Kn/(πR) at R = {radius:.4e} m (paper 000, eq. 6)")));
+        p.set("poisson", Source::Default("0, paper 000's Hertz convention; give `poisson` to set it".into()));
+        p.set("restitution", Source::Default("1, no contact dashpot".into()));
+        Ok(m)
+    }
+
+    /// A material from micro values with its Hertz constants E and ν given directly.
+    pub fn from_micro_hertz(
+        name: &str,
+        density: f64,
+        micro: &MicroParameters,
+        young: f64,
+        poisson: f64,
+    ) -> Result<Self> {
+        let mut m = Material {
+            name: name.to_string(),
+            density,
+            kn: micro.kn,
+            ks: micro.ks,
+            xb: micro.xb,
+            fs0: micro.fs0,
+            mu_p: micro.mu_p,
+            young,
+            poisson,
+            restitution: 1.0,
+            provenance: Provenance::default(),
+        };
+        m.validate()?;
+        let p = &mut m.provenance;
+        p.set_all(&["density"], Source::Given);
+        p.set_all(&MICRO, Source::Given);
+        p.set_all(&["young", "poisson"], Source::Given);
+        p.set("restitution", Source::Default("1, no contact dashpot".into()));
         Ok(m)
     }
 
@@ -102,8 +149,18 @@ impl Material {
             young: p.young,
             poisson: p.poisson,
             restitution: 1.0,
+            provenance: Provenance::default(),
         };
         m.validate()?;
+        let mut m = m;
+        let how = format!(
+            "lattice formulas (paper 003, app. A) from E {:.4e} Pa, ν {}, Tu {:.4e} Pa, Cu {:.4e} Pa, μi {} at d = \
+             {d:.4e} m",
+            p.young, p.poisson, p.tensile, p.compressive, p.internal_friction
+        );
+        m.provenance.set_all(&["density", "young", "poisson"], Source::Given);
+        m.provenance.set_all(&MICRO, Source::Derived(how));
+        m.provenance.set("restitution", Source::Default("1, no contact dashpot".into()));
         Ok(m)
     }
 
@@ -147,6 +204,15 @@ impl Material {
         m.xb *= s;
         m.fs0 *= s * s;
         m.young = self.young; // E is a continuum property; for E = Kn/(πR) it is scale-free too
+        if s != 1.0 {
+            for (key, law) in [("kn", "∝ d"), ("ks", "∝ d"), ("xb", "∝ d"), ("fs0", "∝ d²")] {
+                let mut how = format!("rescaled from d = {d_old:.4e} m to {d_new:.4e} m ({law}, paper 001 §2)");
+                if let Some(before) = self.provenance.of(key).filter(|s| **s != Source::Given) {
+                    how.push_str(&format!(" from a value {before}"));
+                }
+                m.provenance.set(key, Source::Derived(how));
+            }
+        }
         Ok(m)
     }
 }

@@ -3,7 +3,8 @@
 
 use super::field::number;
 use super::{err, raise, RhaiResult};
-use matdem_engine::materials::{MacroProperties, Material};
+use matdem_engine::materials::{MacroProperties, Material, MicroParameters};
+use matdem_engine::provenance::Source;
 use rhai::{Engine, Map, FLOAT};
 
 const MACRO_KEYS: &[&str] = &["E", "nu", "Tu", "Cu", "mu_i", "density", "d", "restitution"];
@@ -47,37 +48,86 @@ fn material_macro(name: &str, map: Map) -> RhaiResult<Material> {
         Material::from_macro(name, opt(&v, "density").unwrap_or(2650.0), &p, get(&v, "d", &what)?).map_err(raise)?;
     if let Some(e) = opt(&v, "restitution") {
         m.restitution = e;
+        m.provenance.set("restitution", Source::Given);
+    }
+    if opt(&v, "density").is_none() {
+        m.provenance.set("density", Source::Default("2650 kg/m³, quartz".into()));
     }
     m.validate().map_err(raise)?;
     Ok(m)
 }
 
-/// `material_micro(name, #{kn, ks, xb, fs0, mu_p, density, r})`: micro values directly;
-/// Hertz uses E = Kn/(π·r), ν = 0 (paper 000) unless `young`/`poisson` are given.
+/// `material_micro(name, #{kn, ks, xb, fs0, mu_p, density, r, young, poisson})`: micro values
+/// directly. Hertz's E and ν are given together (`young`, `poisson`), or, without them, E is
+/// derived from Kn at radius r (E = Kn/(πR), ν = 0, paper 000); Kn may likewise be derived
+/// from E at r. Whatever is derived or left at a default is recorded in the material's
+/// provenance and shown by `print(m)`.
 fn material_micro(name: &str, map: Map) -> RhaiResult<Material> {
     let what = format!("material_micro(\"{name}\")");
     let v = read(&map, MICRO_KEYS, &what)?;
-    let mut m = Material::from_micro(
-        name,
-        opt(&v, "density").unwrap_or(2650.0),
-        get(&v, "kn", &what)?,
-        opt(&v, "ks").unwrap_or(0.0),
-        opt(&v, "xb").unwrap_or(0.0),
-        opt(&v, "fs0").unwrap_or(0.0),
-        opt(&v, "mu_p").unwrap_or(0.0),
-        get(&v, "r", &what)?,
-    )
+    let hertz = match (opt(&v, "young"), opt(&v, "poisson")) {
+        (Some(e), Some(nu)) => Some((e, nu)),
+        (None, None) => None,
+        (Some(_), None) => {
+            return Err(err(format!(
+                "{what}: `young` without `poisson` is ambiguous for the Hertz law: give both (ν = 0 is a valid \
+                 choice, but say it)"
+            )))
+        }
+        (None, Some(_)) => {
+            return Err(err(format!("{what}: `poisson` without `young`: give both, the Hertz law needs E and ν")))
+        }
+    };
+    let radius = opt(&v, "r");
+    let (kn, kn_derived) = match (opt(&v, "kn"), hertz, radius) {
+        (Some(kn), _, _) => (kn, false),
+        (None, Some((e, _)), Some(r)) => (std::f64::consts::PI * e * r, true),
+        (None, _, _) => {
+            return Err(err(format!(
+                "{what}: missing `kn`: give `kn` (N/m), or `young`, `poisson` and `r` (the element radius, m) to \
+                 derive Kn = π·E·R (paper 000, eq. 6)"
+            )))
+        }
+    };
+    let micro = MicroParameters {
+        kn,
+        ks: opt(&v, "ks").unwrap_or(0.0),
+        xb: opt(&v, "xb").unwrap_or(0.0),
+        fs0: opt(&v, "fs0").unwrap_or(0.0),
+        mu_p: opt(&v, "mu_p").unwrap_or(0.0),
+    };
+    let density = opt(&v, "density").unwrap_or(2650.0);
+    let mut m = match (hertz, radius) {
+        (Some((e, nu)), _) => Material::from_micro_hertz(name, density, &micro, e, nu),
+        (None, Some(r)) => Material::from_micro(name, density, kn, micro.ks, micro.xb, micro.fs0, micro.mu_p, r),
+        (None, None) => {
+            return Err(err(format!(
+                "{what}: the Hertz law needs E and ν: give `young` and `poisson`, or `r` (the element radius, m) to \
+                 derive E = Kn/(πR) with ν = 0 (paper 000)"
+            )))
+        }
+    }
     .map_err(raise)?;
-    if let Some(e) = opt(&v, "young") {
-        m.young = e;
-    }
-    if let Some(nu) = opt(&v, "poisson") {
-        m.poisson = nu;
-    }
     if let Some(e) = opt(&v, "restitution") {
         m.restitution = e;
+        m.provenance.set("restitution", Source::Given);
     }
     m.validate().map_err(raise)?;
+    let p = &mut m.provenance;
+    if kn_derived {
+        p.set("kn", Source::Derived(format!("Kn = π·E·R at R = {:.4e} m (paper 000, eq. 6)", radius.unwrap_or(0.0))));
+    }
+    for (key, meaning) in [
+        ("ks", "0, no shear spring"),
+        ("xb", "0, bonds break at any tension"),
+        ("fs0", "0, bonds carry no shear"),
+        ("mu_p", "0, frictionless"),
+        ("density", "2650 kg/m³, quartz"),
+    ] {
+        if opt(&v, key).is_none() {
+            p.set(key, Source::Default(meaning.into()));
+        }
+    }
     Ok(m)
 }
 
@@ -105,6 +155,7 @@ pub fn register(engine: &mut Engine) {
                     m.$field = old;
                     return Err(raise(e));
                 }
+                m.provenance.set($name, Source::Given);
                 Ok(())
             });
         };
@@ -133,9 +184,14 @@ pub fn register(engine: &mut Engine) {
         });
 }
 
+/// One line of values, then each value that was not simply given: where it came from.
 fn describe(m: &Material) -> String {
-    format!(
+    let mut s = format!(
         "Material `{}`: Kn {:.4e} N/m, Ks {:.4e} N/m, Xb {:.4e} m, Fs0 {:.4e} N, μp {:.4}, E {:.4e} Pa, ν {:.3}, ρ {} kg/m³, e {}",
         m.name, m.kn, m.ks, m.xb, m.fs0, m.mu_p, m.young, m.poisson, m.density, m.restitution
-    )
+    );
+    for (key, source) in m.provenance.iter().filter(|(_, s)| **s != Source::Given) {
+        s.push_str(&format!("\n  {key}: {source}"));
+    }
+    s
 }

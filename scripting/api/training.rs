@@ -374,7 +374,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_fn("train", move |t: Map, o: Map| train_fn(&h, t, o));
     let h = host.clone();
     engine.register_fn("load_material", move |name: &str| -> RhaiResult<Material> {
-        Ok(load_trained(&h, name)?.material)
+        Ok(load_trained(&h, name)?.material())
     });
     let h = host.clone();
     engine.register_fn("load_material", move |name: &str, d: FLOAT| -> RhaiResult<Material> {

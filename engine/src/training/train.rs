@@ -13,6 +13,7 @@ use super::sample::{PackedSample, SampleSpec};
 use crate::backend::RunControl;
 use crate::error::{check_positive, Error, Result};
 use crate::materials::{MacroProperties, Material};
+use crate::provenance::Source;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::SQRT_2;
 use std::time::Instant;
@@ -244,9 +245,30 @@ pub struct TrainedMaterial {
 }
 
 impl TrainedMaterial {
+    /// The trained material, its micro values marked as trained (for which targets, at which
+    /// diameter, in which round).
+    pub fn material(&self) -> Material {
+        let mut material = self.material.clone();
+        let t = &self.targets;
+        let what = format!(
+            "round {} of MatDEM's training for E {:.4e} Pa, ν {}, Tu {:.4e} Pa, Cu {:.4e} Pa, μi {} at d = {:.4e} m \
+             ({})",
+            self.round,
+            t.young,
+            t.poisson,
+            t.tensile,
+            t.compressive,
+            t.internal_friction,
+            self.diameter,
+            if self.converged { "converged" } else { "not converged: the best round" }
+        );
+        material.provenance.set_all(&["kn", "ks", "xb", "fs0", "mu_p"], Source::Trained(what));
+        material
+    }
+
     /// For elements of mean diameter `d` (paper 001 §2): Kn/d, Kn/Ks and the strengths kept.
     pub fn for_diameter(&self, d: f64) -> Result<Material> {
-        self.material.rescaled(self.diameter, d)
+        self.material().rescaled(self.diameter, d)
     }
 }
 

@@ -37,6 +37,7 @@ pub fn material(name: &str, density: f64, kn: f64, young: f64, poisson: f64) -> 
         young,
         poisson,
         restitution: 1.0,
+        provenance: Default::default(),
     }
 }
 
