@@ -13,6 +13,7 @@ pub mod package;
 pub mod plot;
 pub mod repl;
 pub mod report;
+pub mod report_page;
 pub mod resume;
 pub mod run;
 pub mod run_record;

@@ -6,6 +6,7 @@ use crate::api::Host;
 use crate::out_lock::OutLock;
 use crate::package::Package;
 use crate::report::{render, Sources};
+use crate::report_page::{write_run_page, RunSummary};
 use crate::resume::{self, Pending, Session};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
 use crate::sandbox::{Limits, ReadRoot};
@@ -168,7 +169,8 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
             RunError::Setup(format!("error: cannot write the run record in {}: {e}", cfg.out_dir.display()))
         })?;
     }
-    let result = evaluate(cfg, &text, &path, read_root, session);
+    let started = std::time::Instant::now();
+    let (result, plans) = evaluate(cfg, &text, &path, read_root, session);
     if !cfg.plan_only {
         let (status, code) = match &result {
             Ok(_) => ("ok", 0),
@@ -188,6 +190,15 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
             // A finished run leaves nothing to resume.
             let _ = std::fs::remove_dir_all(resume::resume_dir(&cfg.out_dir));
         }
+        let summary = RunSummary {
+            record: &record,
+            plans,
+            wall_s: started.elapsed().as_secs_f64(),
+            error: result.as_ref().err().map(|e| e.to_string()),
+        };
+        if let Err(e) = write_run_page(&cfg.out_dir, &summary) {
+            eprintln!("warning: cannot write the run's page in {}: {e}", cfg.out_dir.display());
+        }
     }
     result
 }
@@ -199,14 +210,18 @@ fn earlier_outputs(dir: &Path) -> usize {
     })
 }
 
-/// Prepares the host and the engine and evaluates the script.
+/// Each model's plan, by model name.
+type Plans = Vec<(String, String)>;
+
+/// Prepares the host and the engine and evaluates the script; returns its result and the
+/// plans of the models it ran.
 fn evaluate(
     cfg: &RunConfig,
     text: &str,
     path: &str,
     read_root: ReadRoot,
     session: Session,
-) -> Result<Vec<PathBuf>, RunError> {
+) -> (Result<Vec<PathBuf>, RunError>, Plans) {
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
@@ -232,7 +247,19 @@ fn evaluate(
     let control = cfg.control.clone();
     engine.on_progress(move |_| control.is_cancelled().then(|| Stop::Stopped.token()));
     let sources = Sources { main_path: path, main_text: text };
-    let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), &sources)))?;
+    let result = compile_and_run(cfg, &engine, &host, &sources);
+    let plans = host.plans.take();
+    (result, plans)
+}
+
+fn compile_and_run(
+    cfg: &RunConfig,
+    engine: &rhai::Engine,
+    host: &Host,
+    sources: &Sources,
+) -> Result<Vec<PathBuf>, RunError> {
+    let text = sources.main_text;
+    let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), sources)))?;
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());
     scope.push_constant("out_dir", host.out_dir.display().to_string());
@@ -254,6 +281,6 @@ fn evaluate(
             cfg.script.display(),
             cfg.out_dir.display()
         ))),
-        Err(e) => Err(RunError::Script(render(&e, &sources))),
+        Err(e) => Err(RunError::Script(render(&e, sources))),
     }
 }

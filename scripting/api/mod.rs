@@ -72,6 +72,8 @@ pub struct Host {
     pub limits: Limits,
     /// Warnings given so far, by key: each key is printed once (see [`Host::warn`]).
     pub warnings: RefCell<Vec<(String, String)>>,
+    /// Each model's plan as of its first run or balance, by model name, for the run's page.
+    pub plans: RefCell<Vec<(String, String)>>,
 }
 
 impl Host {
@@ -90,6 +92,7 @@ impl Host {
             resumable: false,
             gpu: None,
             warnings: RefCell::new(Vec::new()),
+            plans: RefCell::new(Vec::new()),
         }
     }
 

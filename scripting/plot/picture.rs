@@ -18,6 +18,9 @@ pub const PICTURE_SIZE: (u32, u32) = (800, 700);
 pub const MAX_CLASSES: usize = 10;
 
 /// Width of the gradient strip of the colour bar, in pixels.
+/// The comment a particle picture's SVG carries right after its `<svg>` tag.
+pub const PICTURE_MARK: &str = "<!-- matdem-rs particle picture -->";
+
 const BAR_WIDTH: u32 = 26;
 
 /// A 2-D view of particles at `(x[i], y[i])` with radius `r[i]` (data units,
@@ -227,7 +230,7 @@ impl ParticlePicture {
         self
     }
 
-    /// Renders the picture as an SVG document.
+    /// Renders the picture as an SVG document (marked with [`PICTURE_MARK`]).
     pub fn render_svg(&self) -> Result<String, PlotError> {
         style::ensure_fonts()?;
         let mut svg = String::new();
@@ -244,6 +247,11 @@ impl ParticlePicture {
         }
         let at = svg.rfind("</svg>").unwrap_or(svg.len());
         svg.insert_str(at, &circles);
+        // Marks the file as a particle picture, which report pages show as an image (its
+        // PNG) rather than inline: it can hold a circle per element.
+        if let Some(end) = svg.find('>') {
+            svg.insert_str(end + 1, PICTURE_MARK);
+        }
         Ok(svg)
     }
 

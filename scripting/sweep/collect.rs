@@ -225,5 +225,9 @@ pub fn write_collect(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> R
         let study = crate::study::from_results(spec, results)?;
         written.extend(crate::study::write_outputs(&study, spec, dir)?);
     }
+    // Last, so the page shows the charts and tables just written.
+    let page = crate::report_page::write_sweep_page(dir, plan, results)
+        .map_err(|e| format!("cannot write {}: {e}", dir.join(crate::report_page::PAGE_FILE).display()))?;
+    written.push(page);
     Ok(written)
 }

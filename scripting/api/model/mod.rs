@@ -52,7 +52,8 @@ pub struct ModelData {
     pub number: usize,
     /// The ParaView series `snapshot_every` set up (shared with the simulation's observer).
     pub snapshots: Rc<RefCell<super::snapshots::SnapshotLog>>,
-    plan_printed: bool,
+    /// Whether its plan was noted for the run page (and printed, in plan mode).
+    plan_noted: bool,
 }
 
 /// A shared handle: every script variable that holds the model refers to the same model.
@@ -73,7 +74,7 @@ impl ModelHandle {
             status: Table::default(),
             number,
             snapshots: Rc::default(),
-            plan_printed: false,
+            plan_noted: false,
         })))
     }
 

@@ -8,13 +8,18 @@ use super::*;
 /// models and runs the rest of its steps. Cancelled, it writes the resume folder and ends
 /// the script.
 fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResult<Dynamic> {
-    if host.plan_only {
+    {
         let mut data = d.data();
-        if !data.plan_printed {
+        if !data.plan_noted {
             let plan = data.sim.plan().to_string();
-            println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
-            data.plan_printed = true;
+            if host.plan_only {
+                println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
+            }
+            host.plans.borrow_mut().push((data.name.clone(), plan));
+            data.plan_noted = true;
         }
+    }
+    if host.plan_only {
         return Err(Stop::PlanDone.unwind());
     }
     let (how, done) = {
