@@ -212,3 +212,17 @@ fn a_format_2_checkpoint_still_loads() {
     assert_eq!(loaded.model.particles.pos, model.particles.pos);
     assert!(!loaded.model.parallel_bonds.enabled());
 }
+
+/// A material's provenance (where each value came from) is saved with the model: a loaded
+/// model prints the same derivations as the one that was saved.
+#[test]
+fn materials_keep_their_provenance_through_a_checkpoint() {
+    let sim = loaded_sample();
+    let saved = &sim.model.materials[0].provenance;
+    assert!(
+        matches!(saved.of("young"), Some(matdem_engine::provenance::Source::Derived(_))),
+        "from_micro derives E = Kn/(πR): {saved:?}"
+    );
+    let back = decode(&encode(&sim.model, b"")).unwrap();
+    assert_eq!(&back.model.materials[0].provenance, saved);
+}
