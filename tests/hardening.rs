@@ -46,9 +46,9 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_holder() {
     drop(held);
     let o = run_script(&dir, "p.rhai", "print(1);", &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    // A run into a folder an earlier run filled says so.
+    // A run into a folder an earlier run filled (its run.ron and index.html) says so.
     let o = run_script(&dir, "p.rhai", "print(1);", &[]);
-    assert!(o.status.success() && stderr(&o).contains("already holds 1 file(s) or folder(s) from an earlier run"));
+    assert!(o.status.success() && stderr(&o).contains("already holds 2 file(s) or folder(s) from an earlier run"));
 }
 
 #[test]
