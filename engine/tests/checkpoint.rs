@@ -202,18 +202,20 @@ fn framed(version: u32, payload: &[u8]) -> Vec<u8> {
     out
 }
 
-// Formats 2 (before parallel bonds: the payload ends at the annex) and 3 (before the
-// materials' provenance: it ends at the parallel bonds) still load, as a model without
-// parallel bonds and with no provenance recorded. Their payloads are written here as those
-// versions wrote them (postcard encodes a struct as the tuple of its fields).
+// Formats 2 (before parallel bonds: the payload ends at the annex), 3 (before the fields: it
+// ends at the parallel bonds) and 4 (before the materials' provenance: it ends at the fields)
+// still load, without what they lack. Their payloads are written here as those versions
+// wrote them (postcard encodes a struct as the tuple of its fields).
 #[test]
-fn format_2_and_3_checkpoints_still_load() {
+fn format_2_3_and_4_checkpoints_still_load() {
     let mut sim = parallel_bonded_sample();
     run(&mut sim, 50);
     let model = sim.model;
     let annex = b"annex".to_vec();
     let v2 = framed(2, &postcard::to_stdvec(&("0.1.0", &model, &annex)).unwrap());
     let v3 = framed(3, &postcard::to_stdvec(&("0.1.0", &model, &annex, &model.parallel_bonds)).unwrap());
+    let fields = (&model.settings.heat, &model.settings.water, &model.particles.thermal);
+    let v4 = framed(4, &postcard::to_stdvec(&("0.1.0", &model, &annex, &model.parallel_bonds, fields)).unwrap());
     let loaded = decode(&v2).unwrap();
     assert_eq!(loaded.annex, b"annex");
     assert_eq!(loaded.model.particles.pos, model.particles.pos);
@@ -223,4 +225,22 @@ fn format_2_and_3_checkpoints_still_load() {
     assert_eq!(loaded.model.particles.pos, model.particles.pos);
     assert_eq!(loaded.model.parallel_bonds.state, model.parallel_bonds.state);
     assert_eq!(loaded.model.materials[0].provenance, Default::default());
+    let loaded = decode(&v4).unwrap();
+    assert_eq!(loaded.model.particles.pos, model.particles.pos);
+    assert_eq!(loaded.model.parallel_bonds.state, model.parallel_bonds.state);
+    assert_eq!(loaded.model.materials[0].provenance, Default::default());
+}
+
+/// A material's provenance (where each value came from) is saved with the model: a loaded
+/// model prints the same derivations as the one that was saved.
+#[test]
+fn materials_keep_their_provenance_through_a_checkpoint() {
+    let sim = loaded_sample();
+    let saved = &sim.model.materials[0].provenance;
+    assert!(
+        matches!(saved.of("young"), Some(matdem_engine::provenance::Source::Derived(_))),
+        "from_micro derives E = Kn/(πR): {saved:?}"
+    );
+    let back = decode(&encode(&sim.model, b"")).unwrap();
+    assert_eq!(&back.model.materials[0].provenance, saved);
 }
