@@ -517,16 +517,28 @@ impl Model {
     }
 
     /// The stiffness an element meets in its stiffest likely contact (a rigid wall): the
-    /// element spring 2·Kn, or for Hertz the tangent stiffness at an overlap of 5% of r.
+    /// element spring 2·Kn, or for Hertz the tangent stiffness at an overlap of 5% of r; with
+    /// parallel bonds, twice a bond's k̄n·A if that is stiffer (the standard step and the
+    /// viscous damping then follow the bonds).
     pub fn element_stiffness(&self, i: usize) -> f64 {
         let m = &self.materials[self.particles.material[i] as usize];
-        match self.settings.normal {
+        let contact = match self.settings.normal {
             NormalKind::Linear => 2.0 * m.kn,
             NormalKind::Hertz => {
                 let r = self.particles.radius[i];
                 let e_star = m.young / (1.0 - m.poisson * m.poisson);
                 2.0 * e_star * r * 0.05f64.sqrt()
             }
+        };
+        // A parallel bond to an element of the same size is a spring k̄n·A in parallel with the
+        // contact; as the element's own spring, twice that (two in series give it back).
+        match &self.parallel_bonds.params {
+            Some(p) => {
+                let r = self.particles.radius[i];
+                let s = p.section(r, r);
+                contact.max(2.0 * s.kn * s.area)
+            }
+            None => contact,
         }
     }
 

@@ -88,6 +88,49 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 m.break_bonds(Some(&ids)).map_err(raise)? as INT
             }),
         )
+        // d.bond_parallel(#{ lambda, e_star, k_ratio, sigma_c, c, phi }) -> bonds: every bond of
+        // the model becomes a parallel bond (Potyondy & Cundall 2004, docs/parallel-bond.md) of
+        // radius lambda·min(Ri, Rj), bond modulus e_star (Pa), stiffness ratio k_ratio = k̄n/k̄s,
+        // tensile strength sigma_c (Pa), cohesion c (Pa) and friction angle phi (degrees), in
+        // parallel with the plain linear contact; rotation is switched on. All six keys are
+        // needed; an unknown key, a bad value or a model without bonds is refused.
+        .register_fn(
+            "bond_parallel",
+            observed!(host, "bond_parallel", |d, p: Map| {
+                let params = parallel_bond_params(&p)?;
+                d.model().bond_parallel(params).map_err(raise)? as INT
+            }),
+        )
+        .register_get("parallel_bonds", observed!(host, "parallel_bonds", |d| d.model().parallel_bonds.intact() as INT))
         .register_get("bonds", observed!(host, "bonds", |d| d.model().bond_count() as INT))
         .register_get("broken_bonds", observed!(host, "broken_bonds", |d| d.model().breakages.len() as INT));
+}
+
+/// The keys of `d.bond_parallel`'s map, in the order the docs give them.
+const PARALLEL_BOND_KEYS: [&str; 6] = ["lambda", "e_star", "k_ratio", "sigma_c", "c", "phi"];
+
+/// `d.bond_parallel`'s map as the engine's parameters (phi from degrees), refusing unknown or
+/// missing keys and values that are not numbers; the engine checks the ranges.
+fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::physics::parallel_bond::ParallelBondParams> {
+    let what = "bond_parallel";
+    for k in map.keys() {
+        if !PARALLEL_BOND_KEYS.contains(&k.as_str()) {
+            let e = matdem_engine::Error::unknown("parallel bond key", k.as_str(), &PARALLEL_BOND_KEYS);
+            return Err(err(format!("{what}: {e}")));
+        }
+    }
+    let get = |key: &str| -> RhaiResult<f64> {
+        let v = map.get(key).ok_or_else(|| {
+            err(format!("{what}: missing `{key}` (give all of {})", PARALLEL_BOND_KEYS.join(", ")))
+        })?;
+        number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
+    };
+    Ok(matdem_engine::physics::parallel_bond::ParallelBondParams {
+        lambda: get("lambda")?,
+        e_star: get("e_star")?,
+        k_ratio: get("k_ratio")?,
+        sigma_c: get("sigma_c")?,
+        cohesion: get("c")?,
+        phi: get("phi")?.to_radians(),
+    })
 }
