@@ -29,7 +29,12 @@ print(d.plan());
 "#;
 
 fn value(out: &str, key: &str) -> i64 {
-    out.lines().find_map(|l| l.strip_prefix(&format!("{key}="))).unwrap_or_else(|| panic!("no {key} in {out}")).trim().parse().unwrap()
+    out.lines()
+        .find_map(|l| l.strip_prefix(&format!("{key}=")))
+        .unwrap_or_else(|| panic!("no {key} in {out}"))
+        .trim()
+        .parse()
+        .unwrap()
 }
 
 // Every MatDEM bond becomes a parallel bond (and no MatDEM bond is left); strong bonds under the

@@ -120,9 +120,9 @@ fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::physics::paralle
         }
     }
     let get = |key: &str| -> RhaiResult<f64> {
-        let v = map.get(key).ok_or_else(|| {
-            err(format!("{what}: missing `{key}` (give all of {})", PARALLEL_BOND_KEYS.join(", ")))
-        })?;
+        let v = map
+            .get(key)
+            .ok_or_else(|| err(format!("{what}: missing `{key}` (give all of {})", PARALLEL_BOND_KEYS.join(", "))))?;
         number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
     };
     Ok(matdem_engine::physics::parallel_bond::ParallelBondParams {
