@@ -79,27 +79,11 @@ impl Material {
                 ),
             });
         }
-        let m = Material {
-            name: name.to_string(),
-            density,
-            kn,
-            ks,
-            xb,
-            fs0,
-            mu_p,
-            young: kn / (std::f64::consts::PI * radius),
-            poisson: 0.0,
-            restitution: 1.0,
-            provenance: Provenance::default(),
-        };
-        m.validate()?;
-        let mut m = m;
+        let micro = MicroParameters { kn, ks, xb, fs0, mu_p };
+        let mut m = Material::from_micro_hertz(name, density, &micro, kn / (std::f64::consts::PI * radius), 0.0)?;
         let p = &mut m.provenance;
-        p.set_all(&["density"], Source::Given);
-        p.set_all(&MICRO, Source::Given);
         p.set("young", Source::Derived(format!("E = Kn/(πR) at R = {radius:.4e} m (paper 000, eq. 6)")));
         p.set("poisson", Source::Default("0, paper 000's Hertz convention; give `poisson` to set it".into()));
-        p.set("restitution", Source::Default("1, no contact dashpot".into()));
         Ok(m)
     }
 
