@@ -73,7 +73,12 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             v_rel = v_rel + (cross(wi, n * ri) - cross(ang_vel[j].xyz, n * -rj));
         }
         let mj = body[j].x;
-        let p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
+        var p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
+        // A bond's w is its share of the pair's strength (below 1 for a joint; 0 unbonded).
+        if bonded {
+            p.breaking_force *= st.w;
+            p.fs0 *= st.w;
+        }
         let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, st.xyz, bonded,
                         dashpot_of(e), dt);
         f += c.force;
@@ -84,7 +89,7 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         if ROTATION {
             t += cross(n * ri, c.shear);
         }
-        state[e] = vec4<f32>(c.spring, select(0.0, 1.0, c.bonded));
+        state[e] = vec4<f32>(c.spring, select(0.0, st.w, c.bonded));
         if c.broke != 0u && i < j {
             // Breakage events are few: append (step, i, j, kind); the host sorts them.
             let k = atomicAdd(&counters[C_EVENTS], 1u);

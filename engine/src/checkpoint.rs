@@ -35,10 +35,11 @@ use serde::{Deserialize, Serialize};
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; files of a version this build does not know
 /// are refused, not misread.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
 /// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water),
-/// 2 to 4 the materials' provenance (their values then have none recorded).
+/// 2 to 4 the materials' provenance (their values then have none recorded), 2 to 5 the bonds'
+/// strength shares (every bond whole).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -89,6 +90,7 @@ struct PayloadOut<'a> {
     parallel_bonds: &'a ParallelBonds,
     fields: FieldsOut<'a>,
     provenance: Vec<&'a Provenance>,
+    weakened: Vec<(u32, u16)>,
 }
 
 #[derive(Deserialize)]
@@ -100,6 +102,20 @@ struct PayloadIn {
     fields: Fields,
     /// Each material's provenance, in material order (format 5; kept out of `Material`'s own
     /// serialisation so material files and older checkpoints stay readable).
+    provenance: Vec<Provenance>,
+    /// Format 6: the weakened bonds (joints) as (row entry, `PairState::weakened`), the rest
+    /// whole. Kept out of the pair state's own encoding so formats 2 to 5 still read.
+    weakened: Vec<(u32, u16)>,
+}
+
+/// Format 5: the payload ends at the provenance.
+#[derive(Deserialize)]
+struct PayloadInV5 {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+    parallel_bonds: ParallelBonds,
+    fields: Fields,
     provenance: Vec<Provenance>,
 }
 
@@ -153,7 +169,19 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
     let fields =
         FieldsOut { heat: &model.settings.heat, water: &model.settings.water, thermal: &model.particles.thermal };
     let provenance = model.materials.iter().map(|m| &m.provenance).collect();
-    let out = PayloadOut { writer: WRITER, model, annex, parallel_bonds: &model.parallel_bonds, fields, provenance };
+    let weakened = (model.contacts.state.iter().enumerate())
+        .filter(|(_, s)| s.bonded && s.weakened != 0)
+        .map(|(e, s)| (e as u32, s.weakened))
+        .collect();
+    let out = PayloadOut {
+        writer: WRITER,
+        model,
+        annex,
+        parallel_bonds: &model.parallel_bonds,
+        fields,
+        provenance,
+        weakened,
+    };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
         // unsupported serde features), so a failure here is an engine bug, not a user error.
@@ -211,6 +239,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 parallel_bonds: ParallelBonds::default(),
                 fields: Fields::default(),
                 provenance: Vec::new(),
+                weakened: Vec::new(),
             })
         } else if version == 3 {
             let p: PayloadInV3 = postcard::from_bytes(payload)?;
@@ -221,6 +250,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 parallel_bonds: p.parallel_bonds,
                 fields: Fields::default(),
                 provenance: Vec::new(),
+                weakened: Vec::new(),
             })
         } else if version == 4 {
             let p: PayloadInV4 = postcard::from_bytes(payload)?;
@@ -231,6 +261,18 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 parallel_bonds: p.parallel_bonds,
                 fields: p.fields,
                 provenance: Vec::new(),
+                weakened: Vec::new(),
+            })
+        } else if version == 5 {
+            let p: PayloadInV5 = postcard::from_bytes(payload)?;
+            Ok(PayloadIn {
+                writer: p.writer,
+                model: p.model,
+                annex: p.annex,
+                parallel_bonds: p.parallel_bonds,
+                fields: p.fields,
+                provenance: p.provenance,
+                weakened: Vec::new(),
             })
         } else {
             postcard::from_bytes(payload)
@@ -248,6 +290,16 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.particles.thermal = p.fields.thermal;
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
         m.provenance = prov;
+    }
+    let state = &mut p.model.contacts.state;
+    for &(e, w) in &p.weakened {
+        match state.get_mut(e as usize) {
+            Some(s) if s.bonded => s.weakened = w,
+            _ => {
+                let reason = format!("a bond strength share refers to row entry {e}, not a bond");
+                return Err(CheckpointError::Incompatible { writer: p.writer, reason });
+            }
+        }
     }
     check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
     Ok(Checkpoint { model: p.model, annex: p.annex })

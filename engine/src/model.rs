@@ -432,6 +432,7 @@ impl Model {
                 let gap = (p.pos[j] - p.pos[i]).norm() - p.radius[i] - p.radius[j];
                 if gap <= tolerance && !c.state[e].bonded {
                     c.state[e].bonded = true;
+                    c.state[e].weakened = 0;
                     c.state[e].shear = Vec3::zeros();
                     if i < j {
                         count += 1;
@@ -459,6 +460,8 @@ impl Model {
                         pairs.push((i as u32, c.other[e]));
                     }
                     c.state[e].bonded = false;
+                    // The parallel bond takes over: no joint share is left on the pair.
+                    c.state[e].weakened = 0;
                     c.state[e].shear = Vec3::zeros();
                 }
             }
@@ -488,6 +491,7 @@ impl Model {
                 let j = c.other[e] as usize;
                 if (member[i] || member[j]) && c.state[e].bonded {
                     c.state[e].bonded = false;
+                    c.state[e].weakened = 0;
                     c.state[e].shear = Vec3::zeros();
                     if i < j {
                         count += 1;
@@ -497,6 +501,46 @@ impl Model {
         }
         self.touch();
         Ok(count)
+    }
+
+    /// Sets every bond for which `selected(i, j)` holds (asked once per pair, i < j) to
+    /// `share` of its material pair's strength (breaking force and Fs0): MatDEM's joints,
+    /// bonds across a surface weakened. `share` 0 breaks them (no breakage is recorded: the
+    /// script cut them); 1 makes them whole again. Not cumulative: a second call sets, it
+    /// does not multiply. Returns the number of bonds set.
+    pub fn set_bond_strength(&mut self, selected: impl Fn(usize, usize) -> bool, share: f64) -> Result<usize> {
+        if !(0.0..=1.0).contains(&share) {
+            return Err(Error::param("strength share", share, "must be between 0 (break) and 1 (whole)"));
+        }
+        let weakened = if share > 0.0 { PairState::weakened_for(share) } else { 0 };
+        let c = &mut self.contacts;
+        let mut count = 0;
+        for i in 0..c.row_start.len().saturating_sub(1) {
+            for e in c.row(i) {
+                let j = c.other[e] as usize;
+                if !c.state[e].bonded || !selected(i.min(j), i.max(j)) {
+                    continue;
+                }
+                if share > 0.0 {
+                    c.state[e].weakened = weakened;
+                } else {
+                    c.state[e] = PairState { dashpot: c.state[e].dashpot, ..PairState::default() };
+                }
+                if i < j {
+                    count += 1;
+                }
+            }
+        }
+        self.touch();
+        Ok(count)
+    }
+
+    /// The share of its strength the bond between `i` and `j` has, or `None` when they are
+    /// not bonded.
+    pub fn bond_strength(&self, i: usize, j: usize) -> Option<f64> {
+        let e = self.contacts.find(i, j as u32)?;
+        let st = &self.contacts.state[e];
+        st.bonded.then(|| st.strength())
     }
 
     /// One flag per particle: in `ids`, or every particle when `None`.

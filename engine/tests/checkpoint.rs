@@ -45,11 +45,16 @@ fn run(sim: &mut Simulation, steps: u64) {
 fn saved_and_loaded_model_continues_bitwise_like_the_uninterrupted_run() {
     let mut straight = loaded_sample();
     run(&mut straight, 700);
+    // A joint: some bonds at 30 % of their strength (format 6 carries the shares).
+    assert!(straight.model.set_bond_strength(|i, j| (i + j) % 3 == 0, 0.3).unwrap() > 0);
     let bytes = encode(&straight.model, b"host data");
+    let shares = |m: &Model| m.contacts.state.iter().map(|s| s.weakened).collect::<Vec<_>>();
+    let saved = shares(&straight.model);
     run(&mut straight, 1300);
 
     let loaded = decode(&bytes).unwrap();
     assert_eq!(loaded.annex, b"host data");
+    assert!(saved.iter().any(|&w| w != 0) && shares(&loaded.model) == saved, "the joint's shares are saved");
     let mut resumed = Simulation::new(loaded.model);
     run(&mut resumed, 1300);
 
@@ -243,4 +248,27 @@ fn materials_keep_their_provenance_through_a_checkpoint() {
     );
     let back = decode(&encode(&sim.model, b"")).unwrap();
     assert_eq!(&back.model.materials[0].provenance, saved);
+}
+
+// Format 5 (before joints: the payload ends at the materials' provenance) still loads, with
+// whole bonds; made from a format-6 file of a model without joints, whose payload ends with the
+// 1 byte of an empty list of shares.
+#[test]
+fn a_format_5_checkpoint_still_loads_with_whole_bonds() {
+    let model = loaded_sample().model;
+    let v6 = encode(&model, b"annex");
+    let payload = &v6[20..v6.len() - 4];
+    assert_eq!(payload[payload.len() - 1], 0, "no weakened bonds");
+    let payload = &payload[..payload.len() - 1];
+    let mut v5 = Vec::new();
+    v5.extend_from_slice(b"MDEMCKPT");
+    v5.extend_from_slice(&5u32.to_le_bytes());
+    v5.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    v5.extend_from_slice(payload);
+    let crc = crc32fast::hash(&v5);
+    v5.extend_from_slice(&crc.to_le_bytes());
+    let loaded = decode(&v5).unwrap();
+    assert_eq!(loaded.model.particles.pos, model.particles.pos);
+    assert_eq!(loaded.model.materials[0].provenance, model.materials[0].provenance);
+    assert!(loaded.model.contacts.state.iter().all(|s| s.weakened == 0));
 }

@@ -6,7 +6,8 @@
 //! lists below name every table, and [`functions`] and [`properties`] read them all.
 
 /// Every table of functions: this file's and those kept where their names are registered.
-pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] = &[DOCS, super::geometry::DOCS];
+pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] =
+    &[DOCS, super::geometry::DOCS, super::model::cutting::DOCS, super::statistics::DOCS];
 
 /// Every table of properties, as [`FUNCTION_TABLES`].
 pub const PROPERTY_TABLES: &[&[(&str, &str, &str)]] = &[PROPERTIES, super::geometry::PROPERTIES];
@@ -46,7 +47,8 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("balance_until", "d.balance_until(ratio, max_steps) -> map", "balances until the unbalanced force ratio falls under `ratio`"),
     ("unbalanced_ratio", "d.unbalanced_ratio() -> f64", "the mean unbalanced force over the mean contact force"),
     ("energies", "d.energies() -> map", "kinetic, elastic, gravity energies, heat and wall work, J"),
-    ("coordination_number", "d.coordination_number() -> f64", "mean contacts per particle (Nc/Np)"),
+    ("coordination_number", "d.coordination_number() -> f64", "mean contacts per particle (Nc/Np), every particle counted (d.mechanical_coordination() leaves rattlers out)"),
+    ("mechanical_coordination", "d.mechanical_coordination() -> map", "the coordination number without rattlers (Thornton's mechanical coordination): particles with fewer than 2 contacts (walls count towards the 2) are left out with their contacts, repeatedly until none is left; #{ coordination, rattlers, counted }"),
     ("mean_contact_force", "d.mean_contact_force() -> f64", "mean normal contact force, N"),
     ("enable", "d.enable(\"rotation\") / d.enable(\"heat\")", "switches on an effect the scene needs (see d.plan()): rotation, or heat conduction (the conduction stage: every element gets a temperature, at d.reference_temperature; see d.thermal, docs/fields.md)"),
     ("disable", "d.disable(\"heat\") / d.disable(\"water\")", "switches heat conduction off (the temperatures are kept) or removes the water table"),
@@ -75,20 +77,20 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("in_sphere", "d.in_sphere(cx, cy, cz, r) -> Mask", "the elements whose centre is inside a sphere, m"),
     ("in_cylinder", "d.in_cylinder(cx, cy, r, z0, z1) -> Mask", "the elements whose centre is inside a vertical cylinder, m"),
     ("above_plane", "d.above_plane([x, y, z], [nx, ny, nz]) -> Mask", "the elements whose centre is strictly on the normal's side of a plane through a point (!mask for the rest)"),
-    ("layers_between", "d.layers_between([z0, z1, ...]) / d.layers_between(points, normal) -> counts", "groups layer1…layerN between horizontal planes (or parallel planes through points, in order along the normal); layer k holds z(k-1) ≤ z < z(k), the last includes its top"),
+    ("layers_between", "d.layers_between([z0, z1, ...]) / d.layers_between([s0, s1, ...]) / d.layers_between(points, normal) -> counts", "groups layer1…layerN between horizontal planes, cut surfaces (cut_surface; numbers and surfaces may mix), or parallel planes through points in order along the normal; bottom first: layer k holds h(k-1) ≤ z < h(k) at each element's (x, y), the last includes its top"),
     ("free", "d.free(group, \"z\")", "releases a fixed degree of freedom"),
     ("set_velocity", "d.set_velocity(group, [vx, vy, vz])", "sets a group's velocity, m/s"),
     ("connect", "d.connect(group, gap) / d.connect(group_a, group_b, gap) -> bonds", "bonds particles of a group closer than gap, m (MatDEM d.connectGroup); with two groups, only pairs with one end in each (a structure to a packing)"),
     ("break_bonds", "d.break_bonds(group) -> count", "breaks a group's bonds (MatDEM d.breakGroup)"),
     ("bond_parallel", "d.bond_parallel(#{ lambda, e_star, k_ratio, sigma_c, c, phi }) -> bonds", "makes every bond a parallel bond (Potyondy & Cundall 2004, docs/parallel-bond.md): radius lambda·min(Ri, Rj), modulus e_star (Pa), k_ratio = k̄n/k̄s, tensile strength sigma_c (Pa), cohesion c (Pa), friction angle phi (degrees), in parallel with the plain linear contact; switches rotation on; breaks are logged in d.broken_bonds"),
-    ("boundary", "d.boundary(name) -> map", "a wall's position, velocity and force"),
+    ("boundary", "d.boundary(name) -> map", "a wall's position, velocity, force and stress (a ring's over the height the particles touching it span, not its nominal height)"),
     ("move_boundary", "d.move_boundary(name, [vx, vy, vz])", "moves a wall at a velocity, m/s (MatDEM d.moveBoundary)"),
     ("place_boundary", "d.place_boundary(name, [x, y, z])", "puts a wall at a position, m"),
     ("stop_boundary", "d.stop_boundary(name)", "stops a wall and its servo"),
     ("set_platen_stress", "d.set_platen_stress(name, stress) / (name, stress, max_speed)", "servo-controls a platen to a stress, Pa (its speed capped at max_speed, m/s)"),
     ("set_boundary_friction", "d.set_boundary_friction(name, mu)", "friction between a wall and the particles"),
-    ("porosity_box", "d.porosity_box([x0, y0, z0], [x1, y1, z1]) -> f64", "porosity of the particles inside a box"),
-    ("porosity_cylinder", "d.porosity_cylinder(r, z0, z1) -> f64", "porosity inside a vertical cylinder"),
+    ("porosity_box", "d.porosity_box([x0, y0, z0], [x1, y1, z1]) -> f64", "porosity of a box window by volume fraction: 1 − (the volume the spheres share with the box, cut spheres by their part inside) / the box's volume"),
+    ("porosity_cylinder", "d.porosity_cylinder(r, z0, z1) -> f64", "porosity of a vertical cylinder on the z axis between z0 and z1 by volume fraction (spheres cut by its wall, floor or lid count by their part inside)"),
     ("show", "d.show(field, name) / d.show(field, name, slice_thickness)", "a particle picture coloured by a field, saved as name.svg and name.png (MatDEM d.show)"),
     ("plot", "plot(table, x_column, y_column) / plot(x, y) -> Chart / r.plot(name, title, x_label, y_label)", "a line chart of two columns or fields; for a regression, its points and fitted curve saved as name.svg and name.png"),
     ("chart", "chart(title, x_label, y_label) -> Chart", "an empty chart to add series to"),

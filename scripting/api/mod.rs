@@ -16,6 +16,7 @@ pub mod model;
 pub mod plot;
 pub mod reference;
 pub mod snapshots;
+pub mod statistics;
 pub mod table;
 pub mod training;
 pub mod zones;
@@ -208,6 +209,7 @@ fn error_message(e: &EvalAltResult) -> String {
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     field::register(engine);
     geometry::register(engine);
+    statistics::register(engine);
     table::register(engine, host.clone());
     materials::register(engine);
     metrics::register(engine, host.clone());

@@ -83,7 +83,8 @@ pub fn lattice(kind: LatticeKind, nx: usize, ny: usize, nz: usize, d: f64) -> Re
 fn fill(kind: LatticeKind, d: f64, lo: Vec3, hi: Vec3, inside: impl Fn(&Vec3) -> bool) -> Result<ElementSet> {
     let (row, layer_h) = kind.spacing(d);
     let span = hi - lo;
-    let count = |len: f64, step: f64| (len / step).ceil() as usize + 3;
+    // Saturating: a huge shape becomes a count the lattice refuses, not a wrapped small one.
+    let count = |len: f64, step: f64| ((len / step).ceil() as usize).saturating_add(3);
     let (nx, ny, nz) = (count(span.x, d), count(span.y, row), count(span.z, layer_h));
     let origin = lo + Vec3::new(d / 2.0 - d, d / 2.0 - row, d / 2.0);
     let centres = lattice(kind, nx, ny, nz, d)?.into_iter().map(|p| p + origin).filter(|p| inside(p)).collect();

@@ -47,6 +47,30 @@ pub struct PairState {
     /// the half step after it is booked with the next step's heat (f32 fits the padding).
     #[serde(default)]
     pub dashpot: f32,
+    /// How much of its material pair's strength (breaking force and Fs0) a bond has lost,
+    /// in 1/65535 (MatDEM's bond strength rate, as `1 − weakened/65535`): 0 for a whole bond,
+    /// set by joints (`Model::set_bond_strength`). Zero on every unbonded pair. A u16 keeps
+    /// the state 32 bytes (it fits the padding after `bonded`), and 0 is the default.
+    /// Checkpoints carry it beside the model (format 4), so the pair state's own encoding
+    /// stays that of formats 2 and 3.
+    #[serde(skip)]
+    pub weakened: u16,
+}
+
+/// `weakened` of a bond with none of its strength left (never stored: such a bond is broken).
+pub const WEAKENED_ALL: f64 = 65535.0;
+
+impl PairState {
+    /// The share of its material pair's strength this bond has: 1 unless weakened.
+    #[inline(always)]
+    pub fn strength(&self) -> f64 {
+        1.0 - f64::from(self.weakened) / WEAKENED_ALL
+    }
+
+    /// `weakened` for a bond at `share` of its strength (0 < share ≤ 1), never all of it.
+    pub fn weakened_for(share: f64) -> u16 {
+        ((1.0 - share) * WEAKENED_ALL).round().clamp(0.0, WEAKENED_ALL - 1.0) as u16
+    }
 }
 
 /// How a bond broke.
@@ -251,12 +275,15 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     let vt = g.v_rel - g.n * vn;
     let s_prev = rotate_into_plane(state.shear, &g.n);
     let mut s = s_prev - vt * (kt * dt);
-    if state.bonded && fn_el < -p.breaking_force {
+    // A weakened bond (a joint) breaks at its share of the pair's strength; 1 otherwise.
+    let strength = state.strength();
+    if state.bonded && fn_el < -p.breaking_force * strength {
         // Broken in tension: the stretched bond's energy becomes heat; no contact remains.
         out.heat_breakage = bond_tension_release(p, overlap, vn, dt) + released(s, Vec3::zeros(), s_prev, kt);
         out.heat_damping = dashpot_release(state, vn, dt);
         out.broke = Some(BreakKind::Tension);
         state.bonded = false;
+        state.weakened = 0;
         state.shear = Vec3::zeros();
         return out;
     }
@@ -287,7 +314,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     // Spring and dashpot are capped together (LIGGGHTS, LAMMPS gran/hertz/history).
     let total = if T::DAMPED { s + f_td } else { s };
 
-    let mut limit = if state.bonded { (p.fs0 + p.mu * fn_el).max(0.0) } else { p.mu * fn_el.max(0.0) };
+    let mut limit = if state.bonded { (p.fs0 * strength + p.mu * fn_el).max(0.0) } else { p.mu * fn_el.max(0.0) };
     let s2 = total.norm_squared();
     // The dashpot force the element feels: clipped to the cap when the contact slides.
     let mut f_felt = f_td;
@@ -295,6 +322,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
         if state.bonded {
             // The bond fails in shear; from now on only friction holds.
             state.bonded = false;
+            state.weakened = 0;
             out.broke = Some(BreakKind::Shear);
             limit = p.mu * fn_el.max(0.0);
             if !touching {

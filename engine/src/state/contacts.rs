@@ -71,6 +71,9 @@ impl Contacts {
             (Some(a), Some(b)) => {
                 self.state[a].bonded = bonded;
                 self.state[b].bonded = bonded;
+                // A bond made or broken here is whole (or gone): no joint weakening.
+                self.state[a].weakened = 0;
+                self.state[b].weakened = 0;
                 if !bonded {
                     self.state[a].shear = Vec3::zeros();
                     self.state[b].shear = Vec3::zeros();

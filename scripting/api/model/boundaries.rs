@@ -42,10 +42,11 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             "boundary",
             observed!(host, "boundary", |d, name: &str| {
                 let m = d.model();
-                let w = &m.walls[m.wall_index(name).map_err(raise)?];
+                let k = m.wall_index(name).map_err(raise)?;
+                let w = &m.walls[k];
                 let mut map = Map::new();
                 let v3 = |v: Vec3| vec![Dynamic::from_float(v.x), Dynamic::from_float(v.y), Dynamic::from_float(v.z)];
-                map.insert("stress".into(), w.stress().into());
+                map.insert("stress".into(), matdem_engine::status::wall_stress(&m, k).into());
                 map.insert("force".into(), v3(w.force).into());
                 map.insert("displacement".into(), v3(w.displacement).into());
                 map.insert("contacts".into(), (w.contacts as INT).into());

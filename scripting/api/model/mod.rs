@@ -20,6 +20,7 @@ macro_rules! observed {
 }
 
 mod boundaries;
+pub mod cutting;
 mod elements;
 mod fields;
 mod groups;
@@ -159,4 +160,5 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     elements::register(engine, &host);
     regions::register(engine, &host);
     fields::register(engine, &host);
+    cutting::register(engine, &host);
 }

@@ -1,6 +1,7 @@
 //! Observation: records into `d.status`, energies, contact statistics, porosity.
 
 use super::*;
+use matdem_engine::status::{coordination_without_rattlers, wall_stress};
 
 pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
     engine
@@ -42,6 +43,17 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         .register_fn(
             "coordination_number",
             observed!(host, "coordination_number", |d| d.data().sim.contact_stats().coordination),
+        )
+        .register_fn(
+            "mechanical_coordination",
+            observed!(host, "mechanical_coordination", |d| {
+                let c = coordination_without_rattlers(&d.model());
+                Map::from_iter([
+                    ("coordination".into(), Dynamic::from_float(c.coordination)),
+                    ("rattlers".into(), Dynamic::from_int(c.rattlers as INT)),
+                    ("counted".into(), Dynamic::from_int(c.counted as INT)),
+                ])
+            }),
         )
         .register_fn(
             "mean_contact_force",
@@ -117,8 +129,8 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
         ("bonds".to_string(), stats.bonds as f64),
         ("broken_bonds".to_string(), m.breakages.len() as f64),
     ];
-    for w in &m.walls {
-        row.push((format!("{}_stress", w.name), w.stress()));
+    for (k, w) in m.walls.iter().enumerate() {
+        row.push((format!("{}_stress", w.name), wall_stress(m, k)));
     }
     let t = &m.particles.thermal.temperature;
     if m.settings.heat.enabled && t.len() == m.len() && !t.is_empty() {

@@ -73,6 +73,9 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
     });
     let h = host.clone();
     engine.register_fn("layers_between", move |d: &mut ModelHandle, zs: Array| {
+        if super::cutting::has_surfaces(&zs) {
+            return super::cutting::layers_between_surfaces(&h, d, &zs);
+        }
         let points = zs
             .iter()
             .enumerate()

@@ -457,7 +457,7 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
     let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
     rows::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
-        *s = PairState { shear: to64(g), bonded: false, dashpot: g[3] };
+        *s = PairState { shear: to64(g), dashpot: g[3], ..PairState::default() };
     }
     let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
     for (w, g) in m.walls.iter_mut().zip(&walls) {

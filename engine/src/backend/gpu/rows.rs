@@ -40,8 +40,9 @@ pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool) -> Slots {
         for (k, e) in row.enumerate() {
             let st = &c.state[e];
             s.other[i * cap + k] = c.other[e];
-            s.state[i * cap + k] =
-                [st.shear.x as f32, st.shear.y as f32, st.shear.z as f32, if st.bonded { 1.0 } else { 0.0 }];
+            // w: 0 unbonded, else the bond's share of its strength (1 unless a joint weakened it).
+            let w = if st.bonded { st.strength() as f32 } else { 0.0 };
+            s.state[i * cap + k] = [st.shear.x as f32, st.shear.y as f32, st.shear.z as f32, w];
             if dashpot {
                 s.dashpot[i * cap + k] = st.dashpot;
             }
@@ -68,6 +69,8 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
                 shear: Vec3::new(f64::from(g[0]), f64::from(g[1]), f64::from(g[2])),
                 bonded: g[3] != 0.0,
                 dashpot: s.dashpot.get(e).copied().unwrap_or(0.0),
+                // w holds 1 − weakened/65535 in f32 (24 bits): rounding recovers it exactly.
+                weakened: if g[3] != 0.0 { PairState::weakened_for(f64::from(g[3])) } else { 0 },
             }
         }));
         row_start.push(other.len() as u32);
@@ -227,7 +230,9 @@ mod tests {
                 let bonded = (i as u32).min(j) == 0;
                 // Dashpot forces exact in f32, so the round trip is exact.
                 let dashpot = 0.25 * j as f32;
-                c.state.push(PairState { shear: Vec3::new(i as f64, j as f64, 0.5), bonded, dashpot });
+                // Some bonds weakened (a joint), so their share rides along in w.
+                let weakened = if bonded && j % 2 == 1 { PairState::weakened_for(0.2) } else { 0 };
+                c.state.push(PairState { shear: Vec3::new(i as f64, j as f64, 0.5), bonded, dashpot, weakened });
             }
             c.row_start.push(c.other.len() as u32);
         }
