@@ -2,7 +2,7 @@
 //! a 1-D chain's steady profile and its transient (the series solution with a small step,
 //! forward Euler's own discrete form at a large one), conservation of Σ C·T with insulated
 //! boundaries, an FCC block's effective conductivity 2√2·H/d, the stability guard, and
-//! thermal expansion of a free element and a bonded bar.
+//! thermal expansion of a free element, a bonded bar and a clamped bar (σ = E·α·ΔT).
 
 mod common;
 
@@ -11,7 +11,7 @@ use matdem_engine::backend::RunControl;
 use matdem_engine::fields::{ThermalMode, ThermalProps};
 use matdem_engine::physics::conduction::pair_conductance;
 use matdem_engine::state::particles::dof;
-use matdem_engine::{Error, Model, Simulation, Vec3};
+use matdem_engine::{Error, Model, NormalKind, Simulation, Vec3, Wall};
 use std::f64::consts::PI;
 
 /// Chain nodes 0…N.
@@ -302,6 +302,52 @@ fn a_bonded_bars_length_grows_by_alpha_delta_t() {
     assert!(((strain - 1.2e-3) / 1.2e-3).abs() < 0.01, "strain {strain}");
     // Uniform temperature: conduction changed nothing.
     assert!(m.particles.thermal.temperature.iter().all(|t| (t - 120.0).abs() < 1e-9));
+}
+
+// A clamped bar: n touching elements on the x axis between two fixed walls, heated by ΔT.
+// Each grows by α·ΔT·r, and the bar's free growth 2·n·r·α·ΔT is taken up by n − 1 element
+// pairs (linear springs of stiffness kn: two elements' kn in series) and two wall contacts
+// (2·kn each) in series, so every contact carries F = 2·r·kn·α·ΔT; over the bar's cross
+// section (2r)² that is σ = E·α·ΔT with the chain's modulus E = kn/(2r). At rest (damped),
+// the walls' load and every pair's force against F to 1e-6.
+#[test]
+fn a_clamped_bars_thermal_stress_is_e_alpha_delta_t() {
+    let (r, n, kn, alpha, dt_heat) = (1e-3, 8usize, 1e5, 1.2e-5, 100.0);
+    let mut m = Model::new();
+    m.settings.normal = NormalKind::Linear;
+    let k = m.add_material(material("steel", 7800.0, kn, 1e7, 0.3)).unwrap();
+    for i in 0..n {
+        m.add_particle(Vec3::new(2.0 * r * i as f64, 0.0, 0.0), r, k).unwrap();
+    }
+    let area = 4.0 * r * r;
+    let right = 2.0 * r * (n - 1) as f64 + r;
+    m.add_wall(Wall::plane("left", Vec3::new(-r, 0.0, 0.0), Vec3::x(), area).unwrap()).unwrap();
+    m.add_wall(Wall::plane("right", Vec3::new(right, 0.0, 0.0), -Vec3::x(), area).unwrap()).unwrap();
+    // The bar only shortens or lengthens: no buckling sideways.
+    let all: Vec<u32> = (0..n as u32).collect();
+    m.fix(&all, dof::Y | dof::Z, true).unwrap();
+    m.settings.heat.reference = 20.0;
+    m.enable_heat();
+    m.set_thermal_material("steel", ThermalProps { conductivity: 50.0, specific_heat: 500.0, expansion: alpha })
+        .unwrap();
+    m.set_temperatures(&vec![20.0 + dt_heat; n]).unwrap();
+    m.settings.damping = 0.3;
+    m.set_standard_dt().unwrap();
+    let m = run(m, 40_000);
+
+    let expected = 2.0 * r * kn * alpha * dt_heat;
+    let rel = |x: f64| (x - expected).abs() / expected;
+    for w in &m.walls {
+        assert!(rel(w.normal_force) < 1e-6, "wall {}: {} N against {expected} N", w.name, w.normal_force);
+    }
+    let p = &m.particles;
+    for i in 0..n - 1 {
+        let f = kn * (p.radius[i] + p.radius[i + 1] - (p.pos[i + 1] - p.pos[i]).norm());
+        assert!(rel(f) < 1e-6, "pair {i}: {f} N against {expected} N");
+    }
+    let stress = m.walls[0].normal_force / area;
+    let e_chain = kn / (2.0 * r);
+    assert!((stress - e_chain * alpha * dt_heat).abs() < 1e-6 * stress, "σ {stress} against E·α·ΔT");
 }
 
 // A checkpoint carries the thermal lanes and the heat settings: a loaded model continues the
