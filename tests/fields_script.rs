@@ -135,3 +135,24 @@ fn snapshots_carry_the_temperature() {
     let vtp = matdem_rs::snapshot::vtp(&m);
     assert!(vtp.contains("Name=\"temperature\"") && vtp.contains("321.5"), "{vtp}");
 }
+
+// A particle picture by temperature: `d.show("temperature", name)` colours the elements by
+// their temperature with the unit in the colour bar; without heat on it is refused with what
+// to call first.
+#[test]
+fn a_particle_picture_shows_the_temperature_field() {
+    let dir = common::temp_dir("show_temperature");
+    let script = format!(
+        r#"{SMALL_BOX}
+        d.enable("heat");
+        d.temperature = 300.0 + d.z * 1e4;
+        d.show("temperature", "temperature");"#
+    );
+    matdem_rs::new_engine(Rc::new(Host::new(dir.clone()))).run(&script).unwrap_or_else(|e| panic!("{e}"));
+    let svg = std::fs::read_to_string(dir.join("temperature.svg")).unwrap();
+    assert!(svg.contains("temperature [K]"), "the colour bar names the field and its unit");
+    assert!(dir.join("temperature.png").is_file());
+
+    let e = refusal("show_temperature_off", &format!("{SMALL_BOX}\nd.show(\"temperature\", \"t\");"));
+    assert!(e.contains("no temperature field") && e.contains("d.enable(\"heat\")"), "{e}");
+}

@@ -70,11 +70,30 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
             v
         }
         "contact_load" | "force" => data.sim.contact_loads(),
+        "temperature" => {
+            let t = &p.thermal.temperature;
+            if t.len() != n {
+                return Err(err("show: no temperature field: call d.enable(\"heat\") first (docs/fields.md)"));
+            }
+            t.clone()
+        }
         other => {
             return Err(super::raise(matdem_engine::Error::unknown(
                 "particle field",
                 other,
-                &["x", "y", "z", "r", "displacement", "dz", "speed", "material", "size_class", "contact_load"],
+                &[
+                    "x",
+                    "y",
+                    "z",
+                    "r",
+                    "displacement",
+                    "dz",
+                    "speed",
+                    "material",
+                    "size_class",
+                    "contact_load",
+                    "temperature",
+                ],
             )))
         }
     };
@@ -82,6 +101,7 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
         "displacement" | "dz" | "x" | "y" | "z" | "r" | "radius" => format!("{name} [m]"),
         "speed" => "speed [m/s]".to_string(),
         "contact_load" | "force" => "contact load [N]".to_string(),
+        "temperature" => "temperature [K]".to_string(),
         other => other.to_string(),
     };
     Ok((v, label))
