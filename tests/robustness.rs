@@ -80,6 +80,8 @@ const CALLS: &[&str] = &[
     "d.gravity = A",
     "d.damping = A; d.local_damping = B; d.run(20)",
     "d.contact_law = A; d.shear_law = B",
+    "d.rolling_resistance = A; d.run(20)",
+    "d.rolling_resistance = #{ model: A, mu_r: B }; d.run(20)",
     "d.add_group(A, B)",
     "d.add_group(\"g\", A); d.fix(\"g\", B)",
     "d.free(A, B)",

@@ -102,3 +102,40 @@ fn bad_values_are_refused_with_a_message() {
         assert!(e.contains(needle), "{script}: {e}");
     }
 }
+
+// d.rolling_resistance: the plan lists the stage (and epsd's lanes); the map reads back; bad
+// values are refused with what to do instead; () switches it off.
+#[test]
+fn rolling_resistance_is_set_read_and_refused_from_scripts() {
+    let plan: String = eval(
+        "rolling_plan",
+        &format!("{SMALL_BOX} d.rolling_resistance = #{{ model: \"epsd\", mu_r: 0.1, damping: 0.3 }}; d.plan()"),
+    );
+    assert!(plan.contains("rolling_resistance → integrate"), "{plan}");
+    assert!(plan.contains("rolling resistance(epsd, μ_r 0.1, k_r = k_t·R_eff², η_r 0.3)"), "{plan}");
+    assert!(plan.contains("per row entry (rolling_spring, wall_rolling_spring)"), "{plan}");
+    let model: String = eval(
+        "rolling_read",
+        &format!("{SMALL_BOX} d.rolling_resistance = #{{ model: \"cdt\", mu_r: 0.2 }}; d.rolling_resistance.model"),
+    );
+    assert_eq!(model, "cdt");
+    let off: String = eval(
+        "rolling_off",
+        &format!(
+            "{SMALL_BOX} d.rolling_resistance = #{{ model: \"cdt\", mu_r: 0.2 }}; d.rolling_resistance = (); d.plan()"
+        ),
+    );
+    assert!(off.ends_with("rolling resistance"), "{off}");
+    for (bad, advice) in [
+        ("#{ model: \"cdt\", mu_r: -0.1 }", "mu_r: 0.1"),
+        ("#{ model: \"cdt\" }", "missing `mu_r`"),
+        ("#{ model: \"rolling\", mu_r: 0.1 }", "\"cdt\""),
+        ("#{ model: \"cdt\", mu_r: 0.1, damping: 0.3 }", "model: \"epsd\""),
+        ("#{ model: \"cdt\", mu: 0.1 }", "mu_r"),
+    ] {
+        let dir = common::temp_dir("rolling_bad");
+        let engine = matdem_rs::new_engine(Rc::new(Host::new(dir)));
+        let e = engine.eval::<()>(&format!("{SMALL_BOX} d.rolling_resistance = {bad};")).unwrap_err().to_string();
+        assert!(e.contains(advice), "{bad}: {e}");
+    }
+}

@@ -99,6 +99,10 @@ pub struct Settings {
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
     pub water: crate::fields::WaterTable,
+    /// Rolling resistance (the `rolling_resistance` stage; off by default). Not yet carried by
+    /// checkpoints: a loaded model has none until the script sets it again.
+    #[serde(skip)]
+    pub rolling: Option<crate::physics::rolling_resistance::RollingResistance>,
 }
 
 impl Default for Settings {
@@ -117,6 +121,7 @@ impl Default for Settings {
             heat_ledger: true,
             heat: crate::fields::HeatSettings::default(),
             water: crate::fields::WaterTable::default(),
+            rolling: None,
         }
     }
 }
@@ -156,6 +161,11 @@ pub struct Model {
     /// model in a checkpoint (format 3), so that a model of format 2 still reads.
     #[serde(skip)]
     pub parallel_bonds: ParallelBonds,
+    /// The `rolling_resistance` stage's epsd rolling springs against the walls (N·m),
+    /// `wall_rolling[i * walls.len() + w]` as `wall_contacts`; empty unless the plan has epsd.
+    /// Not in checkpoints (a loaded model starts them at zero).
+    #[serde(skip)]
+    pub wall_rolling: Vec<Vec3>,
 }
 
 impl Default for Model {
@@ -178,6 +188,7 @@ impl Model {
             breakages: Vec::new(),
             revision: 0,
             parallel_bonds: ParallelBonds::default(),
+            wall_rolling: Vec::new(),
         }
     }
 
@@ -242,6 +253,9 @@ impl Model {
         }
         let w = self.walls.len();
         self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
+        if !self.wall_rolling.is_empty() {
+            self.wall_rolling.extend(std::iter::repeat_n(Vec3::zeros(), w));
+        }
         self.contacts.stale = true;
         self.touch();
         Ok(id)
@@ -331,6 +345,14 @@ impl Model {
                 .copy_from_slice(&self.wall_contacts[i * w_old..(i + 1) * w_old]);
         }
         self.wall_contacts = states;
+        if !self.wall_rolling.is_empty() {
+            let mut springs = vec![Vec3::zeros(); self.len() * (w_old + 1)];
+            for i in 0..self.len() {
+                springs[i * (w_old + 1)..i * (w_old + 1) + w_old]
+                    .copy_from_slice(&self.wall_rolling[i * w_old..(i + 1) * w_old]);
+            }
+            self.wall_rolling = springs;
+        }
         self.walls.push(wall);
         self.touch();
         Ok(self.walls.len() - 1)
@@ -365,6 +387,14 @@ impl Model {
             idx += 1;
             r
         });
+        if !self.wall_rolling.is_empty() {
+            let mut idx = 0usize;
+            self.wall_rolling.retain(|_| {
+                let r = keep[idx / w.max(1)];
+                idx += 1;
+                r
+            });
+        }
         let map = self.particles.retain(&keep);
         self.groups.remap(&map);
         self.parallel_bonds.retain(&map);
@@ -381,6 +411,9 @@ impl Model {
                     if let Some(b) = map[old.other[e] as usize] {
                         kept.other.push(b);
                         kept.state.push(old.state[e]);
+                        if let Some(s) = old.rolling.get(e) {
+                            kept.rolling.push(*s);
+                        }
                     }
                 }
             }

@@ -8,6 +8,7 @@ use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairParams;
 use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
+use crate::physics::rolling_resistance::{RollingModel, RollingResistance};
 use crate::physics::Vec3;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::HeatCauses;
@@ -33,6 +34,11 @@ pub enum Stage {
     /// contacts: their forces and moments, added to the contact sums, and their breakage. Its
     /// lanes (the bonds' rows and states) exist only in scenes that made such bonds.
     ParallelBond,
+    /// Optional: rolling resistance (physics/rolling_resistance.rs), a torque against the
+    /// relative rolling of each contact, added to the contact and wall stages' torques from each
+    /// particle's own row. Only the epsd model has lanes (a rolling spring per row entry and
+    /// per wall contact).
+    RollingResistance,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
     /// Optional: the energy ledger, the heat each particle releases by cause and the work
@@ -52,12 +58,13 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 10] = [
+    pub const ALL: [Stage; 11] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
         Stage::WallForces,
         Stage::ParallelBond,
+        Stage::RollingResistance,
         Stage::Integrate,
         Stage::Heat,
         Stage::Buoyancy,
@@ -73,6 +80,7 @@ impl Stage {
             Stage::ContactForces => "contact_forces",
             Stage::WallForces => "wall_forces",
             Stage::ParallelBond => "parallel_bond",
+            Stage::RollingResistance => "rolling_resistance",
             Stage::Integrate => "integrate",
             Stage::Heat => "heat",
             Stage::Buoyancy => "buoyancy",
@@ -120,6 +128,8 @@ pub struct StepPlan {
     pub conduction: Option<ConductionPlan>,
     /// The water table's buoyancy (the scene sets a level).
     pub buoyancy: Option<BuoyancyPlan>,
+    /// Rolling resistance (the scene sets one with μ_r > 0).
+    pub rolling: Option<RollingResistance>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -131,6 +141,9 @@ pub struct LaneSet {
     /// Bytes per row entry of a stage with per-pair lanes (0 for the others): the
     /// `parallel_bond` stage's bonds, two entries each.
     pub bytes_per_entry: usize,
+    /// Bytes per neighbour-row entry (0 for the others): the epsd rolling springs, aligned
+    /// with the contact rows.
+    pub bytes_per_row_entry: usize,
 }
 
 impl StepPlan {
@@ -160,6 +173,8 @@ impl StepPlan {
         let pb = &m.parallel_bonds;
         let parallel_bond = pb.params.filter(|_| pb.intact() > 0);
         let dashpot = m.materials.iter().any(|a| a.restitution < 1.0);
+        // μ_r = 0 resists nothing: no stage.
+        let rolling = s.rolling.filter(|r| r.mu_r > 0.0);
         let heat = if s.heat_ledger {
             HeatCauses {
                 damping: s.damping > 0.0 || s.local_damping > 0.0,
@@ -176,8 +191,9 @@ impl StepPlan {
             normal: s.normal,
             tangential: s.tangential,
             dashpot,
-            // Parallel bonds carry moments: they need the particles to turn.
-            rotation: s.rotation || parallel_bond.is_some(),
+            // Parallel bonds carry moments and rolling resistance is a torque: both need the
+            // particles to turn.
+            rotation: s.rotation || parallel_bond.is_some() || rolling.is_some(),
             gravity: s.gravity.norm() > 0.0,
             damping: s.damping,
             local_damping: s.local_damping,
@@ -193,6 +209,7 @@ impl StepPlan {
             parallel_bond_entries: if parallel_bond.is_some() { pb.other.len() } else { 0 },
             conduction: ConductionPlan::of(m),
             buoyancy: BuoyancyPlan::of(m),
+            rolling,
         }
     }
 
@@ -208,6 +225,7 @@ impl StepPlan {
             Stage::Walls | Stage::WallForces => self.walls > 0,
             Stage::Heat => self.heat.lanes() > 0,
             Stage::ParallelBond => self.parallel_bond.is_some(),
+            Stage::RollingResistance => self.rolling.is_some(),
             Stage::Buoyancy => self.buoyancy.is_some(),
             Stage::Conduction => self.conduction.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
@@ -225,6 +243,7 @@ impl StepPlan {
             lanes: vec!["pos", "vel", "force", "origin", "radius", "mass", "material", "fixed"],
             bytes_per_particle: 4 * v + 2 * f + u + 1,
             bytes_per_entry: 0,
+            bytes_per_row_entry: 0,
         }];
         if self.rotation {
             sets.push(LaneSet {
@@ -232,6 +251,7 @@ impl StepPlan {
                 lanes: vec!["ang_vel", "torque"],
                 bytes_per_particle: 2 * v,
                 bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
             });
         }
         if self.has(Stage::ParallelBond) {
@@ -241,6 +261,17 @@ impl StepPlan {
                 lanes: vec!["row_start", "other", "shear", "normal", "bending", "twist", "status"],
                 bytes_per_particle: u,
                 bytes_per_entry: ParallelBonds::ENTRY_BYTES,
+                bytes_per_row_entry: 0,
+            });
+        }
+        if self.rolling.is_some_and(|r| r.model == RollingModel::Epsd) {
+            // A rolling spring per row entry, and one per particle and wall.
+            sets.push(LaneSet {
+                stage: Stage::RollingResistance.name(),
+                lanes: vec!["rolling_spring", "wall_rolling_spring"],
+                bytes_per_particle: self.walls * v,
+                bytes_per_entry: 0,
+                bytes_per_row_entry: v,
             });
         }
         if self.has(Stage::Heat) {
@@ -249,6 +280,7 @@ impl StepPlan {
                 lanes: self.heat.names(),
                 bytes_per_particle: self.heat.lanes() * f,
                 bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
             });
         }
         if let Some(c) = &self.conduction {
@@ -257,6 +289,7 @@ impl StepPlan {
                 lanes: c.lanes(),
                 bytes_per_particle: c.bytes_per_particle(),
                 bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
             });
         }
         // Buoyancy reads the core's lanes and keeps none of its own.
@@ -271,6 +304,18 @@ impl StepPlan {
     /// Bytes of the plan's per-pair lanes on the CPU (the parallel bonds' row entries).
     pub fn pair_bytes(&self) -> usize {
         self.lane_sets().iter().map(|s| s.bytes_per_entry).sum::<usize>() * self.parallel_bond_entries
+    }
+
+    /// Bytes of the plan's lanes per neighbour-row entry on the CPU, beyond the rows' own (the
+    /// epsd rolling springs).
+    pub fn row_entry_bytes(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_row_entry).sum()
+    }
+
+    /// Whether a force stage runs between the core's forces and the move (parallel bonds,
+    /// rolling resistance): the CPU then runs the core's passes apart instead of fused.
+    pub fn has_force_stage(&self) -> bool {
+        self.has(Stage::ParallelBond) || self.has(Stage::RollingResistance)
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -377,6 +422,14 @@ impl fmt::Display for StepPlan {
                 pb.phi.to_degrees()
             ));
         }
+        if let Some(r) = &self.rolling {
+            stages.push(match r.model {
+                RollingModel::Cdt => format!("rolling resistance(cdt, μ_r {})", r.mu_r),
+                RollingModel::Epsd => {
+                    format!("rolling resistance(epsd, μ_r {}, k_r = k_t·R_eff², η_r {})", r.mu_r, r.damping)
+                }
+            });
+        }
         let mut body = Vec::new();
         if self.gravity {
             body.push("gravity".to_string());
@@ -413,9 +466,14 @@ impl fmt::Display for StepPlan {
         let sets: Vec<String> = self
             .lane_sets()
             .iter()
-            .map(|s| match s.bytes_per_entry {
-                0 => format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
-                e => format!("{} {} B + {e} B per bond end ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
+            .map(|s| match (s.bytes_per_entry, s.bytes_per_row_entry) {
+                (0, 0) => format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
+                (0, r) => {
+                    format!("{} {} B + {r} B per row entry ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
+                }
+                (e, _) => {
+                    format!("{} {} B + {e} B per bond end ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
+                }
             })
             .collect();
         writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
@@ -453,7 +511,10 @@ impl fmt::Display for StepPlan {
         if self.buoyancy.is_none() {
             off.push("buoyancy");
         }
-        off.extend(["fluid flow", "rolling resistance"]);
+        off.push("fluid flow");
+        if self.rolling.is_none() {
+            off.push("rolling resistance");
+        }
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

@@ -278,3 +278,67 @@ fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them_on_the
     assert_eq!(device_bytes(true, false) - off, N * 28 + 128, "conduction lanes");
     assert_eq!(device_bytes(false, true), off, "buoyancy has no lane");
 }
+
+// Rolling resistance: cdt brings the rotation lanes it needs (a torque) and nothing else; epsd
+// adds a rolling spring per row entry and per particle and wall (24 B each), which the model
+// holds as the plan accounts them. With μ_r = 0 the plan has no stage and moves bit for bit as
+// one without the setting.
+#[test]
+fn rolling_resistance_allocates_lanes_only_for_epsd() {
+    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    let base = Effects { friction: true, ..Default::default() };
+    let with = |model: RollingModel, mu_r: f64| {
+        let mut m = block(base);
+        m.settings.rolling = Some(RollingResistance::new(model, mu_r, 0.0).unwrap());
+        let mut sim = Simulation::new(m);
+        run(&mut sim, 20);
+        sim
+    };
+    let mut off = Simulation::new(block(base));
+    run(&mut off, 20);
+    let mut zero = with(RollingModel::Cdt, 0.0);
+    assert_eq!(off.plan().lane_sets(), zero.plan().lane_sets());
+    assert_eq!(off.model.particles.pos, zero.model.particles.pos, "μ_r = 0 moves as no rolling resistance");
+    assert_eq!(off.model.particles.vel, zero.model.particles.vel);
+    assert!(off.plan().to_string().ends_with("fluid flow, rolling resistance"));
+
+    let mut cdt = with(RollingModel::Cdt, 0.1);
+    let sets: Vec<&str> = cdt.plan().lane_sets().iter().map(|s| s.stage).collect();
+    assert_eq!(sets, ["core", "rotation"]);
+    assert_eq!(cdt.plan().bytes_per_particle(), CORE + 48);
+    assert_eq!(cdt.model.particles.bytes(), N * (CORE + 48));
+    assert!(cdt.model.contacts.rolling.is_empty() && cdt.model.wall_rolling.is_empty());
+    assert!(cdt.plan().stages().contains(&Stage::RollingResistance));
+
+    let mut epsd = with(RollingModel::Epsd, 0.1);
+    let plan = epsd.plan().clone();
+    let sets: Vec<&str> = plan.lane_sets().iter().map(|s| s.stage).collect();
+    assert_eq!(sets, ["core", "rotation", "rolling_resistance"]);
+    // One wall: 24 B a particle; 24 B per row entry.
+    assert_eq!(plan.bytes_per_particle(), CORE + 48 + 24);
+    assert_eq!(plan.row_entry_bytes(), 24);
+    let c = &epsd.model.contacts;
+    assert_eq!(c.rolling.len(), c.other.len());
+    assert_eq!(epsd.model.wall_rolling.len() * 24, N * 24);
+}
+
+// On the GPU cdt keeps no lanes: its device buffers are the rotation plan's, byte for byte.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_rolling_resistance_cdt_has_no_lanes() {
+    use matdem_engine::backend::gpu::GpuBackend;
+    use matdem_engine::backend::Backend;
+    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    let Some(ctx) = common::gpu("rolling_lanes_gpu") else { return };
+    let device_bytes = |rolling: bool| {
+        let mut m = block(Effects { friction: true, rotation: true, ..Default::default() });
+        if rolling {
+            m.settings.rolling = Some(RollingResistance::new(RollingModel::Cdt, 0.1, 0.0).unwrap());
+        }
+        let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+        matdem_engine::simulation::run_steps(&mut b, &mut m, 5, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})
+            .unwrap();
+        b.bytes()
+    };
+    assert_eq!(device_bytes(true), device_bytes(false));
+}

@@ -86,6 +86,18 @@ pub fn rebuild(m: &mut Model) {
             other[r].iter().map(move |&j| old.find(i, j).map(|e| old.state[e]).unwrap_or_default())
         })
         .collect();
+    // The epsd rolling springs (only while a plan has them), carried as the pair states are.
+    let rolling: Vec<Vec3> = if old.rolling.len() == old.other.len() && !old.rolling.is_empty() {
+        (0..n)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let r = row_start[i] as usize..row_start[i + 1] as usize;
+                other[r].iter().map(move |&j| old.find(i, j).map_or(Vec3::zeros(), |e| old.rolling[e]))
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     m.contacts = Contacts {
         row_start,
         other,
@@ -97,6 +109,7 @@ pub fn rebuild(m: &mut Model) {
         built_at: p.pos.clone(),
         skin,
         stale: false,
+        rolling,
     };
     rebuild_wall_mask(m);
 }

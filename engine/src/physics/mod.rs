@@ -6,6 +6,7 @@ pub mod conduction;
 pub mod contact_law;
 pub mod parallel_bond;
 pub mod restitution;
+pub mod rolling_resistance;
 pub mod timestep;
 
 /// Vector type of the CPU reference backend (f64).

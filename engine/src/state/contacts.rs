@@ -39,6 +39,11 @@ pub struct Contacts {
     pub skin: f64,
     /// Rows must be rebuilt before the next force pass (particles or bonds changed).
     pub stale: bool,
+    /// The `rolling_resistance` stage's epsd rolling springs (N·m, the torque on this row's
+    /// particle), aligned with `other`; empty unless the plan has epsd. Carried across rebuilds
+    /// as `state` is. Not in checkpoints (a loaded model starts them at zero).
+    #[serde(skip)]
+    pub rolling: Vec<Vec3>,
 }
 
 impl Contacts {

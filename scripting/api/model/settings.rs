@@ -54,6 +54,25 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().settings.tangential = s.parse().map_err(raise)?;
             Ok(())
         })
+        // d.rolling_resistance = #{ model: "cdt" | "epsd", mu_r: 0.1, damping: 0.3 } (damping: epsd
+        // only, optional); () or mu_r: 0 switches it off. Read back as the same map, or ().
+        .register_set("rolling_resistance", |d: &mut ModelHandle, r: Map| -> RhaiResult<()> {
+            d.model().settings.rolling = Some(rolling_resistance(&r)?);
+            Ok(())
+        })
+        .register_set("rolling_resistance", |d: &mut ModelHandle, _: ()| d.model().settings.rolling = None)
+        .register_get("rolling_resistance", |d: &mut ModelHandle| -> Dynamic {
+            match d.model().settings.rolling {
+                Some(r) => {
+                    let mut m = Map::new();
+                    m.insert("model".into(), r.model.name().into());
+                    m.insert("mu_r".into(), Dynamic::from_float(r.mu_r));
+                    m.insert("damping".into(), Dynamic::from_float(r.damping));
+                    Dynamic::from_map(m)
+                }
+                None => Dynamic::UNIT,
+            }
+        })
         .register_fn("enable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
             let mut m = d.model();
             match effect {
@@ -75,9 +94,50 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 // The lanes stay (a later enable continues from them); the plan drops the stage.
                 "heat" => m.settings.heat.enabled = false,
                 "water" => m.settings.water.level = None,
-                other => return Err(raise(matdem_engine::Error::unknown("effect", other, &["heat", "water"]))),
+                "rolling_resistance" => m.settings.rolling = None,
+                other => {
+                    return Err(raise(matdem_engine::Error::unknown(
+                        "effect",
+                        other,
+                        &["heat", "water", "rolling_resistance"],
+                    )))
+                }
             }
             Ok(())
         })
         .register_fn("plan", |d: &mut ModelHandle| d.data().sim.plan().to_string());
+}
+
+/// The keys of `d.rolling_resistance`'s map.
+const ROLLING_KEYS: [&str; 3] = ["model", "mu_r", "damping"];
+
+/// `d.rolling_resistance`'s map as the engine's setting, refusing unknown keys, a missing model
+/// or mu_r, and values that are not what they should be (the engine checks the ranges).
+fn rolling_resistance(map: &Map) -> RhaiResult<matdem_engine::physics::rolling_resistance::RollingResistance> {
+    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    let what = "rolling_resistance";
+    for k in map.keys() {
+        if !ROLLING_KEYS.contains(&k.as_str()) {
+            let e = matdem_engine::Error::unknown("rolling resistance key", k.as_str(), &ROLLING_KEYS);
+            return Err(err(format!("{what}: {e}")));
+        }
+    }
+    let model = match map.get("model") {
+        None => return Err(err(format!("{what}: missing `model` (give model: \"cdt\" or \"epsd\", and mu_r)"))),
+        Some(v) => match v.clone().into_immutable_string() {
+            Ok(s) => RollingModel::parse(&s).map_err(|e| err(format!("{what}: {e}")))?,
+            Err(t) => return Err(err(format!("{what}: `model` must be a string, \"cdt\" or \"epsd\", got {t}"))),
+        },
+    };
+    let num = |key: &str| -> RhaiResult<Option<f64>> {
+        match map.get(key) {
+            None => Ok(None),
+            Some(v) => number(v)
+                .map(Some)
+                .ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name()))),
+        }
+    };
+    let mu_r = num("mu_r")?.ok_or_else(|| err(format!("{what}: missing `mu_r` (e.g. mu_r: 0.1)")))?;
+    let damping = num("damping")?.unwrap_or(0.0);
+    RollingResistance::new(model, mu_r, damping).map_err(|e| err(format!("{what}: {e}")))
 }

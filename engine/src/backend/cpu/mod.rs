@@ -12,6 +12,7 @@ pub mod heat;
 pub mod integrate;
 pub mod parallel_bond;
 mod prefetch;
+pub mod rolling_resistance;
 pub mod wall_forces;
 
 use super::{Backend, Sampling};
@@ -92,6 +93,11 @@ impl CpuBackend {
             record_breaks(m, breaks);
             times.add(Stage::ParallelBond, t.elapsed());
         }
+        if self.plan.has(Stage::RollingResistance) {
+            let t = Instant::now();
+            rolling_resistance::rolling_resistance(m, &self.plan);
+            times.add(Stage::RollingResistance, t.elapsed());
+        }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
@@ -132,9 +138,9 @@ impl CpuBackend {
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
         }
-        // The parallel bonds add their loads between the core's forces and the move, so a plan
-        // with them runs the core's passes apart instead of fused.
-        if !observe && !self.plan.has(Stage::ParallelBond) {
+        // A force stage (parallel bonds, rolling resistance) adds its loads between the core's
+        // forces and the move, so a plan with one runs the core's passes apart instead of fused.
+        if !observe && !self.plan.has_force_stage() {
             // Nothing is read between the forces and the move: finish each particle in one pass.
             let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
             record_breaks(m, breaks);
@@ -150,6 +156,9 @@ impl CpuBackend {
         if self.plan.has(Stage::ParallelBond) {
             let breaks = parallel_bond::parallel_bond(m, &self.plan);
             record_breaks(m, breaks);
+        }
+        if self.plan.has(Stage::RollingResistance) {
+            rolling_resistance::rolling_resistance(m, &self.plan);
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);

@@ -4,7 +4,7 @@
 //! brings back only what the host needs: between batches a few counters (the largest drift
 //! and speed, the guard's findings), at the end of the run the state a script reads. One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → parallel bonds (when the scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on
+//! wall forces → parallel bonds, rolling resistance (when the scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on
 //! the device ([`rows`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
@@ -38,6 +38,7 @@ pub mod integrate;
 pub mod memory;
 pub mod neighbours;
 pub mod parallel_bond;
+pub mod rolling_resistance;
 pub mod rows;
 pub mod shaders;
 pub mod wall_forces;
@@ -49,6 +50,7 @@ use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
+use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
@@ -78,6 +80,8 @@ struct Pipelines {
     walls: Option<WallPipelines>,
     /// Only when the plan has parallel bonds.
     parallel_bond: Option<wgpu::ComputePipeline>,
+    /// Only when the plan has rolling resistance.
+    rolling_resistance: Option<wgpu::ComputePipeline>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
     /// The optional field stages, only when the plan has them.
@@ -101,6 +105,8 @@ struct Kernels {
     contact_forces: Vec<Kernel>,
     walls: Option<WallKernels>,
     parallel_bond: Option<Kernel>,
+    /// One per slab.
+    rolling_resistance: Vec<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
     buoyancy: Option<Kernel>,
@@ -196,6 +202,13 @@ impl GpuBackend {
                     .into(),
             ));
         }
+        if plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd) {
+            return Err(Error::InvalidScene(
+                "the epsd rolling resistance model runs on the CPU backend only: run with --backend cpu, or use \
+                 model: \"cdt\" on the GPU"
+                    .into(),
+            ));
+        }
         let device = &ctx.device;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
@@ -210,6 +223,7 @@ impl GpuBackend {
                 sum_loads: walls::sum_pipeline(device, &constants),
             }),
             parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
+            rolling_resistance: plan.rolling.as_ref().map(|r| rolling_resistance::pipeline(device, &constants, r)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
@@ -349,6 +363,10 @@ impl GpuBackend {
                 (Some(pipeline), Some(b)) => Some(b.kernel(device, pipeline, &lanes)),
                 _ => None,
             },
+            rolling_resistance: p
+                .rolling_resistance
+                .as_ref()
+                .map_or_else(Vec::new, |r| rolling_resistance::kernels(device, r, &lanes)),
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
             buoyancy: p.buoyancy.as_ref().zip(water.as_ref()).map(|(b, w)| buoyancy::kernel(device, b, &lanes, w)),
@@ -419,6 +437,9 @@ impl GpuBackend {
                 }
                 if let Some(k) = &kr.parallel_bond {
                     dispatch_stage(&mut pass, Stage::ParallelBond, [k]);
+                }
+                if !kr.rolling_resistance.is_empty() {
+                    dispatch_stage(&mut pass, Stage::RollingResistance, &kr.rolling_resistance);
                 }
                 dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
                 if let Some(b) = &kr.buoyancy {

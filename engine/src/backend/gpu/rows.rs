@@ -105,6 +105,8 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
         built_at,
         skin: c.skin,
         stale: false,
+        // The GPU runs no epsd (its rolling springs stay on the CPU backend).
+        rolling: Vec::new(),
     };
 }
 

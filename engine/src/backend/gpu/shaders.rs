@@ -19,9 +19,10 @@ pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
 pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
 pub const CONDUCTION: &str = include_str!("../../../../shaders/conduction.wgsl");
+pub const ROLLING_RESISTANCE: &str = include_str!("../../../../shaders/rolling_resistance.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 12] = [
+pub const STAGES: [(&str, &str); 13] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -30,6 +31,7 @@ pub const STAGES: [(&str, &str); 12] = [
     ("wall_forces", WALL_FORCES),
     ("walls", WALLS),
     ("parallel_bond", PARALLEL_BOND),
+    ("rolling_resistance", ROLLING_RESISTANCE),
     ("integrate", INTEGRATE),
     ("guard", GUARD),
     ("buoyancy", BUOYANCY),

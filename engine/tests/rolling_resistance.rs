@@ -1,0 +1,293 @@
+//! Rolling resistance (the `rolling_resistance` stage, physics/rolling_resistance.rs) against
+//! closed-form answers, on a solid sphere (r = 1 cm, 2650 kg/m³, linear springs kn = 1e5 N/m,
+//! ks = 5e4 N/m, μ = 0.5, e = 1) on a rigid plane wall, which the engine supports directly
+//! (R_eff = r, I_eff = I = 2/5·m·r²):
+//!
+//! - cdt, rolling at v0 on a level plane: the torque μ_r·r·m·g and the friction that keeps the
+//!   sphere rolling decelerate it at a = μ_r·g·m·r²/(I + m·r²) = 5/7·μ_r·g, so it stops after
+//!   t = v0/a, having travelled v0²/(2a); the energy it loses, 7/10·m·v0², is what the torque
+//!   did over the rolling angle, μ_r·m·g·d;
+//! - epsd on a slope of angle θ: at rest the spring must carry m·g·sinθ·r, at most
+//!   μ_r·r·m·g·cosθ, so the sphere stays for tanθ ≤ μ_r and rolls away above, at
+//!   a = 5/7·g·cosθ·(tanθ − μ_r);
+//! - the GPU's cdt against the CPU's, on the same roll and on a small pile.
+
+mod common;
+
+use common::{material, rel};
+use matdem_engine::backend::RunControl;
+use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+use matdem_engine::plan::Stage;
+use matdem_engine::{Model, NormalKind, Simulation, Vec3, Wall};
+
+const R: f64 = 0.01;
+const G: f64 = 9.81;
+
+/// The sphere on the plane z = 0 under gravity tilted by `slope` (rad) about y (the slope runs
+/// down along +x), resting at its equilibrium overlap, rolling along +x at `v0` without slip.
+fn ball(rolling: Option<RollingResistance>, slope: f64, v0: f64) -> Model {
+    let mut mat = material("ball", 2650.0, 1e5, 1e9, 0.2);
+    mat.ks = 5e4;
+    mat.mu_p = 0.5;
+    let mut m = Model::new();
+    m.settings.normal = NormalKind::Linear;
+    let k = m.add_material(mat).unwrap();
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap()).unwrap();
+    let mass = 2650.0 * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
+    // Against a rigid wall the element's own spring acts, twice the pair's kn.
+    let a = m.add_particle(Vec3::new(0.0, 0.0, R - mass * G * slope.cos() / 2e5), R, k).unwrap();
+    m.settings.gravity = Vec3::new(G * slope.sin(), 0.0, -G * slope.cos());
+    m.settings.rotation = true;
+    m.particles.enable_rotation();
+    m.particles.vel[a] = Vec3::new(v0, 0.0, 0.0);
+    m.particles.rotation.as_mut().unwrap().ang_vel[a] = Vec3::new(0.0, v0 / R, 0.0);
+    m.settings.rolling = rolling;
+    m.set_standard_dt().unwrap();
+    m
+}
+
+fn cdt(mu_r: f64) -> Option<RollingResistance> {
+    Some(RollingResistance::new(RollingModel::Cdt, mu_r, 0.0).unwrap())
+}
+
+fn epsd(mu_r: f64, damping: f64) -> Option<RollingResistance> {
+    Some(RollingResistance::new(RollingModel::Epsd, mu_r, damping).unwrap())
+}
+
+fn run(sim: &mut Simulation, steps: u64) {
+    sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
+}
+
+/// What a roll to rest measured: the time vx first reached 0 (interpolated between samples 10
+/// steps apart), the distance travelled once at rest, and the deceleration fitted over
+/// 0.9·v0 ≥ vx ≥ 0.2·v0.
+struct Stop {
+    time: f64,
+    distance: f64,
+    deceleration: f64,
+    /// Mechanical energy lost (J) and the largest rise of it between samples (J).
+    lost: f64,
+    rise: f64,
+}
+
+fn roll_to_rest(mut sim: Simulation, v0: f64, until: f64) -> Stop {
+    let x0 = sim.model.particles.pos[0].x;
+    let dt = sim.model.clock.dt;
+    let (mut time, mut last) = (None, (0.0, v0));
+    let (mut fit, mut rise) = (Vec::new(), 0.0_f64);
+    let e0 = sim.energies().mechanical();
+    let mut e_last = e0;
+    while sim.model.clock.time < until {
+        run(&mut sim, 10);
+        let (t, v) = (sim.model.clock.time - 0.5 * dt, sim.model.particles.vel[0].x);
+        if time.is_none() && v <= 0.0 {
+            time = Some(last.0 + (t - last.0) * last.1 / (last.1 - v));
+        }
+        if (0.2 * v0..=0.9 * v0).contains(&v) {
+            fit.push((t, v));
+        }
+        last = (t, v);
+        let e = sim.energies().mechanical();
+        rise = rise.max(e - e_last);
+        e_last = e;
+    }
+    // Least squares slope of v(t).
+    let k = fit.len() as f64;
+    let (st, sv) = fit.iter().fold((0.0, 0.0), |(a, b), (t, v)| (a + t, b + v));
+    let (mt, mv) = (st / k, sv / k);
+    let (num, den) = fit.iter().fold((0.0, 0.0), |(a, b), (t, v)| (a + (t - mt) * (v - mv), b + (t - mt).powi(2)));
+    Stop {
+        time: time.expect("the sphere stopped"),
+        distance: sim.model.particles.pos[0].x - x0,
+        deceleration: -num / den,
+        lost: e0 - e_last,
+        rise,
+    }
+}
+
+// cdt on a level plane, μ_r = 0.1, v0 = 0.2 m/s: a = 5/7·μ_r·g = 0.7007 m/s², t = 0.2854 s,
+// d = 28.54 mm, energy lost 7/10·m·v0².
+#[test]
+fn cdt_sphere_rolls_to_rest_at_five_sevenths_mu_r_g() {
+    let (mu_r, v0) = (0.1, 0.2);
+    let a = 5.0 / 7.0 * mu_r * G;
+    let mut sim = Simulation::new(ball(cdt(mu_r), 0.0, v0));
+    assert!(sim.plan().has(Stage::RollingResistance));
+    let mass = sim.model.particles.mass[0];
+    let s = roll_to_rest(sim, v0, 1.5 * v0 / a);
+    let lost = 0.7 * mass * v0 * v0;
+    eprintln!(
+        "cdt roll: a {:.5} m/s² (analytic {a:.5}), stop at {:.5} s ({:.5}), distance {:.6} m ({:.6}), energy lost \
+         {:.5e} J ({lost:.5e}), largest rise between samples {:.2e} J",
+        s.deceleration,
+        s.time,
+        v0 / a,
+        s.distance,
+        v0 * v0 / (2.0 * a),
+        s.lost,
+        s.rise
+    );
+    assert!(rel(s.deceleration, a) < 0.01, "deceleration");
+    assert!(rel(s.time, v0 / a) < 0.01, "stopping time");
+    assert!(rel(s.distance, v0 * v0 / (2.0 * a)) < 0.01, "stopping distance");
+    // Rolling resistance only takes energy: what it took is the rolling energy, and the account
+    // never rises by more than the elastic exchange of the springs' round-off.
+    assert!(rel(s.lost, lost) < 0.01, "energy lost");
+    assert!(s.rise < 1e-6 * lost, "mechanical energy rose by {:e} J", s.rise);
+}
+
+// Without rolling resistance the sphere keeps rolling: the stage, not something else, stops it.
+#[test]
+fn without_rolling_resistance_the_sphere_keeps_rolling() {
+    let mut sim = Simulation::new(ball(None, 0.0, 0.2));
+    assert!(!sim.plan().has(Stage::RollingResistance));
+    assert!(sim.plan().to_string().contains("rolling resistance"), "listed as not simulated");
+    run(&mut sim, 2000);
+    assert!(rel(sim.model.particles.vel[0].x, 0.2) < 1e-3);
+}
+
+/// The sphere released at rest on a slope of `slope` rad with epsd μ_r = 0.1, η_r = 0.3: the
+/// distance it has rolled after `t` s.
+fn slope_run(slope: f64, t: f64) -> (f64, f64) {
+    let mut sim = Simulation::new(ball(epsd(0.1, 0.3), slope, 0.0));
+    let steps = (t / sim.model.clock.dt).round() as u64;
+    run(&mut sim, steps);
+    (sim.model.particles.pos[0].x, sim.model.particles.vel[0].x)
+}
+
+// epsd, μ_r = 0.1: θ_c = atan 0.1 = 5.71°. At 0.8·θ_c the sphere creeps only the spring's
+// elastic deflection (sub-micrometre) and comes to rest; at 1.2·θ_c it rolls away with
+// a = 5/7·g·cosθ·(tanθ − μ_r).
+#[test]
+fn epsd_holds_a_sphere_below_the_critical_slope_and_lets_it_roll_above() {
+    let theta_c = 0.1_f64.atan();
+    let (t1, t2) = (0.3, 0.6);
+    let below = 0.8 * theta_c;
+    let (x1, _) = slope_run(below, t1);
+    let (x2, v2) = slope_run(below, t2);
+    eprintln!("θ = 0.8·θc: x {x1:.3e} m at {t1} s, {x2:.3e} m at {t2} s, v {v2:.2e} m/s");
+    assert!(x2.abs() < 1e-6 && (x2 - x1).abs() < 1e-8 && v2.abs() < 1e-6, "held below θc");
+
+    let above = 1.2 * theta_c;
+    let a = 5.0 / 7.0 * G * above.cos() * (above.tan() - 0.1);
+    let (x1, _) = slope_run(above, t1);
+    let (x2, _) = slope_run(above, t2);
+    // From rest: x = a·t²/2 (after a transient of microseconds), so a = 2(x2 − x1)/(t2² − t1²).
+    let measured = 2.0 * (x2 - x1) / (t2 * t2 - t1 * t1);
+    eprintln!("θ = 1.2·θc: a {measured:.5} m/s² (analytic {a:.5}), x {x2:.4e} m at {t2} s");
+    assert!(rel(measured, a) < 0.01, "rolls away above θc");
+}
+
+// Stage off: a plan whose μ_r is 0 has no stage and moves bit for bit as one without the
+// setting; epsd's springs exist only with epsd (one per row entry and per wall, as the plan says).
+#[test]
+fn the_stage_costs_nothing_when_off_and_epsd_alone_has_lanes() {
+    let mut off = Simulation::new(ball(None, 0.05, 0.2));
+    let mut zero = Simulation::new(ball(cdt(0.0), 0.05, 0.2));
+    assert!(!zero.plan().has(Stage::RollingResistance));
+    run(&mut off, 500);
+    run(&mut zero, 500);
+    assert_eq!(off.model.particles.pos, zero.model.particles.pos);
+    assert_eq!(off.model.particles.vel, zero.model.particles.vel);
+    assert!(off.model.contacts.rolling.is_empty() && off.model.wall_rolling.is_empty());
+
+    let mut c = Simulation::new(ball(cdt(0.1), 0.0, 0.2));
+    run(&mut c, 10);
+    assert!(c.model.contacts.rolling.is_empty() && c.model.wall_rolling.is_empty(), "cdt keeps no lanes");
+    let sets: Vec<&str> = c.plan().lane_sets().iter().map(|s| s.stage).collect();
+    assert_eq!(sets, ["core", "rotation", "heat"]);
+
+    let mut e = Simulation::new(ball(epsd(0.1, 0.0), 0.0, 0.2));
+    run(&mut e, 10);
+    let plan = e.plan().clone();
+    let text = plan.to_string();
+    assert!(text.contains("rolling_resistance → integrate") && text.contains("rolling resistance(epsd, μ_r 0.1"));
+    assert!(text.contains("rolling_resistance 24 B + 24 B per row entry (rolling_spring, wall_rolling_spring)"));
+    assert_eq!(plan.row_entry_bytes(), 24);
+    assert_eq!(e.model.wall_rolling.len(), 1, "one particle, one wall");
+    assert_eq!(e.model.contacts.rolling.len(), e.model.contacts.other.len());
+    assert!(e.model.wall_rolling[0].norm() > 0.0, "the wall spring carries the rolling torque");
+}
+
+#[cfg(feature = "gpu")]
+mod gpu {
+    use super::*;
+    use common::gpu;
+
+    // The GPU's cdt rolls the sphere to rest as the CPU's does (f32: within 1 %, and within 1 % of
+    // the closed form).
+    #[test]
+    fn gpu_cdt_rolls_to_rest_as_the_cpu() {
+        let Some(ctx) = gpu("gpu_cdt_roll") else { return };
+        let (mu_r, v0) = (0.1, 0.2);
+        let a = 5.0 / 7.0 * mu_r * G;
+        let cpu = roll_to_rest(Simulation::new(ball(cdt(mu_r), 0.0, v0)), v0, 1.5 * v0 / a);
+        let gpu = roll_to_rest(Simulation::with_gpu(ball(cdt(mu_r), 0.0, v0), ctx), v0, 1.5 * v0 / a);
+        eprintln!(
+            "stop: cpu {:.5} s {:.6} m; gpu {:.5} s {:.6} m; analytic {:.5} s {:.6} m",
+            cpu.time,
+            cpu.distance,
+            gpu.time,
+            gpu.distance,
+            v0 / a,
+            v0 * v0 / (2.0 * a)
+        );
+        assert!(rel(gpu.distance, cpu.distance) < 0.01 && rel(gpu.time, cpu.time) < 0.01);
+        assert!(rel(gpu.distance, v0 * v0 / (2.0 * a)) < 0.01);
+    }
+
+    /// A 3 × 3 × 2 block of touching spheres on the floor, spun and shoved, with `rolling`.
+    fn pile(rolling: Option<RollingResistance>) -> Model {
+        let mut mat = material("grain", 2650.0, 1e5, 1e9, 0.2);
+        mat.ks = 5e4;
+        mat.mu_p = 0.5;
+        let mut m = Model::new();
+        let k = m.add_material(mat).unwrap();
+        m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1.0).unwrap()).unwrap();
+        let s = 1.999 * R;
+        for x in matdem_engine::builder::simple_cubic(3, 3, 2, s, Vec3::repeat(0.5 * s)) {
+            m.add_particle(x, R, k).unwrap();
+        }
+        m.settings.gravity = Vec3::new(0.0, 0.0, -G);
+        m.settings.rotation = true;
+        m.particles.enable_rotation();
+        let n = m.len();
+        for i in 0..n {
+            m.particles.vel[i] = Vec3::new(0.02 * ((i * 7) % 5) as f64, -0.01 * ((i * 3) % 4) as f64, 0.0);
+            m.particles.rotation.as_mut().unwrap().ang_vel[i] =
+                Vec3::new(3.0 * ((i % 3) as f64 - 1.0), 2.0 * ((i * 5 % 4) as f64 - 1.5), 1.0);
+        }
+        m.settings.rolling = rolling;
+        m.set_standard_dt().unwrap();
+        m
+    }
+
+    // The pile on both backends, 400 steps: the spins agree within 1e-3 of the largest spin,
+    // where rolling resistance itself changes them by far more.
+    #[test]
+    fn gpu_cdt_matches_the_cpu_on_a_pile() {
+        let Some(ctx) = gpu("gpu_cdt_pile") else { return };
+        let spins = |mut sim: Simulation| {
+            run(&mut sim, 400);
+            sim.model.particles.rotation.as_ref().unwrap().ang_vel.clone()
+        };
+        let cpu = spins(Simulation::new(pile(cdt(0.3))));
+        let gpu = spins(Simulation::with_gpu(pile(cdt(0.3)), ctx));
+        let free = spins(Simulation::new(pile(None)));
+        let scale = cpu.iter().map(|w| w.norm()).fold(0.0, f64::max);
+        let diff = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        let effect = cpu.iter().zip(&free).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        eprintln!("pile: max |ω| {scale:.4} rad/s, cpu-gpu {diff:.3e}, effect of rolling resistance {effect:.3e}");
+        assert!(diff < 1e-3 * scale, "cpu and gpu differ by {diff:e} rad/s");
+        assert!(effect > 100.0 * diff);
+    }
+
+    // epsd runs on the CPU only: the GPU refuses it and says what to do.
+    #[test]
+    fn gpu_refuses_epsd_with_advice() {
+        let Some(ctx) = gpu("gpu_epsd_refused") else { return };
+        let mut sim = Simulation::with_gpu(ball(epsd(0.1, 0.0), 0.0, 0.2), ctx);
+        let e = sim.run(10, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
+        assert!(e.contains("--backend cpu") && e.contains("cdt"), "{e}");
+    }
+}
