@@ -14,6 +14,8 @@ override DASHPOT: bool = false;
 override ROTATION: bool = false;
 override VISCOUS: bool = false;
 override LOCAL: bool = false;
+// The epsd rolling resistance model: rows carry a rolling spring per entry (rolling_resistance.wgsl).
+override ROLLING_SPRING: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;

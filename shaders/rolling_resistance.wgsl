@@ -1,12 +1,15 @@
-// The `rolling_resistance` stage on the GPU, the cdt model (constant directional torque): one
-// invocation per particle walks its own neighbour row and the walls, and adds to its torque
-// −μ_r·R_eff·Fn·ω̂_t for each contact, capped at I_eff·|ω_t|/dt (`cdt_torque` in
-// engine/src/physics/rolling_resistance.rs, line for line, in f32): each pair is evaluated from
-// both rows with exactly opposite inputs, so no float atomics. Runs once per slab of rows, after
-// wall_forces, before integrate. CPU twin: engine/src/backend/cpu/rolling_resistance.rs.
+// The `rolling_resistance` stage on the GPU: one invocation per particle walks its own
+// neighbour row and the walls, and adds to its torque each contact's rolling resistance
+// (engine/src/physics/rolling_resistance.rs, line for line, in f32): cdt, −μ_r·R_eff·Fn·ω̂_t
+// capped at I_eff·|ω_t|/dt; or, with ROLLING_SPRING (common.wgsl), epsd's rolling spring, kept
+// per row entry and per wall in this slab's lanes. Each pair is evaluated from both rows with
+// exactly opposite inputs, so no float atomics. Runs once per slab of rows, after wall_forces,
+// before integrate. CPU twin: engine/src/backend/cpu/rolling_resistance.rs.
 
-// The rolling resistance coefficient μ_r, set for this pipeline only.
+// The rolling resistance coefficient μ_r and epsd's viscous damping ratio η_r, set for this
+// pipeline only.
 override ROLLING_MU: f32 = 0.0;
+override ROLLING_DAMPING: f32 = 0.0;
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
@@ -21,6 +24,9 @@ override ROLLING_MU: f32 = 0.0;
 @group(0) @binding(10) var<uniform> slab: Slab;
 @group(0) @binding(11) var<storage, read> walls: array<Wall>;
 @group(0) @binding(12) var<storage, read> wall_pairs: array<Pair>;
+// epsd's springs in this slab: per row entry, and per particle and wall (placeholders for cdt).
+@group(0) @binding(13) var<storage, read_write> rolling: array<vec4<f32>>;
+@group(0) @binding(14) var<storage, read_write> wall_rolling: array<vec4<f32>>;
 
 // I_i·I_j/(I_i + I_j), symmetric in its arguments bit for bit (pair_inertia).
 fn pair_inertia(a: f32, b: f32) -> f32 {
@@ -41,6 +47,28 @@ fn cdt_torque(n: vec3<f32>, w_rel: vec3<f32>, r_eff: f32, fn_el: f32, inertia: f
     let w = sqrt(w2);
     let m = min(ROLLING_MU * r_eff * fn_el, inertia * w / dt);
     return wt * (-m / w);
+}
+
+// epsd's torque on this element: the spring carried into the tangent plane, incremented by
+// −k_r·ω_t·dt (k_r = kt·R_eff²) and capped at μ_r·R_eff·Fn, plus −C_r·ω_t below the cap
+// (epsd_torque). Updates `spring`.
+fn epsd_torque(n: vec3<f32>, w_rel: vec3<f32>, r_eff: f32, fn_el: f32, inertia: f32, kt: f32,
+               spring: ptr<function, vec3<f32>>, dt: f32) -> vec3<f32> {
+    let wt = w_rel - n * dot(n, w_rel);
+    let kr = kt * r_eff * r_eff;
+    var s = rotate_into_plane(*spring, n) - wt * (kr * dt);
+    let limit = ROLLING_MU * r_eff * max(fn_el, 0.0);
+    let s2 = dot(s, s);
+    if s2 > limit * limit {
+        s = s * (limit / sqrt(s2));
+        *spring = s;
+        return s;
+    }
+    *spring = s;
+    if ROLLING_DAMPING > 0.0 {
+        return s - wt * (2.0 * ROLLING_DAMPING * sqrt(inertia * kr));
+    }
+    return s;
 }
 
 @compute @workgroup_size(64)
@@ -68,23 +96,46 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
         let touch = ri + rj;
         let dist2 = dot(d, d);
         if dist2 >= touch * touch {
+            // Apart: the rolling spring lets go with the contact.
+            if ROLLING_SPRING && any(rolling[e] != vec4<f32>(0.0)) {
+                rolling[e] = vec4<f32>(0.0);
+            }
             continue;
         }
         let dist = sqrt(dist2);
         let r_eff = ri * rj / touch;
         let p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
         let ij = 0.4 * body[j].x * rj * rj;
-        t += cdt_torque(d / dist, wi - ang_vel[j].xyz, r_eff, normal_force(p, r_eff, touch - dist),
-                        pair_inertia(ii, ij), dt);
+        let overlap = touch - dist;
+        let fn_el = normal_force(p, r_eff, overlap);
+        if ROLLING_SPRING {
+            var s = rolling[e].xyz;
+            t += epsd_torque(d / dist, wi - ang_vel[j].xyz, r_eff, fn_el, pair_inertia(ii, ij),
+                             shear_stiffness(p, r_eff, overlap), &s, dt);
+            rolling[e] = vec4<f32>(s, 0.0);
+        } else {
+            t += cdt_torque(d / dist, wi - ang_vel[j].xyz, r_eff, fn_el, pair_inertia(ii, ij), dt);
+        }
     }
     for (var w = 0u; w < params.nw; w++) {
         let ng = wall_normal_and_gap(walls[w], oi, ui);
         let overlap = ri - ng.w;
+        let k = local * params.nw + w;
         if overlap <= 0.0 {
+            if ROLLING_SPRING && any(wall_rolling[k] != vec4<f32>(0.0)) {
+                wall_rolling[k] = vec4<f32>(0.0);
+            }
             continue;
         }
         let p = wall_pairs[w * params.nmat + mati];
-        t += cdt_torque(-ng.xyz, wi, ri, normal_force(p, ri, overlap), ii, dt);
+        let fn_el = normal_force(p, ri, overlap);
+        if ROLLING_SPRING {
+            var s = wall_rolling[k].xyz;
+            t += epsd_torque(-ng.xyz, wi, ri, fn_el, ii, shear_stiffness(p, ri, overlap), &s, dt);
+            wall_rolling[k] = vec4<f32>(s, 0.0);
+        } else {
+            t += cdt_torque(-ng.xyz, wi, ri, fn_el, ii, dt);
+        }
     }
     torque[i] = vec4<f32>(torque[i].xyz + t, 0.0);
 }

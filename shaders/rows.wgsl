@@ -27,6 +27,8 @@ const MAX_CARRY: u32 = 64u;
 @group(0) @binding(10) var<uniform> slab: Slab;
 // Per entry: the dashpot force of the last step (a placeholder without DASHPOT).
 @group(0) @binding(11) var<storage, read_write> dashpot: array<f32>;
+// Per entry: the epsd rolling spring (a placeholder without ROLLING_SPRING).
+@group(0) @binding(12) var<storage, read_write> rolling: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -46,6 +48,7 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     var carry_j: array<u32, MAX_CARRY>;
     var carry_s: array<vec4<f32>, MAX_CARRY>;
     var carry_d: array<f32, MAX_CARRY>;
+    var carry_r: array<vec4<f32>, MAX_CARRY>;
     var carried = 0u;
     var crowded = false;
     let old_len = row_len[i];
@@ -55,11 +58,16 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         if DASHPOT {
             fd = dashpot[base + k];
         }
-        if any(s != vec4<f32>(0.0)) || fd != 0.0 {
+        var sr = vec4<f32>(0.0);
+        if ROLLING_SPRING {
+            sr = rolling[base + k];
+        }
+        if any(s != vec4<f32>(0.0)) || fd != 0.0 || any(sr != vec4<f32>(0.0)) {
             if carried < MAX_CARRY {
                 carry_j[carried] = other[base + k];
                 carry_s[carried] = s;
                 carry_d[carried] = fd;
+                carry_r[carried] = sr;
                 carried++;
             } else {
                 crowded = true;
@@ -149,13 +157,18 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         }
         var s = vec4<f32>(0.0);
         var fd = 0.0;
+        var sr = vec4<f32>(0.0);
         if m < carried && carry_j[m] == j {
             s = carry_s[m];
             fd = carry_d[m];
+            sr = carry_r[m];
         }
         state[base + k] = s;
         if DASHPOT {
             dashpot[base + k] = fd;
+        }
+        if ROLLING_SPRING {
+            rolling[base + k] = sr;
         }
     }
     row_len[i] = len;

@@ -10,7 +10,8 @@
 //! - epsd on a slope of angle θ: at rest the spring must carry m·g·sinθ·r, at most
 //!   μ_r·r·m·g·cosθ, so the sphere stays for tanθ ≤ μ_r and rolls away above, at
 //!   a = 5/7·g·cosθ·(tanθ − μ_r);
-//! - the GPU's cdt against the CPU's, on the same roll and on a small pile.
+//! - both models on the GPU against the CPU's (the same roll, slope and pile), and the device's
+//!   row builds carrying epsd's springs.
 
 mod common;
 
@@ -146,10 +147,10 @@ fn without_rolling_resistance_the_sphere_keeps_rolling() {
     assert!(rel(sim.model.particles.vel[0].x, 0.2) < 1e-3);
 }
 
-/// The sphere released at rest on a slope of `slope` rad with epsd μ_r = 0.1, η_r = 0.3: the
-/// distance it has rolled after `t` s.
-fn slope_run(slope: f64, t: f64) -> (f64, f64) {
-    let mut sim = Simulation::new(ball(epsd(0.1, 0.3), slope, 0.0));
+/// The sphere released at rest on a slope of `slope` rad with epsd μ_r = 0.1, η_r = 0.3, on the
+/// backend `sim` puts it on: the distance it has rolled after `t` s, and its speed.
+fn slope_run_on(sim: impl Fn(Model) -> Simulation, slope: f64, t: f64) -> (f64, f64) {
+    let mut sim = sim(ball(epsd(0.1, 0.3), slope, 0.0));
     let steps = (t / sim.model.clock.dt).round() as u64;
     run(&mut sim, steps);
     (sim.model.particles.pos[0].x, sim.model.particles.vel[0].x)
@@ -160,6 +161,11 @@ fn slope_run(slope: f64, t: f64) -> (f64, f64) {
 // a = 5/7·g·cosθ·(tanθ − μ_r).
 #[test]
 fn epsd_holds_a_sphere_below_the_critical_slope_and_lets_it_roll_above() {
+    check_slope(Simulation::new);
+}
+
+fn check_slope(slope_run: impl Fn(Model) -> Simulation + Copy) {
+    let slope_run = |slope, t| slope_run_on(slope_run, slope, t);
     let theta_c = 0.1_f64.atan();
     let (t1, t2) = (0.3, 0.6);
     let below = 0.8 * theta_c;
@@ -282,12 +288,64 @@ mod gpu {
         assert!(effect > 100.0 * diff);
     }
 
-    // epsd runs on the CPU only: the GPU refuses it and says what to do.
+    // epsd on the GPU: the slope test's answers (the sphere held below θ_c, rolling away above
+    // at the closed-form rate), with its wall spring kept on the device.
     #[test]
-    fn gpu_refuses_epsd_with_advice() {
-        let Some(ctx) = gpu("gpu_epsd_refused") else { return };
-        let mut sim = Simulation::with_gpu(ball(epsd(0.1, 0.0), 0.0, 0.2), ctx);
-        let e = sim.run(10, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-        assert!(e.contains("--backend cpu") && e.contains("cdt"), "{e}");
+    fn gpu_epsd_holds_and_rolls_as_the_closed_form() {
+        let Some(ctx) = gpu("gpu_epsd_slope") else { return };
+        check_slope(|m| Simulation::with_gpu(m, ctx.clone()));
+    }
+
+    // epsd on the pile: the spins on both backends agree as cdt's do.
+    #[test]
+    fn gpu_epsd_matches_the_cpu_on_a_pile() {
+        let Some(ctx) = gpu("gpu_epsd_pile") else { return };
+        let spins = |mut sim: Simulation| {
+            run(&mut sim, 400);
+            sim.model.particles.rotation.as_ref().unwrap().ang_vel.clone()
+        };
+        let cpu = spins(Simulation::new(pile(epsd(0.3, 0.3))));
+        let gpu = spins(Simulation::with_gpu(pile(epsd(0.3, 0.3)), ctx));
+        let free = spins(Simulation::new(pile(None)));
+        let scale = cpu.iter().map(|w| w.norm()).fold(0.0, f64::max);
+        let diff = cpu.iter().zip(&gpu).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        let effect = cpu.iter().zip(&free).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        eprintln!("epsd pile: max |ω| {scale:.4} rad/s, cpu-gpu {diff:.3e}, effect {effect:.3e}");
+        assert!(diff < 1e-3 * scale, "cpu and gpu differ by {diff:e} rad/s");
+        assert!(effect > 100.0 * diff);
+    }
+
+    // The device's row build carries each pair's rolling spring to its new slot, as the host's
+    // rebuild does: springs wound on the CPU come back from an upload, a device build and a
+    // download unchanged (to f32).
+    #[test]
+    fn gpu_row_builds_carry_the_rolling_springs() {
+        use matdem_engine::backend::gpu::GpuBackend;
+        let Some(ctx) = gpu("gpu_epsd_rows") else { return };
+        let mut sim = Simulation::new(pile(epsd(0.3, 0.0)));
+        run(&mut sim, 3);
+        let mut m = sim.model;
+        let springs = |m: &Model| {
+            let c = &m.contacts;
+            let mut v: Vec<(usize, u32, Vec3)> = Vec::new();
+            for i in 0..m.len() {
+                for e in c.row(i) {
+                    v.push((i, c.other[e], c.rolling[e]));
+                }
+            }
+            v
+        };
+        let before = springs(&m);
+        let wound = before.iter().filter(|s| s.2.norm() > 0.0).count();
+        eprintln!("{wound} of {} row entries carry a rolling spring", before.len());
+        assert!(wound >= 8, "springs wound");
+        let mut b = GpuBackend::prepare(ctx, &m).unwrap();
+        b.build_rows_once(&mut m).unwrap().expect("the rows fit their slots");
+        let after = springs(&m);
+        assert_eq!(before.len(), after.len());
+        for (a, b) in before.iter().zip(&after) {
+            assert_eq!((a.0, a.1), (b.0, b.1));
+            assert!((a.2 - b.2).norm() <= 1e-6 * a.2.norm() + 1e-30, "{a:?} {b:?}");
+        }
     }
 }

@@ -322,23 +322,31 @@ fn rolling_resistance_allocates_lanes_only_for_epsd() {
     assert_eq!(epsd.model.wall_rolling.len() * 24, N * 24);
 }
 
-// On the GPU cdt keeps no lanes: its device buffers are the rotation plan's, byte for byte.
+// On the GPU cdt keeps no lanes: its device buffers are the rotation plan's, byte for byte
+// (whose epsd lanes are 128-byte placeholders, as every plan's). epsd's springs replace the two
+// placeholders with a vec4<f32> per row slot and per particle and wall.
 #[cfg(feature = "gpu")]
 #[test]
-fn gpu_rolling_resistance_cdt_has_no_lanes() {
+fn gpu_rolling_resistance_lanes() {
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
     use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
     let Some(ctx) = common::gpu("rolling_lanes_gpu") else { return };
-    let device_bytes = |rolling: bool| {
+    let device_bytes = |rolling: Option<RollingModel>| {
         let mut m = block(Effects { friction: true, rotation: true, ..Default::default() });
-        if rolling {
-            m.settings.rolling = Some(RollingResistance::new(RollingModel::Cdt, 0.1, 0.0).unwrap());
+        if let Some(model) = rolling {
+            m.settings.rolling = Some(RollingResistance::new(model, 0.1, 0.0).unwrap());
         }
         let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
         matdem_engine::simulation::run_steps(&mut b, &mut m, 5, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})
             .unwrap();
         b.bytes()
     };
-    assert_eq!(device_bytes(true), device_bytes(false));
+    let cdt = device_bytes(Some(RollingModel::Cdt));
+    assert_eq!(cdt, device_bytes(None));
+    let springs = device_bytes(Some(RollingModel::Epsd)) - cdt + 2 * 128;
+    // 16 B per slot (cap slots a row, at least 16) and per particle and wall (one wall).
+    assert_eq!(springs % (16 * N), 0, "{springs}");
+    let cap = springs / (16 * N) - 1;
+    assert!(cap >= 16, "{cap} slots a row");
 }

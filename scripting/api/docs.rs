@@ -214,7 +214,7 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     (
         "rolling_resistance",
         "Model (read, set)",
-        "#{ model: \"cdt\" or \"epsd\", mu_r: 0.1 } (epsd may add damping: η_r): a torque against each contact's relative rolling, capped at mu_r·R_eff·Fn (LIGGGHTS' rolling_friction; docs/rolling-resistance.md); switches rotation on; () or d.disable(\"rolling_resistance\") removes it; epsd runs on the CPU backend only",
+        "#{ model: \"cdt\" or \"epsd\", mu_r: 0.1 } (epsd may add damping: η_r): a torque against each contact's relative rolling, capped at mu_r·R_eff·Fn (LIGGGHTS' rolling_friction; docs/rolling-resistance.md); switches rotation on; () or d.disable(\"rolling_resistance\") removes it",
     ),
     ("groups", "Model (read)", "the names of the model's groups"),
     ("bonds", "Model, TestSample (read)", "intact bonds"),

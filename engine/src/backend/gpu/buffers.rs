@@ -13,6 +13,7 @@ use super::shaders::{groups_for, Kernel};
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
+use crate::physics::rolling_resistance::RollingModel;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::walls::{WallMotion, WallShape};
@@ -110,6 +111,10 @@ pub struct HostLanes {
     pub wall_pairs: Vec<[f32; 12]>,
     /// Per entry, in the rows' slots: the dashpot force of the last step (empty without a dashpot).
     pub dashpot: Vec<f32>,
+    /// Per entry, in the rows' slots, and per particle and wall: the epsd rolling springs (empty
+    /// without epsd).
+    pub rolling: Vec<[f32; 4]>,
+    pub wall_rolling: Vec<[f32; 4]>,
     /// Heat ledger slots per particle ([`super::heat::Layout`]).
     pub heat_lanes: usize,
 }
@@ -140,7 +145,13 @@ impl HostLanes {
             }
             _ => (Vec::new(), Vec::new()),
         };
-        let slots = rows::to_slots(&m.contacts, n, cap, plan.dashpot);
+        let epsd = plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd);
+        let slots = rows::to_slots(&m.contacts, n, cap, plan.dashpot, epsd);
+        let wall_rolling = match (epsd, m.wall_rolling.len() == n * m.walls.len()) {
+            (false, _) => Vec::new(),
+            (true, true) => m.wall_rolling.iter().map(|s| v4(s, 0.0)).collect(),
+            (true, false) => vec![[0.0; 4]; n * m.walls.len()],
+        };
         let walls = m
             .walls
             .iter()
@@ -180,6 +191,8 @@ impl HostLanes {
             other: slots.other,
             state: slots.state,
             dashpot: slots.dashpot,
+            rolling: slots.rolling,
+            wall_rolling,
             // A wall contact is never bonded: w carries its dashpot force.
             wall_state: m.wall_contacts.iter().map(|s| v4(&s.shear, s.dashpot)).collect(),
             walls,
@@ -201,6 +214,9 @@ pub struct SlabLanes {
     pub wall_state: wgpu::Buffer,
     /// The pairs' dashpot forces (a placeholder without a dashpot).
     pub dashpot: wgpu::Buffer,
+    /// The epsd rolling springs of the pairs and of the wall contacts (placeholders without epsd).
+    pub rolling: wgpu::Buffer,
+    pub wall_rolling: wgpu::Buffer,
 }
 
 impl DeviceLanes {
@@ -300,6 +316,16 @@ impl DeviceLanes {
                     make("dashpot forces", &[])?
                 } else {
                     make("dashpot forces", bytes_of(&h.dashpot[r.start * cap..r.end * cap]))?
+                },
+                rolling: if h.rolling.is_empty() {
+                    make("rolling springs", &[])?
+                } else {
+                    make("rolling springs", bytes_of(&h.rolling[r.start * cap..r.end * cap]))?
+                },
+                wall_rolling: if h.wall_rolling.is_empty() {
+                    make("wall rolling springs", &[])?
+                } else {
+                    make("wall rolling springs", bytes_of(&h.wall_rolling[r.start * nw..r.end * nw]))?
                 },
             });
         }
@@ -443,7 +469,15 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
     let mut state = Vec::with_capacity(n * cap);
     let mut dashpot = Vec::with_capacity(if h.dashpot.is_empty() { 0 } else { n * cap });
     let mut wall_state = Vec::with_capacity(n * nw);
+    let epsd = !h.wall_rolling.is_empty() || !h.rolling.is_empty();
+    let (mut rolling, mut wall_rolling) = (Vec::new(), Vec::new());
     for s in &d.slabs {
+        if epsd {
+            rolling.extend(read::<[f32; 4]>(ctx, &s.rolling, s.count * cap)?);
+            if nw > 0 {
+                wall_rolling.extend(read::<[f32; 4]>(ctx, &s.wall_rolling, s.count * nw)?);
+            }
+        }
         other.extend(read::<u32>(ctx, &s.other, s.count * cap)?);
         state.extend(read::<[f32; 4]>(ctx, &s.state, s.count * cap)?);
         if !h.dashpot.is_empty() {
@@ -452,12 +486,15 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
         }
         wall_state.extend(read::<[f32; 4]>(ctx, &s.wall_state, s.count * nw)?);
     }
-    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state, dashpot };
+    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state, dashpot, rolling };
     let built: Vec<[f32; 4]> = read(ctx, &d.built, n)?;
     let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
     rows::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
         *s = PairState { shear: to64(g), dashpot: g[3], ..PairState::default() };
+    }
+    if epsd {
+        m.wall_rolling = wall_rolling.iter().map(to64).collect();
     }
     let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
     for (w, g) in m.walls.iter_mut().zip(&walls) {

@@ -57,6 +57,8 @@ pub struct Scene {
     pub dashpot: bool,
     /// Heat ledger slots a particle ([`super::heat::Layout::lanes`], 8 bytes each).
     pub heat_lanes: usize,
+    /// Whether contacts carry an epsd rolling spring (16 bytes a row entry and a wall).
+    pub rolling: bool,
 }
 
 /// Slot width for rows whose longest is `longest`: room for a quarter more (at least four),
@@ -142,8 +144,10 @@ impl MemoryPlan {
         // + kind, row length, cell item, and a (hi, lo) f32 pair per heat cause.
         let per_particle = (6 + rotation) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64;
         // Neighbour id, pair state (and dashpot force) per slot; a state per wall.
-        let per_slot = 4 + STATE_BYTES + if scene.dashpot { 4 } else { 0 };
-        let per_entry = per_slot * cap as u64 + STATE_BYTES * scene.walls as u64;
+        // (And the epsd rolling spring per slot and per wall.)
+        let spring = if scene.rolling { 16 } else { 0 };
+        let per_slot = 4 + STATE_BYTES + if scene.dashpot { 4 } else { 0 } + spring;
+        let per_entry = per_slot * cap as u64 + (STATE_BYTES + spring) * scene.walls as u64;
         let partials = (n.div_ceil(WORKGROUP) * scene.walls * 32) as u64;
         let bytes = n as u64 * (per_particle + per_entry) + table + partials + 16 * max_events as u64;
         Ok(MemoryPlan { particles: n, cap, walls: scene.walls, slab, bytes, max_events })
@@ -187,6 +191,7 @@ mod tests {
                 bonds: 0,
                 dashpot: true,
                 heat_lanes: 2,
+                rolling: false,
             };
             let plan = MemoryPlan::new(scene, H100).unwrap();
             let per = plan.bytes_per_particle();
@@ -212,6 +217,7 @@ mod tests {
             bonds: 10,
             dashpot: true,
             heat_lanes: 5,
+            rolling: false,
         };
         let plan = MemoryPlan::new(scene, Limits { binding: 64 * 16 * 16 * 3 + 5, buffer: 1 << 30 }).unwrap();
         assert_eq!(plan.cap, 16);
@@ -230,6 +236,7 @@ mod tests {
             bonds: 0,
             dashpot: false,
             heat_lanes: 0,
+            rolling: false,
         };
         let e = MemoryPlan::new(scene, Limits { binding: 128 << 20, buffer: 1 << 40 }).unwrap_err().to_string();
         assert!(e.contains("`positions`") && e.contains("134217728") && e.contains("fewer particles"), "{e}");

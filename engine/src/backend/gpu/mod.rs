@@ -202,13 +202,6 @@ impl GpuBackend {
                     .into(),
             ));
         }
-        if plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd) {
-            return Err(Error::InvalidScene(
-                "the epsd rolling resistance model runs on the CPU backend only: run with --backend cpu, or use \
-                 model: \"cdt\" on the GPU"
-                    .into(),
-            ));
-        }
         let device = &ctx.device;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
@@ -313,6 +306,7 @@ impl GpuBackend {
             bonds,
             dashpot: self.plan.dashpot,
             heat_lanes: self.ledger.lanes(),
+            rolling: self.plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd),
         };
         let limits = self.limits();
         let layout = memory::MemoryPlan::new(scene, limits)?;

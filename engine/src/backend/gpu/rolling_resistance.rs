@@ -1,9 +1,9 @@
-//! The `rolling_resistance` stage on the GPU (shaders/rolling_resistance.wgsl): the cdt model's
-//! pipeline, with μ_r as a pipeline constant of its own, and one kernel per slab of rows bound to
-//! the particles' lanes. The stage has no lanes of its own. Built only when the plan has the
-//! stage; the epsd model (whose springs would have to be carried through the device's row
-//! builds) runs on the CPU backend only, and `GpuBackend::with_plan` refuses it with that
-//! advice. CPU twin: `backend/cpu/rolling_resistance.rs`.
+//! The `rolling_resistance` stage on the GPU (shaders/rolling_resistance.wgsl): the pipeline,
+//! with μ_r and η_r as pipeline constants of its own (the model is common.wgsl's
+//! `ROLLING_SPRING`), and one kernel per slab of rows bound to the particles' lanes and, for
+//! epsd, the slab's rolling springs (uploaded, carried through the device's row builds and
+//! downloaded with the pair states: `buffers.rs`, `rows.rs`). cdt has no lanes. Built only when
+//! the plan has the stage. CPU twin: `backend/cpu/rolling_resistance.rs`.
 
 use super::buffers::DeviceLanes;
 use super::shaders::{self, Kernel};
@@ -13,6 +13,7 @@ use crate::plan::Stage;
 pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)], r: &RollingResistance) -> wgpu::ComputePipeline {
     let mut constants = constants.to_vec();
     constants.push(("ROLLING_MU", r.mu_r));
+    constants.push(("ROLLING_DAMPING", r.damping));
     let name = Stage::RollingResistance.name();
     shaders::pipeline(device, name, shaders::ROLLING_RESISTANCE, name, &constants)
 }
@@ -33,6 +34,8 @@ pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes
             &s.uniform,
             &d.walls,
             &d.wall_pairs,
+            &s.rolling,
+            &s.wall_rolling,
         ]
     })
 }

@@ -22,18 +22,23 @@ pub struct Slots {
     pub state: Vec<[f32; 4]>,
     /// The pairs' dashpot forces of the last step; empty when the plan has no dashpot.
     pub dashpot: Vec<f32>,
+    /// The pairs' epsd rolling springs; empty unless the plan has epsd.
+    pub rolling: Vec<[f32; 4]>,
 }
 
 /// The host's rows (`n` of them, each at most `cap` long) in slots; states in f32, dashpot
-/// forces only when `dashpot`.
-pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool) -> Slots {
+/// forces only when `dashpot`, epsd rolling springs only when `rolling` (zero where the host's
+/// rows have none).
+pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool, rolling: bool) -> Slots {
     let mut s = Slots {
         cap,
         row_len: vec![0; n],
         other: vec![0; n * cap],
         state: vec![[0.0; 4]; n * cap],
         dashpot: if dashpot { vec![0.0; n * cap] } else { Vec::new() },
+        rolling: if rolling { vec![[0.0; 4]; n * cap] } else { Vec::new() },
     };
+    let springs = rolling && c.rolling.len() == c.other.len();
     for i in 0..n.min(c.row_start.len().saturating_sub(1)) {
         let row = c.row(i);
         s.row_len[i] = row.len() as u32;
@@ -45,6 +50,10 @@ pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool) -> Slots {
             s.state[i * cap + k] = [st.shear.x as f32, st.shear.y as f32, st.shear.z as f32, w];
             if dashpot {
                 s.dashpot[i * cap + k] = st.dashpot;
+            }
+            if springs {
+                let r = &c.rolling[e];
+                s.rolling[i * cap + k] = [r.x as f32, r.y as f32, r.z as f32, 0.0];
             }
         }
     }
@@ -60,8 +69,14 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
     row_start.push(0u32);
     let mut other = Vec::new();
     let mut state = Vec::new();
+    let mut rolling = Vec::new();
     for i in 0..n {
         let slots = i * s.cap..i * s.cap + s.row_len[i] as usize;
+        if !s.rolling.is_empty() {
+            rolling.extend(
+                s.rolling[slots.clone()].iter().map(|g| Vec3::new(f64::from(g[0]), f64::from(g[1]), f64::from(g[2]))),
+            );
+        }
         other.extend_from_slice(&s.other[slots.clone()]);
         state.extend(slots.map(|e| {
             let g = s.state[e];
@@ -105,8 +120,7 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
         built_at,
         skin: c.skin,
         stale: false,
-        // The GPU runs no epsd (its rolling springs stay on the CPU backend).
-        rolling: Vec::new(),
+        rolling,
     };
 }
 
@@ -169,6 +183,7 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels
                 &d.counters,
                 &s.uniform,
                 &s.dashpot,
+                &s.rolling,
             ]
         })
     };
@@ -245,8 +260,8 @@ mod tests {
     fn rows_and_dashpot_forces_go_to_slots_and_back_with_the_host_pair_ids() {
         let mut c = contacts(&[&[1, 3], &[0, 2, 3], &[1], &[0, 1]]);
         c.skin = 1e-4;
-        assert!(to_slots(&c, 4, 5, false).dashpot.is_empty(), "no dashpot lane without a dashpot");
-        let s = to_slots(&c, 4, 5, true);
+        assert!(to_slots(&c, 4, 5, false, false).dashpot.is_empty(), "no dashpot lane without a dashpot");
+        let s = to_slots(&c, 4, 5, true, false);
         assert_eq!(s.row_len, [2, 3, 1, 2]);
         assert_eq!(&s.other[5..8], [0, 2, 3]);
         assert_eq!(s.state[5], [1.0, 0.0, 0.5, 1.0]);

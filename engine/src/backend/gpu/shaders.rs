@@ -3,6 +3,7 @@
 //! pipeline-overridable constants, so a switched-off effect is compiled out.
 
 use crate::model::{NormalKind, TangentialKind};
+use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
 
 pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
@@ -55,6 +56,7 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
         ("ROTATION", flag(plan.rotation)),
         ("VISCOUS", flag(plan.damping > 0.0)),
         ("LOCAL", flag(plan.local_damping > 0.0)),
+        ("ROLLING_SPRING", flag(plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd))),
     ]
 }
 
