@@ -69,6 +69,16 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         if VISCOUS {
             w1 = w0 + (torque[i].xyz / inertia * dt - 2.0 * a * w0) / (1.0 + a);
         }
+        // A fixed rotation (dof bits 3..5: rx, ry, rz) keeps its component.
+        if (fixed & 8u) != 0u {
+            w1.x = w0.x;
+        }
+        if (fixed & 16u) != 0u {
+            w1.y = w0.y;
+        }
+        if (fixed & 32u) != 0u {
+            w1.z = w0.z;
+        }
         ang_vel[i] = vec4<f32>(w1, 0.0);
         if VISCOUS {
             let wm = 0.5 * (w0 + w1);

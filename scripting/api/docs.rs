@@ -64,7 +64,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("group_where", "d.group_where(name, mask) -> count", "a group of the particles a mask selects, e.g. d.z > 0.01"),
     ("in_group", "d.in_group(name) -> Mask", "a mask of a group's particles"),
     ("remove", "d.remove(group or ids) -> count", "deletes particles (the same as d.delete)"),
-    ("fix", "d.fix(group, \"z\")", "fixes a degree of freedom (x, y, z or xyz) of a group (MatDEM d.addFixId); rotation (rx, ry, rz) cannot be fixed and is refused"),
+    ("fix", "d.fix(group, \"z\")", "fixes degrees of freedom of a group (MatDEM d.addFixId): x, y, z (translation) and rx, ry, rz (rotation, with rotation on), e.g. \"xyz\", \"ry\", \"rxryrz\"; a fixed one keeps its velocity"),
     ("set", "d.set(lane, ids or mask or group, value) / d.x = field", "writes a lane (x y z vx vy vz wx wy wz r) for a selection: a number, or a Field of the selection's length or of d.n (MatDEM d.mo.aX(ids) = v); radius writes update mass and inertia; a bad value is refused naming the particle and nothing changes"),
     ("delete", "d.delete(ids or group or mask) -> count", "deletes elements, keeping the groups, contacts and bonds of the rest (MatDEM d.delElement)"),
     ("keep_groups", "d.keep_groups([name, ...]) -> count", "deletes every element outside the named groups; returns how many went (MatDEM d.makeModelByGroups)"),

@@ -10,7 +10,13 @@ pub mod dof {
     pub const X: u8 = 1;
     pub const Y: u8 = 2;
     pub const Z: u8 = 4;
+    /// Every translation (a particle fixed in place).
     pub const ALL: u8 = X | Y | Z;
+    /// Rotation about x, y, z (the angular velocity's component kept as it is).
+    pub const RX: u8 = 8;
+    pub const RY: u8 = 16;
+    pub const RZ: u8 = 32;
+    pub const ROTATION: u8 = RX | RY | RZ;
 }
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]

@@ -124,21 +124,35 @@ fn vec3(v: &Dynamic, what: &str) -> RhaiResult<Vec3> {
     Ok(Vec3::new(n[0], n[1], n[2]))
 }
 
+/// Degrees of freedom from a script's letters: x, y, z translate; r before an axis rotates
+/// about it ("rx", "ry", "rz"; "xyz rxryrz" fixes all six). Spaces and commas separate nothing.
 fn dofs(s: &str) -> RhaiResult<u8> {
-    // NOTE: the integrators (CPU and WGSL) block translation only; blocking rotation would
-    // need new dof bits honoured by both, so rx/ry/rz are refused with what to do instead.
-    if s.contains(['r', 'R']) {
-        return Err(err(format!(
-            "cannot fix rotation (\"{s}\"): only translation (x, y, z) can be fixed; a particle's rotation \
-             is free whenever rotation is on (d.enable(\"rotation\")), and absent otherwise"
-        )));
+    let unknown = |c: char| {
+        err(format!(
+            "unknown degree of freedom `{c}` in \"{s}\": use x, y, z (translation) and rx, ry, rz (rotation), e.g. \
+             \"xyz\" or \"ry\""
+        ))
+    };
+    let (mut acc, mut rotation) = (0u8, false);
+    for c in s.chars() {
+        let axis = match c {
+            ' ' | ',' if !rotation => continue,
+            'r' | 'R' if !rotation => {
+                rotation = true;
+                continue;
+            }
+            'x' | 'X' => 0,
+            'y' | 'Y' => 1,
+            'z' | 'Z' => 2,
+            _ => return Err(unknown(c)),
+        };
+        acc |= if rotation { [dof::RX, dof::RY, dof::RZ][axis] } else { [dof::X, dof::Y, dof::Z][axis] };
+        rotation = false;
     }
-    s.chars().try_fold(0u8, |acc, c| match c {
-        'x' | 'X' => Ok(acc | dof::X),
-        'y' | 'Y' => Ok(acc | dof::Y),
-        'z' | 'Z' => Ok(acc | dof::Z),
-        _ => Err(err(format!("unknown degree of freedom `{c}` in \"{s}\": use a combination of x, y, z"))),
-    })
+    if rotation {
+        return Err(err(format!("\"{s}\" ends with `r`: name the axis of the rotation, rx, ry or rz")));
+    }
+    Ok(acc)
 }
 
 fn positive(name: &str, v: f64) -> RhaiResult<f64> {

@@ -126,7 +126,17 @@ where
                 advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], heat.damping_at(li), &mut unobserved);
                 if let (Some(tq), Some(w)) = (torque.as_deref_mut(), ang_vel.as_deref_mut()) {
                     tq[li] = t;
-                    spin::<DAMP, false>(k.dt, mass[i], ri, c, t, &mut w[li], heat.damping_at(li), &mut unobserved);
+                    spin::<DAMP, false>(
+                        k.dt,
+                        mass[i],
+                        ri,
+                        c,
+                        fixed[i],
+                        t,
+                        &mut w[li],
+                        heat.damping_at(li),
+                        &mut unobserved,
+                    );
                 }
             }
             loads

@@ -80,7 +80,8 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, plan: &Ste
         let mut heat = HeatLanes::of(&mut p.heat, &plan.heat);
         for i in 0..n {
             let c = if DAMP { damping_c[i] } else { 0.0 };
-            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, torque[i], &mut ang_vel[i], heat.damping_at(i), &mut obs);
+            let (ti, wi) = (torque[i], &mut ang_vel[i]);
+            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, fixed[i], ti, wi, heat.damping_at(i), &mut obs);
         }
     }
     obs
@@ -156,13 +157,15 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
 }
 
 /// Advances one particle's angular velocity by a step under `torque`, with the same damping
-/// form as the translation; books its damping heat.
+/// form as the translation; books its damping heat. A component whose rotation is fixed
+/// (`dof::RX`, `RY`, `RZ` in `fixed`) keeps its value, as a fixed translation does.
 #[inline(always)]
 pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     dt: f64,
     mass: f64,
     radius: f64,
     damping_c: f64,
+    fixed: u8,
     torque: Vec3,
     ang_vel: &mut Vec3,
     mut heat: Option<&mut f64>,
@@ -170,12 +173,19 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
 ) {
     let inertia = 0.4 * mass * radius * radius;
     let w0 = *ang_vel;
-    let w1 = if DAMP {
+    let mut w1 = if DAMP {
         let a = 0.5 * damping_c * dt / mass;
         (w0 * (1.0 - a) + torque / inertia * dt) / (1.0 + a)
     } else {
         w0 + torque / inertia * dt
     };
+    if fixed & dof::ROTATION != 0 {
+        for (c, bit) in [dof::RX, dof::RY, dof::RZ].into_iter().enumerate() {
+            if fixed & bit != 0 {
+                w1[c] = w0[c];
+            }
+        }
+    }
     let w_mean: Vec3 = (w0 + w1) * 0.5;
     if DAMP {
         let h = damping_c * w_mean.norm_squared() * dt * inertia / mass;
