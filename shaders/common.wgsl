@@ -19,6 +19,12 @@ override ROLLING_SPRING: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;
+const WALL_CONE: u32 = 2u;
+// The parts of a wall a contact touches (WallPart in walls.rs).
+const PART_WHOLE: u32 = 0u;
+const PART_TIP: u32 = 1u;
+const PART_SLEEVE: u32 = 2u;
+const PART_CAP: u32 = 3u;
 const MAX_WALLS: u32 = 8u;
 
 // Slots of the counters buffer.
@@ -98,21 +104,23 @@ struct Pair {
 
 // A wall (walls.rs): the shape at upload, its motion and the loads of the last step.
 struct Wall {
-    // Plane: a point; cylinder: the axis point, radius in w.
+    // Plane: a point; cylinder: the axis point, radius in w; cone: the apex, base radius in w.
     point: vec4<f32>,
-    // Unit normal into the particles' region; w = shape (WALL_PLANE, WALL_CYLINDER).
+    // Unit normal into the particles' region (cone: the unit axis from the apex towards the
+    // rod); w = shape (WALL_PLANE, WALL_CYLINDER, WALL_CONE).
     normal: vec4<f32>,
     // x = 0 fixed, 1 prescribed velocity, 2 servo; y = target stress; z = max speed; w = area.
     motion: vec4<f32>,
-    // Prescribed velocity.
+    // Prescribed velocity; w = a cone's length along its axis (radius / tan(half-angle)).
     prescribed: vec4<f32>,
-    // Velocity during the last step.
+    // Velocity during the last step; w = a cone's rod end along its axis (length + rod).
     velocity: vec4<f32>,
     // Moved since upload (a cylinder's radius change is x).
     moved: vec4<f32>,
     // Force the particles exert on the wall (xyz) and the summed normal force (w).
     load: vec4<f32>,
-    // x = summed normal stiffness, y = contacts.
+    // x = summed normal stiffness, y = contacts; a cone's axial load on its face (z) and its
+    // rod (w).
     load2: vec4<f32>,
 }
 
@@ -293,9 +301,95 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
     return out;
 }
 
+// A particle against a wall: the unit normal into the particles' region and the gap
+// (`ng`, as wall_normal_and_gap) and the part touched (PART_*).
+struct WallHit {
+    ng: vec4<f32>,
+    part: u32,
+}
+
+// A cone and rod (WallShape::Cone, `cone_profile_distance` in walls.rs): the nearest point of
+// the body of revolution to a particle whose origin is `o` and displacement `u`.
+fn cone_hit(w: Wall, o: vec3<f32>, u: vec3<f32>) -> WallHit {
+    let axis = w.normal.xyz;
+    let radius = w.point.w;
+    let h = w.prescribed.w;
+    let end = w.velocity.w;
+    let d = (o - w.point.xyz) + (u - w.moved.xyz);
+    let s = dot(d, axis);
+    let q = d - axis * s;
+    let rho = length(q);
+    var e: vec3<f32>;
+    if rho > 0.0 {
+        e = q / rho;
+    } else {
+        // On the axis: a direction across it fixed by the axis alone (`across` in walls.rs).
+        var helper = vec3<f32>(0.0, 1.0, 0.0);
+        if abs(axis.x) < 0.9 {
+            helper = vec3<f32>(1.0, 0.0, 0.0);
+        }
+        e = normalize(cross(axis, helper));
+    }
+    let slant = length(vec2<f32>(h, radius));
+    let n_face = vec2<f32>(-radius / slant, h / slant);
+    let f_face = n_face.x * s + n_face.y * rho;
+    let f_rod = rho - radius;
+    let f_cap = s - end;
+    var n = vec2<f32>(0.0);
+    var gap = 0.0;
+    var part = PART_TIP;
+    if f_face <= 0.0 && f_rod <= 0.0 && f_cap <= 0.0 {
+        // Inside: the nearest line.
+        if f_face >= f_rod && f_face >= f_cap {
+            n = n_face;
+            gap = f_face;
+        } else if f_rod >= f_cap {
+            n = vec2<f32>(0.0, 1.0);
+            gap = f_rod;
+            part = PART_SLEEVE;
+        } else {
+            n = vec2<f32>(1.0, 0.0);
+            gap = f_cap;
+            part = PART_CAP;
+        }
+    } else {
+        // Outside: the nearest of the three profile segments (a tie goes to the first).
+        let t = clamp((s * h + rho * radius) / (slant * slant), 0.0, 1.0);
+        var c = array<vec2<f32>, 3>(vec2<f32>(t * h, t * radius), vec2<f32>(clamp(s, h, end), radius),
+                                    vec2<f32>(end, clamp(rho, 0.0, radius)));
+        var edge = array<vec2<f32>, 3>(n_face, vec2<f32>(0.0, 1.0), vec2<f32>(1.0, 0.0));
+        gap = 3.4e38;
+        for (var k = 0u; k < 3u; k++) {
+            let dv = vec2<f32>(s, rho) - c[k];
+            let dist = length(dv);
+            if dist < gap {
+                gap = dist;
+                if dist > 0.0 {
+                    n = dv / dist;
+                } else {
+                    n = edge[k];
+                }
+                part = PART_TIP + k;
+            }
+        }
+    }
+    return WallHit(vec4<f32>(axis * n.x + e * n.y, gap), part);
+}
+
+// wall_normal_and_gap with the part touched.
+fn wall_hit(w: Wall, o: vec3<f32>, u: vec3<f32>) -> WallHit {
+    if u32(w.normal.w) == WALL_CONE {
+        return cone_hit(w, o, u);
+    }
+    return WallHit(wall_normal_and_gap(w, o, u), PART_WHOLE);
+}
+
 // Unit normal into the particles' region and the gap from wall `w` to a particle whose
 // origin is `o` and displacement `u` (positive inside).
 fn wall_normal_and_gap(w: Wall, o: vec3<f32>, u: vec3<f32>) -> vec4<f32> {
+    if u32(w.normal.w) == WALL_CONE {
+        return cone_hit(w, o, u).ng;
+    }
     if u32(w.normal.w) == WALL_CYLINDER {
         let rho = vec2<f32>(o.x - w.point.x, o.y - w.point.y) + u.xy;
         let len = length(rho);

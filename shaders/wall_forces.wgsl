@@ -57,7 +57,8 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         var load = vec4<f32>(0.0);
         var load2 = vec4<f32>(0.0);
         let wall = walls[w];
-        let ng = wall_normal_and_gap(wall, oi, ui);
+        let hit = wall_hit(wall, oi, ui);
+        let ng = hit.ng;
         let inward = ng.xyz;
         let overlap = ri - ng.w;
         let e = kl * nw + w;
@@ -92,6 +93,13 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                 }
                 load = vec4<f32>(c.force, max(dot(c.force, inward), 0.0));
                 load2 = vec4<f32>(c.stiffness, 1.0, 0.0, 0.0);
+                // A cone's axial load (the reaction on the wall) on its face or its rod.
+                let axial = -dot(c.force, wall.normal.xyz);
+                if hit.part == PART_TIP {
+                    load2.z = axial;
+                } else if hit.part == PART_SLEEVE {
+                    load2.w = axial;
+                }
             }
         }
         red_force[li] = load;

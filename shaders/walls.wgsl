@@ -1,7 +1,8 @@
 // The `walls` stage on the GPU. One workgroup sums the wall-force partials the workgroups of the
 // last step's wall pass left (in a fixed order: deterministic) into each wall's load, then moves
 // each wall by one step: a prescribed velocity, or a servo that closes 20% of the stress error per
-// step with a gain from the contact stiffness. At the first step after an upload the partials hold
+// step with a gain from the contact stiffness (planes and rings; a cone is never servo-controlled).
+// At the first step after an upload the partials hold
 // the model's last loads. CPU twin: Wall::advance in walls.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -72,7 +73,7 @@ fn advance_walls(@builtin(local_invocation_index) li: u32) {
                     speed = 0.2 * error_force / (stiffness * dt);
                 }
                 v = wall.normal.xyz * clamp(speed, -max_speed, max_speed);
-            } else {
+            } else if u32(wall.normal.w) == WALL_CYLINDER {
                 let error_force = (stress_now - wall.motion.y) * area;
                 var speed = -max_speed;
                 if stiffness > 0.0 {
@@ -81,7 +82,8 @@ fn advance_walls(@builtin(local_invocation_index) li: u32) {
                 v = vec3<f32>(clamp(speed, -max_speed, max_speed), 0.0, 0.0);
             }
         }
-        wall.velocity = vec4<f32>(v, 0.0);
+        // w keeps a cone's rod end.
+        wall.velocity = vec4<f32>(v, wall.velocity.w);
         wall.moved = vec4<f32>(wall.moved.xyz + v * dt, 0.0);
         walls[w] = wall;
     }

@@ -99,3 +99,46 @@ fn bad_zones_and_scales_are_refused_with_what_to_do() {
     let err = e.eval::<rhai::Dynamic>(&neg).expect_err("negative scale").to_string();
     assert!(err.contains("finite number > 0"), "{err}");
 }
+
+// The CPT cone from a script (docs/cpt.md): d.add_cone, pushed into the small zoned chamber by
+// d.move_boundary; d.boundary reads qc and fs (positive and finite once it has gone in: the
+// grains push the cone back) and d.record() has the cone's columns. A servo on the cone, an
+// unknown key and a 90° half-angle are refused.
+#[test]
+fn a_cone_pushed_into_the_chamber_reads_qc_and_fs() {
+    let e = engine("cone_script");
+    let script = format!(
+        r#"{SMALL_ZONED}
+        d.set_standard_dt();
+        let top = d.z.max() + d.r.max();
+        d.add_cone(#{{ name: "cone", apex: [0.0, 0.0, top + 1e-3], axis: [0, 0, 1], angle: 60, radius: 2e-3, rod_length: 0.03 }});
+        d.move_boundary("cone", [0.0, 0.0, -0.5]);
+        d.run(to_int(0.008 / (0.5 * d.dt)));
+        d.record();
+        let b = d.boundary("cone");
+        #{{ qc: b.qc, fs: b.fs, tip: b.tip_force, sleeve: b.sleeve_force, z: b.position[2], top: top,
+           cols: d.status.columns }}"#
+    );
+    let out: rhai::Map = e.eval(&script).unwrap_or_else(|err| panic!("{err}"));
+    let (qc, tip) = (out["qc"].as_float().unwrap(), out["tip"].as_float().unwrap());
+    assert!(qc.is_finite() && qc > 0.0 && tip > 0.0, "qc {qc}, tip force {tip}");
+    assert!((qc - tip / (std::f64::consts::PI * 4e-6)).abs() <= 1e-9 * qc);
+    assert!(out["fs"].as_float().unwrap().is_finite());
+    let (z, top) = (out["z"].as_float().unwrap(), out["top"].as_float().unwrap());
+    assert!((z - (top + 1e-3 - 0.008)).abs() < 1e-3, "apex at {z}");
+    let cols = out["cols"].to_string();
+    assert!(cols.contains("cone_qc") && cols.contains("cone_fs"), "{cols}");
+
+    for (bad, want) in [
+        (
+            r#"d.add_cone(#{ name: "c", apex: [0,0,0], radius: 1e-3, rod_length: 0.01 }); d.set_platen_stress("c", 1e5);"#,
+            "move_boundary",
+        ),
+        (r#"d.add_cone(#{ name: "c", apex: [0,0,0], radius: 1e-3, rod: 0.01 });"#, "rod_length"),
+        (r#"d.add_cone(#{ name: "c", apex: [0,0,0], angle: 180, radius: 1e-3, rod_length: 0.01 });"#, "half-angle"),
+    ] {
+        let script = format!("{SMALL_ZONED}\nd.set_standard_dt();\n{bad}");
+        let err = e.eval::<rhai::Dynamic>(&script).expect_err(bad).to_string();
+        assert!(err.contains(want), "{bad}: {err}");
+    }
+}

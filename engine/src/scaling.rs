@@ -134,6 +134,11 @@ fn scale_shape(shape: &mut WallShape, l: f64, at: &impl Fn(&Vec3) -> Vec3) {
             *center = at(center);
             *radius *= l;
         }
+        WallShape::Cone { apex, radius, rod_length, .. } => {
+            *apex = at(apex);
+            *radius *= l;
+            *rod_length *= l;
+        }
     }
 }
 

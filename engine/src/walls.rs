@@ -1,5 +1,6 @@
-//! Walls as analytic primitives: planes (box sides, platens) and the inside of a vertical
-//! cylinder (the oedometer ring). A wall moves at a prescribed velocity or is servo-controlled
+//! Walls as analytic primitives: planes (box sides, platens), the inside of a vertical
+//! cylinder (the oedometer ring) and the outside of a cone continued by a rod (the CPT
+//! penetrometer, docs/cpt.md). A wall moves at a prescribed velocity or is servo-controlled
 //! to a target stress; the force particles exert on it is recorded every step.
 
 use crate::error::{check_positive, Error, Result};
@@ -15,6 +16,72 @@ pub enum WallShape {
     Plane { point: Vec3, normal: Vec3 },
     /// The inside of a cylinder with a vertical (z) axis through (`center.x`, `center.y`).
     Cylinder { center: Vec3, radius: f64 },
+    /// The outside of a rigid cone continued by a rod (a cylinder) of the cone's base radius:
+    /// the apex at `apex`, the unit `axis` from the apex towards the rod, the cone's half-angle
+    /// (rad; 30° for the standard 60° cone), its base `radius` (m) and the rod's length (m)
+    /// above the base, closed by a flat cap. Particles are kept outside. The loads on the cone
+    /// face and on the rod are recorded apart ([`Wall::tip_force`], [`Wall::sleeve_force`]).
+    /// Added after the other shapes, so checkpoints of older builds still decode.
+    Cone { apex: Vec3, axis: Vec3, half_angle: f64, radius: f64, rod_length: f64 },
+}
+
+/// Which part of a wall a contact touches: what the cone's tip resistance and sleeve friction
+/// are summed over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WallPart {
+    /// A plane or a cylinder: the wall is one part.
+    Whole,
+    /// The cone's face, its apex and the rim where it meets the rod.
+    Tip,
+    /// The rod's side.
+    Sleeve,
+    /// The flat cap closing the rod's far end.
+    Cap,
+}
+
+/// Where a point is against the body of a cone and rod, in the half-plane through its axis:
+/// `s` along the axis from the apex, `rho` from the axis (≥ 0). `h` is the cone's length
+/// (radius / tan(half-angle)), `end` the rod's far end (h + rod length). Returns the unit
+/// normal out of the body at the nearest surface point as (along the axis, away from it), the
+/// signed distance (positive outside, negative for a point inside the body) and the part.
+/// The body's section is convex, so a point outside is nearest to one of the three profile
+/// segments (face, rod, cap; a tie goes to the first) and a point inside to the nearest of
+/// their lines.
+pub fn cone_profile_distance(s: f64, rho: f64, radius: f64, h: f64, end: f64) -> ([f64; 2], f64, WallPart) {
+    let slant = h.hypot(radius);
+    // Outward normals of the face, the rod and the cap.
+    let n_face = [-radius / slant, h / slant];
+    let f_face = n_face[0] * s + n_face[1] * rho;
+    let f_rod = rho - radius;
+    let f_cap = s - end;
+    if f_face <= 0.0 && f_rod <= 0.0 && f_cap <= 0.0 {
+        // Inside: the nearest line (deepest penetration is the least negative).
+        return if f_face >= f_rod && f_face >= f_cap {
+            (n_face, f_face, WallPart::Tip)
+        } else if f_rod >= f_cap {
+            ([0.0, 1.0], f_rod, WallPart::Sleeve)
+        } else {
+            ([1.0, 0.0], f_cap, WallPart::Cap)
+        };
+    }
+    // Outside: the nearest point of each segment of the profile.
+    let t = ((s * h + rho * radius) / (slant * slant)).clamp(0.0, 1.0);
+    let candidates = [
+        ((t * h, t * radius), WallPart::Tip, n_face),
+        ((s.clamp(h, end), radius), WallPart::Sleeve, [0.0, 1.0]),
+        ((end, rho.clamp(0.0, radius)), WallPart::Cap, [1.0, 0.0]),
+    ];
+    let mut best = (f64::INFINITY, [0.0, 0.0], WallPart::Whole);
+    for ((cs, cr), part, edge_normal) in candidates {
+        let (ds, dr) = (s - cs, rho - cr);
+        let dist = ds.hypot(dr);
+        if dist < best.0 {
+            // On the surface itself the edge's normal stands in for the undefined direction.
+            let n = if dist > 0.0 { [ds / dist, dr / dist] } else { edge_normal };
+            best = (dist, n, part);
+        }
+    }
+    (best.1, best.0, best.2)
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,6 +117,16 @@ pub struct Wall {
     pub velocity: Vec3,
     /// Distance moved since the wall was created (m).
     pub displacement: Vec3,
+    /// A cone's tip resistance during the last step (N): the axial component (along the axis,
+    /// towards the rod) of the force the particles exert on its face; zero for other shapes.
+    /// Recomputed every step from the contacts, so checkpoints do not carry it (a loaded
+    /// model shows it again after its first step).
+    #[serde(skip)]
+    pub tip_force: f64,
+    /// A cone's sleeve friction force during the last step (N): the axial component of the
+    /// force the particles exert on its rod (not saved, like `tip_force`).
+    #[serde(skip)]
+    pub sleeve_force: f64,
 }
 
 impl Wall {
@@ -70,6 +147,48 @@ impl Wall {
         Ok(Self::new(name, WallShape::Cylinder { center, radius }, area))
     }
 
+    /// A rigid cone of half-angle `half_angle` (rad) with its apex at `apex`, continued by a
+    /// rod of its base radius and length `rod_length` along `axis` (from the apex towards the
+    /// rod). Its area (for the stress and qc) is the cone's base, πR².
+    pub fn cone(name: &str, apex: Vec3, axis: Vec3, half_angle: f64, radius: f64, rod_length: f64) -> Result<Self> {
+        let len = axis.norm();
+        if !(len.is_finite() && len > 0.0 && apex.iter().all(|v| v.is_finite())) {
+            return Err(Error::InvalidScene(format!(
+                "cone `{name}`: the axis must be a finite non-zero vector and the apex finite"
+            )));
+        }
+        if !(half_angle > 0.0 && half_angle < std::f64::consts::FRAC_PI_2) {
+            return Err(Error::InvalidScene(format!(
+                "cone `{name}`: the half-angle must lie strictly between 0 and 90° (the standard cone has 30°), got \
+                 {:.4}°",
+                half_angle.to_degrees()
+            )));
+        }
+        check_positive("radius", radius, false)?;
+        check_positive("rod_length", rod_length, true)?;
+        let area = std::f64::consts::PI * radius * radius;
+        Ok(Self::new(name, WallShape::Cone { apex, axis: axis / len, half_angle, radius, rod_length }, area))
+    }
+
+    /// A cone's tip resistance qc (Pa): the tip force over the cone's base area.
+    pub fn qc(&self) -> f64 {
+        match &self.shape {
+            WallShape::Cone { radius, .. } => self.tip_force / (std::f64::consts::PI * radius * radius),
+            _ => 0.0,
+        }
+    }
+
+    /// A cone's sleeve friction fs (Pa): the sleeve force over the rod's side area (zero for
+    /// a rod of no length and for other shapes).
+    pub fn fs(&self) -> f64 {
+        match &self.shape {
+            WallShape::Cone { radius, rod_length, .. } if *rod_length > 0.0 => {
+                self.sleeve_force / (2.0 * std::f64::consts::PI * radius * rod_length)
+            }
+            _ => 0.0,
+        }
+    }
+
     fn new(name: &str, shape: WallShape, area: f64) -> Self {
         Wall {
             name: name.to_string(),
@@ -83,6 +202,8 @@ impl Wall {
             stiffness: 0.0,
             velocity: Vec3::zeros(),
             displacement: Vec3::zeros(),
+            tip_force: 0.0,
+            sleeve_force: 0.0,
         }
     }
 
@@ -99,6 +220,34 @@ impl Wall {
     /// the point (m): positive inside.
     #[inline(always)]
     pub fn normal_and_distance(&self, x: &Vec3) -> (Vec3, f64) {
+        let (n, gap, _) = self.normal_distance_part(x);
+        (n, gap)
+    }
+
+    /// [`Self::normal_and_distance`] and the part of the wall nearest to `x`.
+    #[inline(always)]
+    pub fn normal_distance_part(&self, x: &Vec3) -> (Vec3, f64, WallPart) {
+        match &self.shape {
+            WallShape::Cone { apex, axis, half_angle, radius, rod_length } => {
+                let d = x - apex;
+                let s = d.dot(axis);
+                let q = d - axis * s;
+                let rho = q.norm();
+                // On the axis any direction across it will do: one fixed by the axis alone.
+                let e = if rho > 0.0 { q / rho } else { across(axis) };
+                let h = radius / half_angle.tan();
+                let (n, gap, part) = cone_profile_distance(s, rho, *radius, h, h + rod_length);
+                (axis * n[0] + e * n[1], gap, part)
+            }
+            _ => {
+                let (n, gap) = self.plane_or_cylinder(x);
+                (n, gap, WallPart::Whole)
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn plane_or_cylinder(&self, x: &Vec3) -> (Vec3, f64) {
         match &self.shape {
             WallShape::Plane { point, normal } => (*normal, (x - point).dot(normal)),
             WallShape::Cylinder { center, radius } => {
@@ -110,13 +259,22 @@ impl Wall {
                     (Vec3::x(), *radius)
                 }
             }
+            WallShape::Cone { .. } => unreachable!("cones are measured by normal_distance_part"),
+        }
+    }
+
+    /// A cone's unit axis (from the apex towards the rod); `None` for other shapes.
+    pub fn axis(&self) -> Option<Vec3> {
+        match &self.shape {
+            WallShape::Cone { axis, .. } => Some(*axis),
+            _ => None,
         }
     }
 
     /// Velocity of the wall surface (m/s).
     pub fn surface_velocity(&self, n: &Vec3) -> Vec3 {
         match &self.shape {
-            WallShape::Plane { .. } => self.velocity,
+            WallShape::Plane { .. } | WallShape::Cone { .. } => self.velocity,
             // A growing ring moves its surface outwards, against the inward normal.
             WallShape::Cylinder { .. } => -n * self.velocity.x,
         }
@@ -143,12 +301,21 @@ impl Wall {
                 let speed = if self.stiffness > 0.0 { 0.2 * error_force / (self.stiffness * dt) } else { -max_speed };
                 Vec3::new(speed.clamp(-max_speed, *max_speed), 0.0, 0.0)
             }
+            // Hosts refuse a servo on a cone (it is pushed at a prescribed speed).
+            (WallMotion::Servo { .. }, WallShape::Cone { .. }) => Vec3::zeros(),
         };
         let d = self.velocity * dt;
         match &mut self.shape {
             WallShape::Plane { point, .. } => *point += d,
             WallShape::Cylinder { radius, .. } => *radius += d.x,
+            WallShape::Cone { apex, .. } => *apex += d,
         }
         self.displacement += d;
     }
+}
+
+/// A unit vector across `axis` (unit), fixed by the axis alone (the GPU picks the same one).
+fn across(axis: &Vec3) -> Vec3 {
+    let helper = if axis.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+    axis.cross(&helper).normalize()
 }

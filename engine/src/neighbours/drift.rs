@@ -35,6 +35,10 @@ pub fn walls_stale(c: &Contacts, walls: &[Wall], particles: usize) -> bool {
             (WallShape::Cylinder { center, radius }, WallShape::Cylinder { center: c0, radius: r0 }) => {
                 (center - c0).xy().norm() + (radius - r0).abs()
             }
+            (
+                WallShape::Cone { apex, axis, half_angle, radius, rod_length },
+                WallShape::Cone { apex: a0, axis: x0, half_angle: h0, radius: r0, rod_length: l0 },
+            ) if (axis, half_angle, radius, rod_length) == (x0, h0, r0, l0) => (apex - a0).norm(),
             _ => f64::INFINITY,
         };
         // A NaN move (a wall sent to infinity) counts as stale too.

@@ -1,4 +1,5 @@
-//! Walls (MatDEM boundaries): motion, placement, friction, servo-controlled platens.
+//! Walls (MatDEM boundaries): motion, placement, friction, servo-controlled platens, and the
+//! CPT cone (`d.add_cone`, docs/cpt.md).
 
 use super::*;
 
@@ -15,6 +16,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let w = m.wall_mut(name).map_err(raise)?;
             match &mut w.shape {
                 matdem_engine::WallShape::Plane { point, .. } => *point = to,
+                matdem_engine::WallShape::Cone { apex, .. } => *apex = to,
                 matdem_engine::WallShape::Cylinder { .. } => {
                     return Err(err(format!("place_boundary: `{name}` is a ring; only planes can be placed")))
                 }
@@ -53,11 +55,26 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 let pos = match &w.shape {
                     matdem_engine::WallShape::Plane { point, .. } => v3(*point),
                     matdem_engine::WallShape::Cylinder { radius, .. } => vec![Dynamic::from_float(*radius)],
+                    matdem_engine::WallShape::Cone { apex, .. } => v3(*apex),
                 };
                 map.insert("position".into(), pos.into());
+                if let matdem_engine::WallShape::Cone { .. } = &w.shape {
+                    map.insert("qc".into(), w.qc().into());
+                    map.insert("fs".into(), w.fs().into());
+                    map.insert("tip_force".into(), w.tip_force.into());
+                    map.insert("sleeve_force".into(), w.sleeve_force.into());
+                }
                 map
             }),
         )
+        // d.add_cone(#{ name, apex, axis, angle, radius, rod_length }): a rigid cone (apex angle
+        // `angle`, degrees, 60 by default) at `apex` pointing against `axis` (default [0, 0, 1]:
+        // the apex down, the rod up), continued by a rod of its base radius `radius` and length
+        // `rod_length` (m). Move it with d.move_boundary; d.boundary(name) reads qc and fs.
+        .register_fn("add_cone", |d: &mut ModelHandle, p: Map| -> RhaiResult<INT> {
+            let wall = cone_from_map(&p)?;
+            Ok(d.model().add_wall(wall).map_err(raise)? as INT)
+        })
         .register_get("boundaries", |d: &mut ModelHandle| {
             d.model().walls.iter().map(|w| Dynamic::from(w.name.clone())).collect::<Array>()
         });
@@ -68,6 +85,11 @@ fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -
         return Err(err(format!("platen stress must be a finite number ≥ 0 Pa, got {stress}")));
     }
     let mut m = d.model();
+    if let matdem_engine::WallShape::Cone { .. } = m.walls[m.wall_index(name).map_err(raise)?].shape {
+        return Err(err(format!(
+            "set_platen_stress: `{name}` is a cone; a cone is pushed at a speed: d.move_boundary(\"{name}\", [vx, vy, vz])"
+        )));
+    }
     let dt = m.clock.dt;
     if dt <= 0.0 {
         return Err(err("set the time step first (set_standard_dt) so the servo can choose its speed"));
@@ -79,4 +101,37 @@ fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -
     };
     m.wall_mut(name).map_err(raise)?.motion = WallMotion::Servo { stress, max_speed };
     Ok(())
+}
+
+/// The keys of `d.add_cone`'s map.
+const CONE_KEYS: [&str; 6] = ["name", "apex", "axis", "angle", "radius", "rod_length"];
+
+/// `d.add_cone`'s map as a wall, refusing unknown or missing keys and values of the wrong type;
+/// the engine checks the ranges.
+fn cone_from_map(map: &Map) -> RhaiResult<matdem_engine::Wall> {
+    let what = "add_cone";
+    for k in map.keys() {
+        if !CONE_KEYS.contains(&k.as_str()) {
+            let e = matdem_engine::Error::unknown("cone key", k.as_str(), &CONE_KEYS);
+            return Err(err(format!("{what}: {e}")));
+        }
+    }
+    let need = |key: &str| map.get(key).ok_or_else(|| err(format!("{what}: missing `{key}`")));
+    let num = |key: &str, v: &Dynamic| {
+        number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
+    };
+    let name =
+        need("name")?.clone().into_string().map_err(|t| err(format!("{what}: `name` must be a string, got {t}")))?;
+    let apex = vec3(need("apex")?, "cone apex")?;
+    let axis = match map.get("axis") {
+        Some(v) => vec3(v, "cone axis")?,
+        None => Vec3::z(),
+    };
+    let angle = match map.get("angle") {
+        Some(v) => num("angle", v)?,
+        None => 60.0,
+    };
+    let radius = num("radius", need("radius")?)?;
+    let rod_length = num("rod_length", need("rod_length")?)?;
+    matdem_engine::Wall::cone(&name, apex, axis, (0.5 * angle).to_radians(), radius, rod_length).map_err(raise)
 }

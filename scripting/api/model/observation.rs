@@ -131,6 +131,10 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
     ];
     for (k, w) in m.walls.iter().enumerate() {
         row.push((format!("{}_stress", w.name), wall_stress(m, k)));
+        if let matdem_engine::WallShape::Cone { .. } = w.shape {
+            row.push((format!("{}_qc", w.name), w.qc()));
+            row.push((format!("{}_fs", w.name), w.fs()));
+        }
     }
     let t = &m.particles.thermal.temperature;
     if m.settings.heat.enabled && t.len() == m.len() && !t.is_empty() {

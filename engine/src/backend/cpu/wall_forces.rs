@@ -12,7 +12,7 @@ use crate::physics::contact_law::{
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
-use crate::walls::{Wall, MAX_WALLS};
+use crate::walls::{Wall, WallPart, MAX_WALLS};
 
 /// Loads on each wall during one step.
 #[derive(Default)]
@@ -21,6 +21,9 @@ pub struct WallLoads {
     pub normal: [f64; MAX_WALLS],
     pub stiffness: [f64; MAX_WALLS],
     pub contacts: [u32; MAX_WALLS],
+    /// A cone's axial load on its face and on its rod (zero for other shapes).
+    pub tip: [f64; MAX_WALLS],
+    pub sleeve: [f64; MAX_WALLS],
 }
 
 impl Reduce for WallLoads {
@@ -30,6 +33,8 @@ impl Reduce for WallLoads {
             self.normal[w] += o.normal[w];
             self.stiffness[w] += o.stiffness[w];
             self.contacts[w] += o.contacts[w];
+            self.tip[w] += o.tip[w];
+            self.sleeve[w] += o.sleeve[w];
         }
         self
     }
@@ -52,6 +57,8 @@ pub(super) fn store_loads(walls: &mut [Wall], loads: &WallLoads) {
         wall.normal_force = loads.normal[w];
         wall.stiffness = loads.stiffness[w];
         wall.contacts = loads.contacts[w];
+        wall.tip_force = loads.tip[w];
+        wall.sleeve_force = loads.sleeve[w];
     }
 }
 
@@ -136,14 +143,15 @@ pub(super) fn particle_walls<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool
         bits &= bits - 1;
         let wall = &walls[w];
         let st = &mut state[w];
-        let (inward, gap) = wall.normal_and_distance(&body.pos);
+        let (inward, gap, part) = wall.normal_distance_part(&body.pos);
         let overlap = body.radius - gap;
         if overlap <= 0.0 && st.shear == Vec3::zeros() && st.dashpot == 0.0 {
             // Apart now and the step before.
             continue;
         }
         let params = &plan.wall[w * plan.materials + body.material as usize];
-        wall_contact::<N, T, DASHPOT>(body, wall, w, inward, overlap, params, st, dt, out, loads);
+        let touch = WallTouch { w, inward, overlap, part };
+        wall_contact::<N, T, DASHPOT>(body, wall, &touch, params, st, dt, out, loads);
     }
 }
 
@@ -165,6 +173,16 @@ pub(super) struct ParticleOut<'a> {
     pub heat: WallHeat<'a>,
 }
 
+/// Where a particle touches a wall: the wall's index, the unit normal into the particles'
+/// region, the overlap (m) and the part touched.
+#[derive(Clone, Copy)]
+struct WallTouch {
+    w: usize,
+    inward: Vec3,
+    overlap: f64,
+    part: WallPart,
+}
+
 /// One particle against one wall, touching (`overlap` > 0) or just come apart. Kept out of
 /// line, so that a contact's set-up (square roots of the radius) stays with the contacts
 /// instead of being hoisted into every particle the mask lets through.
@@ -172,15 +190,14 @@ pub(super) struct ParticleOut<'a> {
 fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     body: &Body,
     wall: &Wall,
-    w: usize,
-    inward: Vec3,
-    overlap: f64,
+    touch: &WallTouch,
     params: &PairParams,
     st: &mut PairState,
     dt: f64,
     out: &mut ParticleOut<'_>,
     loads: &mut WallLoads,
 ) {
+    let WallTouch { w, inward, overlap, part } = *touch;
     let ri = body.radius;
     let nrm = -inward; // from the particle towards the wall
     let v_wall = wall.surface_velocity(&inward);
@@ -212,4 +229,12 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     loads.normal[w] += r.force.dot(&inward).max(0.0);
     loads.stiffness[w] += r.stiffness;
     loads.contacts[w] += 1;
+    // A cone's loads by part: the axial component of the force on the wall (the reaction).
+    if let (WallPart::Tip | WallPart::Sleeve, Some(axis)) = (part, wall.axis()) {
+        let axial = -r.force.dot(&axis);
+        match part {
+            WallPart::Tip => loads.tip[w] += axial,
+            _ => loads.sleeve[w] += axial,
+        }
+    }
 }

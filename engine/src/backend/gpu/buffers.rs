@@ -156,9 +156,16 @@ impl HostLanes {
             .walls
             .iter()
             .map(|w| {
-                let (point, normal) = match &w.shape {
-                    WallShape::Plane { point, normal } => (v4(point, 0.0), v4(normal, 0.0)),
-                    WallShape::Cylinder { center, radius } => (v4(center, *radius as f32), [0.0, 0.0, 1.0, 1.0]),
+                // A cone's length and rod end ride in the w lanes of `prescribed` and `velocity`.
+                let (point, normal, cone_h, cone_end) = match &w.shape {
+                    WallShape::Plane { point, normal } => (v4(point, 0.0), v4(normal, 0.0), 0.0, 0.0),
+                    WallShape::Cylinder { center, radius } => {
+                        (v4(center, *radius as f32), [0.0, 0.0, 1.0, 1.0], 0.0, 0.0)
+                    }
+                    WallShape::Cone { apex, axis, half_angle, radius, rod_length } => {
+                        let h = radius / half_angle.tan();
+                        (v4(apex, *radius as f32), v4(axis, 2.0), h as f32, (h + rod_length) as f32)
+                    }
                 };
                 let (kind, stress, max_speed, prescribed) = match &w.motion {
                     WallMotion::Fixed => (0.0, 0.0, 0.0, Vec3::zeros()),
@@ -169,11 +176,11 @@ impl HostLanes {
                     point,
                     normal,
                     motion: [kind, stress, max_speed, w.area as f32],
-                    prescribed: v4(&prescribed, 0.0),
-                    velocity: v4(&w.velocity, 0.0),
+                    prescribed: v4(&prescribed, cone_h),
+                    velocity: v4(&w.velocity, cone_end),
                     moved: [0.0; 4],
                     load: v4(&w.force, w.normal_force as f32),
-                    load2: [w.stiffness as f32, w.contacts as f32, 0.0, 0.0],
+                    load2: [w.stiffness as f32, w.contacts as f32, w.tip_force as f32, w.sleeve_force as f32],
                 }
             })
             .collect();
@@ -503,6 +510,7 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
             // The host's shape is the one uploaded: add the device's move to it in f64.
             WallShape::Plane { point, .. } => *point += moved,
             WallShape::Cylinder { radius, .. } => *radius += moved.x,
+            WallShape::Cone { apex, .. } => *apex += moved,
         }
         w.displacement += moved;
         w.velocity = to64(&g.velocity);
@@ -510,6 +518,8 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
         w.normal_force = f64::from(g.load[3]);
         w.stiffness = f64::from(g.load2[0]);
         w.contacts = g.load2[1] as u32;
+        w.tip_force = f64::from(g.load2[2]);
+        w.sleeve_force = f64::from(g.load2[3]);
     }
     Ok(())
 }
