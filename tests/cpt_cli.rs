@@ -1,0 +1,51 @@
+//! The CPT package (examples/cpt, paper 001 §3) end to end in quick mode: every group A–E
+//! runs, writes its qc–depth curve, the summary (particles, wall time, the residual against A
+//! by eq. 4) and the charts. Checked: the outputs exist; every qc is finite and ≥ 0 and rises
+//! with depth (the mean of the deepest third above the mean of the shallowest third, and
+//! positive at the end); the residual of A against itself is 0 and the others are finite; the
+//! zoned groups hold fewer grains than A. The measured values themselves are in docs/cpt.md.
+
+mod common;
+use common::{bin, temp_dir};
+
+fn column(csv: &str, name: &str) -> Vec<f64> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+}
+
+#[test]
+fn cpt_package_quick_runs_groups_a_to_e_and_qc_rises_with_depth() {
+    let dir = temp_dir("cpt_quick");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
+    let o = bin().args(["run", example, "--set", "quick=true", "--out"]).arg(&dir).output().unwrap();
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "stderr:\n{err}\nstdout:\n{out}");
+    for f in ["qc_depth.csv", "summary.csv", "qc_depth.svg", "qc_depth.png", "study.svg", "study.png", "metrics.csv"] {
+        assert!(dir.join(f).is_file(), "missing {f}");
+    }
+    let curves = std::fs::read_to_string(dir.join("qc_depth.csv")).unwrap();
+    let (group, depth, qc) = (column(&curves, "group"), column(&curves, "depth"), column(&curves, "qc"));
+    for g in 1..=5 {
+        let rows: Vec<usize> = (0..group.len()).filter(|&k| group[k] == g as f64).collect();
+        assert!(rows.len() >= 10, "group {g}: {} points", rows.len());
+        let q: Vec<f64> = rows.iter().map(|&k| qc[k]).collect();
+        let z: Vec<f64> = rows.iter().map(|&k| depth[k]).collect();
+        assert!(q.iter().all(|v| v.is_finite() && *v >= 0.0), "group {g}: qc {q:?}");
+        assert!(z.windows(2).all(|w| w[1] > w[0]), "group {g}: depth grows: {z:?}");
+        let third = q.len() / 3;
+        let mean = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
+        let (shallow, deep) = (mean(&q[..third]), mean(&q[q.len() - third..]));
+        assert!(deep > shallow && *q.last().unwrap() > 0.0, "group {g}: qc does not rise with depth: {q:?}");
+    }
+    let summary = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
+    let (groups, residual, particles) =
+        (column(&summary, "group"), column(&summary, "residual"), column(&summary, "particles"));
+    assert_eq!(groups, [1.0, 2.0, 3.0, 4.0, 5.0]);
+    assert_eq!(residual[0], 0.0, "A against itself");
+    assert!(residual.iter().all(|e| e.is_finite() && *e >= 0.0), "{residual:?}");
+    assert!(particles[1..].iter().all(|n| *n < particles[0]), "zoned groups hold fewer grains than A: {particles:?}");
+    assert!(column(&summary, "wall_time").iter().all(|t| t.is_finite() && *t > 0.0));
+    assert!(out.contains("residual (eq. 4)"), "{out}");
+}
