@@ -103,6 +103,10 @@ pub struct Settings {
     /// checkpoints: a loaded model has none until the script sets it again.
     #[serde(skip)]
     pub rolling: Option<crate::physics::rolling_resistance::RollingResistance>,
+    /// Pore density flow (the `pore_flow` stage; off by default). Not saved in checkpoints
+    /// yet: a loaded model has pore flow off.
+    #[serde(skip)]
+    pub pores: crate::pores::PoreSettings,
 }
 
 impl Default for Settings {
@@ -122,6 +126,7 @@ impl Default for Settings {
             heat: crate::fields::HeatSettings::default(),
             water: crate::fields::WaterTable::default(),
             rolling: None,
+            pores: crate::pores::PoreSettings::default(),
         }
     }
 }
@@ -166,6 +171,10 @@ pub struct Model {
     /// Not in checkpoints (a loaded model starts them at zero).
     #[serde(skip)]
     pub wall_rolling: Vec<Vec3>,
+    /// The `pore_flow` stage's network and fluid, when the scene enabled it
+    /// ([`Model::enable_pore_flow`]). Not saved in checkpoints yet.
+    #[serde(skip)]
+    pub pores: Option<Box<crate::pores::PoreFlow>>,
 }
 
 impl Default for Model {
@@ -189,6 +198,7 @@ impl Model {
             revision: 0,
             parallel_bonds: ParallelBonds::default(),
             wall_rolling: Vec::new(),
+            pores: None,
         }
     }
 

@@ -10,6 +10,7 @@ use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
 use crate::physics::rolling_resistance::{RollingModel, RollingResistance};
 use crate::physics::Vec3;
+use crate::pores::PoreFlowPlan;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::HeatCauses;
 use crate::walls::WallMotion;
@@ -39,6 +40,10 @@ pub enum Stage {
     /// particle's own row. Only the epsd model has lanes (a rolling spring per row entry and
     /// per wall contact).
     RollingResistance,
+    /// Optional: pore density flow (paper 003 §3.3): the pore network follows the elements,
+    /// the fluid flows between pores in sub-steps under its stable step, and each pore's
+    /// pressure pushes the elements at its corners (pores/coupling.rs). A force stage.
+    PoreFlow,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
     /// Optional: the energy ledger, the heat each particle releases by cause and the work
@@ -58,13 +63,14 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 11] = [
+    pub const ALL: [Stage; 12] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
         Stage::WallForces,
         Stage::ParallelBond,
         Stage::RollingResistance,
+        Stage::PoreFlow,
         Stage::Integrate,
         Stage::Heat,
         Stage::Buoyancy,
@@ -81,6 +87,7 @@ impl Stage {
             Stage::WallForces => "wall_forces",
             Stage::ParallelBond => "parallel_bond",
             Stage::RollingResistance => "rolling_resistance",
+            Stage::PoreFlow => "pore_flow",
             Stage::Integrate => "integrate",
             Stage::Heat => "heat",
             Stage::Buoyancy => "buoyancy",
@@ -130,6 +137,8 @@ pub struct StepPlan {
     pub buoyancy: Option<BuoyancyPlan>,
     /// Rolling resistance (the scene sets one with μ_r > 0).
     pub rolling: Option<RollingResistance>,
+    /// Pore density flow (the scene enables it).
+    pub pore_flow: Option<PoreFlowPlan>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -210,6 +219,7 @@ impl StepPlan {
             conduction: ConductionPlan::of(m),
             buoyancy: BuoyancyPlan::of(m),
             rolling,
+            pore_flow: PoreFlowPlan::of(m),
         }
     }
 
@@ -226,6 +236,7 @@ impl StepPlan {
             Stage::Heat => self.heat.lanes() > 0,
             Stage::ParallelBond => self.parallel_bond.is_some(),
             Stage::RollingResistance => self.rolling.is_some(),
+            Stage::PoreFlow => self.pore_flow.is_some(),
             Stage::Buoyancy => self.buoyancy.is_some(),
             Stage::Conduction => self.conduction.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
@@ -313,9 +324,9 @@ impl StepPlan {
     }
 
     /// Whether a force stage runs between the core's forces and the move (parallel bonds,
-    /// rolling resistance): the CPU then runs the core's passes apart instead of fused.
+    /// rolling resistance, pore flow): the CPU then runs the core's passes apart instead of fused.
     pub fn has_force_stage(&self) -> bool {
-        self.has(Stage::ParallelBond) || self.has(Stage::RollingResistance)
+        self.has(Stage::ParallelBond) || self.has(Stage::RollingResistance) || self.has(Stage::PoreFlow)
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -443,6 +454,20 @@ impl fmt::Display for StepPlan {
         if !body.is_empty() {
             stages.push(body.join(" + "));
         }
+        if let Some(p) = &self.pore_flow {
+            stages.push(format!(
+                "pore_flow({} pores, {} throats; K_f = {:.3e} Pa, ρ0 = {} kg/m³, μ = {:.3e} Pa·s; {} fixed-pressure and {} \
+                 flux region(s), the rest sealed; sub-stepped under V/(K_f·Σg), at most {} per step)",
+                p.pores,
+                p.throats,
+                p.bulk_modulus,
+                p.density,
+                p.viscosity,
+                p.fixed_pressure_regions,
+                p.flux_regions,
+                p.max_substeps
+            ));
+        }
         stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
         if let Some(b) = &self.buoyancy {
             let drag =
@@ -477,6 +502,9 @@ impl fmt::Display for StepPlan {
             })
             .collect();
         writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
+        if let Some(p) = &self.pore_flow {
+            writeln!(f, "pore network (cpu, f64): about {} B ({})", p.bytes(), p.lanes().join("; "))?;
+        }
         let mut off = Vec::new();
         if !self.rotation {
             off.push("rotation");
@@ -515,6 +543,10 @@ impl fmt::Display for StepPlan {
         if self.rolling.is_none() {
             off.push("rolling resistance");
         }
+        if self.pore_flow.is_none() {
+            off.push("fluid flow");
+        }
+        off.push("rolling resistance");
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

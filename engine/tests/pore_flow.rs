@@ -84,12 +84,8 @@ fn darcy(nz: usize, p_in: f64) -> (Model, PoreFlow) {
     let top = (nz - 1) as f64 * A;
     let big = 1.0;
     f.set_boundaries(vec![
-        PoreBoundary { lo: Vec3::repeat(-big), hi: Vec3::new(big, big, 0.5 * A), kind: BoundaryKind::Pressure(p_in) },
-        PoreBoundary {
-            lo: Vec3::new(-big, -big, top - 0.5 * A),
-            hi: Vec3::repeat(big),
-            kind: BoundaryKind::Pressure(0.0),
-        },
+        PoreBoundary::boxed(Vec3::repeat(-big), Vec3::new(big, big, 0.5 * A), BoundaryKind::Pressure(p_in)),
+        PoreBoundary::boxed(Vec3::new(-big, -big, top - 0.5 * A), Vec3::repeat(big), BoundaryKind::Pressure(0.0)),
     ])
     .unwrap();
     (m, f)

@@ -1,7 +1,7 @@
 //! The pore network's geometry: the Delaunay tetrahedralisation it rests on (empty
 //! circumspheres, volume equal to the convex hull, co-spherical lattices handled), pore
 //! volumes against the known porosity of regular packings, and the pore-pressure forces
-//! (zero on an interior element under uniform pressure, p × solid area on a hull face).
+//! (zero on an interior element under uniform pressure, p × the face's area on a hull face).
 
 use matdem_engine::physics::Vec3;
 use matdem_engine::pores::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
@@ -169,7 +169,7 @@ fn uniform_pressure_pushes_only_on_the_hull() {
     let p = 1e5;
     let pressure = vec![p; flow.network.pore_count()];
     let mut force = vec![Vec3::zeros(); pts.len()];
-    add_pressure_forces(&flow.network, &pressure, &m.particles.pos, &m.particles.radius, &mut force);
+    add_pressure_forces(&flow.network, &pressure, &m.particles.pos, &mut force);
     let top = n as f64 * a;
     let on_hull = |x: &Vec3| (0..3).any(|d| x[d] < 1e-9 || x[d] > top - 1e-9);
     for (i, x) in pts.iter().enumerate() {
@@ -177,10 +177,16 @@ fn uniform_pressure_pushes_only_on_the_hull() {
             assert!(force[i].norm() < 1e-9 * p * r * r, "interior element {i} feels {:?}", force[i]);
         }
     }
-    // The top face: (n)² squares, each with four quarter circles of radius r.
+    // The top face carries p × its whole area (n a)², shared by its elements: the sectors the
+    // spheres cut from it and the openings between them (the throats' share, carried by their
+    // corners), so the skeleton takes the whole pressure (Biot's coefficient 1).
     let fz: f64 = pts.iter().zip(&force).filter(|(x, _)| x.z > top - 1e-9).map(|(_, f)| f.z).sum();
-    let want = p * (n * n) as f64 * PI * r * r;
-    assert!((fz / want - 1.0).abs() < 1e-6, "top force {fz:e} vs p × solid area {want:e}");
+    let want = p * (n * n) as f64 * a * a;
+    assert!((fz / want - 1.0).abs() < 1e-6, "top force {fz:e} vs p × face area {want:e}");
+    // An interior element of the top face: p × a² (four quarter squares).
+    let mid = pts.iter().position(|x| x.z > top - 1e-9 && (x.x - 2.0 * a).abs() < 1e-9 && (x.y - 2.0 * a).abs() < 1e-9);
+    let fm = force[mid.unwrap()];
+    assert!((fm.z / (p * a * a) - 1.0).abs() < 1e-6 && fm.x.abs() < 1e-6 * p * a * a, "{fm:?}");
     let total: Vec3 = force.iter().sum();
     assert!(total.norm() < 1e-9 * want, "net force {total:?} on a closed, uniformly pressurised sample");
 }

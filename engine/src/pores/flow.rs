@@ -32,13 +32,31 @@ pub enum BoundaryKind {
     Impermeable,
 }
 
-/// A box of pores with a boundary condition. Regions apply in order; the last that holds a
-/// pore's centre wins. Pores in no region are closed: the hull of the network is impermeable.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Which pores a boundary condition holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PoreRegion {
+    /// The pores whose centre lies in the box (corners `lo`, `hi`).
+    Box { lo: Vec3, hi: Vec3 },
+    /// The pores with one of these elements at a corner of one of their tetrahedra (a group
+    /// of the hull: the pores it bounds).
+    Elements(Vec<u32>),
+    /// The one pore whose centre is nearest the point (an injection well).
+    Point(Vec3),
+}
+
+/// A region of pores with a boundary condition. Regions apply in order; the last that holds a
+/// pore wins. Pores in no region are closed: the hull of the network is impermeable.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PoreBoundary {
-    pub lo: Vec3,
-    pub hi: Vec3,
+    pub region: PoreRegion,
     pub kind: BoundaryKind,
+}
+
+impl PoreBoundary {
+    /// The pores whose centres lie in the box `lo`..`hi`.
+    pub fn boxed(lo: Vec3, hi: Vec3, kind: BoundaryKind) -> Self {
+        PoreBoundary { region: PoreRegion::Box { lo, hi }, kind }
+    }
 }
 
 /// No boundary region holds this pore.
@@ -104,8 +122,13 @@ impl PoreFlow {
     pub fn set_boundaries(&mut self, boundaries: Vec<PoreBoundary>) -> Result<()> {
         for b in &boundaries {
             let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
-            if !finite(&b.lo) || !finite(&b.hi) {
-                return Err(Error::InvalidScene("a pore boundary region needs finite corners".into()));
+            let ok = match &b.region {
+                PoreRegion::Box { lo, hi } => finite(lo) && finite(hi),
+                PoreRegion::Point(x) => finite(x),
+                PoreRegion::Elements(_) => true,
+            };
+            if !ok {
+                return Err(Error::InvalidScene("a pore boundary region needs finite corners and points".into()));
             }
             if let BoundaryKind::Pressure(p) | BoundaryKind::Flux(p) = b.kind {
                 if !p.is_finite() {
@@ -124,11 +147,41 @@ impl PoreFlow {
         let np = net.pore_count();
         self.region = vec![FREE; np];
         self.source = vec![0.0; np];
-        for p in 0..np {
-            let c = net.centre[p];
-            for (b, bc) in self.boundaries.iter().enumerate() {
-                if (0..3).all(|d| c[d] >= bc.lo[d] && c[d] <= bc.hi[d]) {
-                    self.region[p] = if bc.kind == BoundaryKind::Impermeable { FREE } else { b as u32 };
+        for (b, bc) in self.boundaries.iter().enumerate() {
+            let id = if bc.kind == BoundaryKind::Impermeable { FREE } else { b as u32 };
+            match &bc.region {
+                PoreRegion::Box { lo, hi } => {
+                    for p in 0..np {
+                        let c = net.centre[p];
+                        if (0..3).all(|d| c[d] >= lo[d] && c[d] <= hi[d]) {
+                            self.region[p] = id;
+                        }
+                    }
+                }
+                PoreRegion::Elements(ids) => {
+                    let mut member = vec![false; net.tri.points.len()];
+                    for &i in ids {
+                        if let Some(x) = member.get_mut(i as usize) {
+                            *x = true;
+                        }
+                    }
+                    for p in 0..np {
+                        let touches = net
+                            .tets_of(p)
+                            .iter()
+                            .any(|&t| net.tri.tets[t as usize].v.iter().any(|&i| member[i as usize]));
+                        if touches {
+                            self.region[p] = id;
+                        }
+                    }
+                }
+                PoreRegion::Point(x) => {
+                    let nearest = (0..np)
+                        .map(|p| ((net.centre[p] - x).norm_squared(), p))
+                        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    if let Some((_, p)) = nearest {
+                        self.region[p] = id;
+                    }
                 }
             }
         }

@@ -26,12 +26,17 @@ pub fn angle(a: Vec3, b: Vec3, c: Vec3) -> f64 {
 /// volume so that a tightly packed pore keeps a little room.
 pub fn pore_volume(v: [Vec3; 4], r: [f64; 4], floor: f64) -> f64 {
     let tet = tet_volume(v).abs();
+    (tet - sectors_volume(v, r)).max(floor * tet)
+}
+
+/// The volume of the four sphere sectors in a tetrahedron, Σ Ω_i r_i³ / 3.
+pub fn sectors_volume(v: [Vec3; 4], r: [f64; 4]) -> f64 {
     let mut solid = 0.0;
     for i in 0..4 {
         let o = [v[(i + 1) % 4], v[(i + 2) % 4], v[(i + 3) % 4]];
         solid += solid_angle(v[i], o[0], o[1], o[2]) * r[i].powi(3) / 3.0;
     }
-    (tet - solid).max(floor * tet)
+    solid
 }
 
 /// Signed volume, positive when det[a−d, b−d, c−d] > 0 (the tetrahedralisation's orientation).
@@ -75,6 +80,17 @@ pub fn poiseuille(open: &Opening, viscosity: f64, length: f64) -> f64 {
         return 0.0;
     }
     let rh = open.area / open.perimeter;
+    open.area * rh * rh / (2.0 * viscosity * length)
+}
+
+/// As [`poiseuille`], with the hydraulic radius at most `thickness`: a passage between
+/// two flat pores (thin slabs of fluid, as the convex hull's slivers are) is no wider than the
+/// pores it joins, however large the face between them.
+pub fn poiseuille_within(open: &Opening, thickness: f64, viscosity: f64, length: f64) -> f64 {
+    if open.area <= 0.0 || open.perimeter <= 0.0 {
+        return 0.0;
+    }
+    let rh = (open.area / open.perimeter).min(thickness);
     open.area * rh * rh / (2.0 * viscosity * length)
 }
 

@@ -8,14 +8,18 @@
 //!   of state p = K_f·(ρ/ρ0 − 1), the explicit update sub-cycled under its stability limit,
 //!   boundary pores (fixed pressure, fixed flux; impermeable otherwise).
 //! - [`pressure_forces`]: pore pressure on the elements bounding each pore.
+//! - [`coupling`]: the `pore_flow` stage's settings and the model-level calls that switch it
+//!   on, set its boundaries and read its state (the pass is `backend/cpu/pore_flow.rs`).
 
+pub mod coupling;
 pub mod delaunay;
 pub mod flow;
 pub mod geometry;
 pub mod network;
 pub mod pressure_forces;
 
-pub use flow::{BoundaryKind, PoreBoundary, PoreFlow};
+pub use coupling::{PoreFlowPlan, PoreSettings};
+pub use flow::{BoundaryKind, PoreBoundary, PoreFlow, PoreRegion};
 pub use network::PoreNetwork;
 
 use serde::{Deserialize, Serialize};

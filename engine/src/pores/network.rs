@@ -5,7 +5,7 @@
 //! follows the elements every step.
 
 use super::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
-use super::geometry::{cubic_law, opening, poiseuille, pore_volume, tet_volume};
+use super::geometry::{cubic_law, opening, poiseuille_within, pore_volume, sectors_volume, tet_volume};
 use super::Fluid;
 use crate::error::Result;
 use crate::model::Model;
@@ -48,6 +48,14 @@ pub struct PoreNetwork {
     pub bonded_at_build: Vec<u8>,
     /// Positions when the network was built.
     pub built_at: Vec<Vec3>,
+    /// Each element's corners of tetrahedra, for the per-element gather of the pressure
+    /// forces: `elem_corners[elem_start[i]..elem_start[i + 1]]`, each `4·tet + corner`, in
+    /// tetrahedron order.
+    pub elem_start: Vec<u32>,
+    pub elem_corners: Vec<u32>,
+    /// Orientation of each tetrahedron in the points it was built on (±1): a tetrahedron
+    /// flattened or inverted by the motion keeps its side, so shared faces still cancel.
+    pub orient: Vec<f64>,
     // Geometry of the current positions (see `refresh`).
     /// Fluid volume of each pore (m³).
     pub volume: Vec<f64>,
@@ -163,6 +171,15 @@ impl PoreNetwork {
         let (row_start, row) =
             csr(np, throats.iter().enumerate().flat_map(|(i, th)| [(th.a, i as u32), (th.b, i as u32)]));
         let nth = throats.len();
+        let (elem_start, elem_corners) = csr(
+            pos.len(),
+            tri.tets.iter().enumerate().flat_map(|(t, tet)| (0..4).map(move |c| (tet.v[c], 4 * t as u32 + c as u32))),
+        );
+        let orient = tri
+            .tets
+            .iter()
+            .map(|tet| if tet_volume(tet.v.map(|i| Vec3::from(tri.points[i as usize]))) < 0.0 { -1.0 } else { 1.0 })
+            .collect();
         let mut net = PoreNetwork {
             tri,
             tet_pore,
@@ -173,6 +190,9 @@ impl PoreNetwork {
             row,
             bonded_at_build,
             built_at: pos.clone(),
+            elem_start,
+            elem_corners,
+            orient,
             volume: vec![0.0; np],
             centre: vec![Vec3::zeros(); np],
             conductance: vec![0.0; nth],
@@ -211,7 +231,10 @@ impl PoreNetwork {
                     let v = tri.tets[t as usize].v;
                     let x = v.map(|i| pos[i as usize]);
                     let vol = tet_volume(x).abs();
-                    empty += pore_volume(x, v.map(|i| rad[i as usize]), 0.0);
+                    // Signed, not clamped per tetrahedron: a merged pore's tetrahedra add up to
+                    // the room between the spheres exactly, and every change of a tetrahedron's
+                    // volume (the grains' motion) changes the pore's by as much.
+                    empty += vol - sectors_volume(x, v.map(|i| rad[i as usize]));
                     full += vol;
                     c += (x[0] + x[1] + x[2] + x[3]) * (0.25 * vol);
                 }
@@ -229,6 +252,7 @@ impl PoreNetwork {
             self.centre[p] = c;
         }
         let centre = &self.centre;
+        let volume = &self.volume;
         let out: Vec<(f64, f64, bool)> = self
             .throats
             .par_iter()
@@ -258,7 +282,11 @@ impl PoreNetwork {
                 }
                 let cemented = bits != 0 && !cracked;
                 let factor = if cemented { fluid.cement_factor } else { 1.0 };
-                (poiseuille(&o, fluid.viscosity, len) * factor + crack_g, o.area, cracked)
+                // The pores' thickness across the face, the height 3V/A of a tetrahedron of
+                // the smaller pore's fluid volume on it: a sliver's (the convex hull's flat
+                // tetrahedra) is tiny, and so is the passage through it.
+                let thickness = 3.0 * volume[th.a as usize].min(volume[th.b as usize]) / o.face.max(f64::MIN_POSITIVE);
+                (poiseuille_within(&o, thickness, fluid.viscosity, len) * factor + crack_g, o.area, cracked)
             })
             .collect();
         for (t, (g, a, c)) in out.into_iter().enumerate() {

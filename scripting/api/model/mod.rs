@@ -5,8 +5,8 @@
 //! laws, effects), `groups` (groups, materials, fixities, bonds), `boundaries` (walls and
 //! servos), `running` (run and balance, journaled for resume), `observation` (records,
 //! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
-//! `regions` (masks from geometry, layers) and `fields` (temperature, heat conduction, the
-//! water table).
+//! `regions` (masks from geometry, layers), `fields` (temperature, heat conduction, the
+//! water table) and `pores` (pore density flow).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -26,6 +26,7 @@ mod fields;
 mod groups;
 mod lanes;
 mod observation;
+mod pores;
 mod regions;
 mod running;
 mod settings;
@@ -175,4 +176,5 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     regions::register(engine, &host);
     fields::register(engine, &host);
     cutting::register(engine, &host);
+    pores::register(engine, &host);
 }

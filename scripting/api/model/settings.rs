@@ -85,7 +85,8 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     m.enable_heat();
                     Ok(())
                 }
-                other => Err(raise(matdem_engine::Error::unknown("effect", other, &["rotation", "heat"]))),
+                "pore_flow" => m.enable_pore_flow().map_err(|e| err(format!("d.enable(\"pore_flow\"): {e}"))),
+                other => Err(raise(matdem_engine::Error::unknown("effect", other, &["rotation", "heat", "pore_flow"]))),
             }
         })
         .register_fn("disable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
@@ -95,11 +96,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 "heat" => m.settings.heat.enabled = false,
                 "water" => m.settings.water.level = None,
                 "rolling_resistance" => m.settings.rolling = None,
+                // The network and its fluid go; a later enable builds them afresh.
+                "pore_flow" => m.disable_pore_flow(),
                 other => {
                     return Err(raise(matdem_engine::Error::unknown(
                         "effect",
                         other,
-                        &["heat", "water", "rolling_resistance"],
+                        &["heat", "water", "rolling_resistance", "pore_flow"],
                     )))
                 }
             }

@@ -11,6 +11,7 @@ pub mod fused;
 pub mod heat;
 pub mod integrate;
 pub mod parallel_bond;
+pub mod pore_flow;
 mod prefetch;
 pub mod rolling_resistance;
 pub mod wall_forces;
@@ -35,6 +36,8 @@ pub struct CpuBackend {
     pairs: PairScratch,
     /// The conduction stage's next temperatures (empty without it).
     next_temperature: Vec<f64>,
+    /// The pore_flow stage's guard error, returned at the end of the step that raised it.
+    pore_error: Option<crate::error::Error>,
 }
 
 impl CpuBackend {
@@ -48,7 +51,7 @@ impl CpuBackend {
     /// The backend for `plan`, with the particles' viscous damping coefficients
     /// ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(plan: StepPlan, damping_c: Vec<f64>) -> Self {
-        CpuBackend { plan, damping_c, pairs: PairScratch::default(), next_temperature: Vec::new() }
+        CpuBackend { plan, damping_c, pairs: PairScratch::default(), next_temperature: Vec::new(), pore_error: None }
     }
 
     /// Heap bytes of the backend's own per-particle and per-pair buffers.
@@ -97,6 +100,11 @@ impl CpuBackend {
             let t = Instant::now();
             rolling_resistance::rolling_resistance(m, &self.plan);
             times.add(Stage::RollingResistance, t.elapsed());
+        }
+        if self.plan.has(Stage::PoreFlow) {
+            let t = Instant::now();
+            self.pore_flow(m);
+            times.add(Stage::PoreFlow, t.elapsed());
         }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
@@ -160,6 +168,9 @@ impl CpuBackend {
         if self.plan.has(Stage::RollingResistance) {
             rolling_resistance::rolling_resistance(m, &self.plan);
         }
+        if self.plan.has(Stage::PoreFlow) {
+            self.pore_flow(m);
+        }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
             self.field_stages(m);
@@ -188,6 +199,15 @@ impl CpuBackend {
 }
 
 impl CpuBackend {
+    /// The pore_flow stage; its guard error is kept for the end of the step.
+    fn pore_flow(&mut self, m: &mut Model) {
+        if self.pore_error.is_none() {
+            if let Err(e) = pore_flow::pore_flow(m) {
+                self.pore_error = Some(e);
+            }
+        }
+    }
+
     /// The optional stages after integration, each when the plan has it: the water table's
     /// buoyancy, then heat conduction (its field step).
     fn field_stages(&mut self, m: &mut Model) {
@@ -217,9 +237,15 @@ impl Backend for CpuBackend {
                 if let Some(energies) = self.step(m, sampling.at(k)) {
                     samples.push(EnergySample { step, time, energies });
                 }
+                if self.pore_error.is_some() {
+                    break;
+                }
             }
         });
         samples.into_iter().for_each(sample);
+        if let Some(e) = self.pore_error.take() {
+            return Err(e);
+        }
         check_state(m)?;
         m.check_conduction()
     }

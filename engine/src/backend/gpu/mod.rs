@@ -38,6 +38,7 @@ pub mod integrate;
 pub mod memory;
 pub mod neighbours;
 pub mod parallel_bond;
+pub mod pore_flow;
 pub mod rolling_resistance;
 pub mod rows;
 pub mod shaders;
@@ -195,6 +196,13 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
+        if plan.pore_flow.is_some() {
+            return Err(Error::InvalidScene(
+                "pore flow (d.enable(\"pore_flow\")) couples into the step on the CPU backend only for now: run with \
+                 --backend cpu (the GPU has the flow update's kernel, backend/gpu/pore_flow.rs, not yet the coupled stage)"
+                    .into(),
+            ));
+        }
         if plan.conduction.is_some_and(|c| c.dissipation) {
             return Err(Error::InvalidScene(
                 "feeding the dissipated heat into temperature (d.heat_dissipation = true) runs on the CPU backend \

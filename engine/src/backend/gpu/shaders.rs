@@ -21,9 +21,10 @@ pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
 pub const CONDUCTION: &str = include_str!("../../../../shaders/conduction.wgsl");
 pub const ROLLING_RESISTANCE: &str = include_str!("../../../../shaders/rolling_resistance.wgsl");
+pub const PORE_FLOW: &str = include_str!("../../../../shaders/pore_flow.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 13] = [
+pub const STAGES: [(&str, &str); 14] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -37,6 +38,7 @@ pub const STAGES: [(&str, &str); 13] = [
     ("guard", GUARD),
     ("buoyancy", BUOYANCY),
     ("conduction", CONDUCTION),
+    ("pore_flow", PORE_FLOW),
 ];
 
 /// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and

@@ -1,0 +1,28 @@
+//! The `pore_flow` stage on the CPU, a force stage between `wall_forces` (and
+//! `parallel_bond`) and `integrate`: the pore network follows the elements (rebuilt, its fluid
+//! carried over, when an element has drifted far or the element count changed), the fluid
+//! advances by dt in explicit sub-steps under its stable flow step (the guard's error, naming
+//! the pore, when that needs more than the fluid's `max_substeps`; the state is then left as
+//! it was, never NaN), and each element adds the pressure of the pores at its corners to its
+//! own force ([`crate::pores::pressure_forces`]: a per-element gather, no atomics). GPU twin
+//! of the flow update: `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl).
+
+use crate::error::Result;
+use crate::model::Model;
+
+/// Runs the stage on the model's pore network (a no-op when it has none).
+pub fn pore_flow(m: &mut Model) -> Result<()> {
+    let Some(mut f) = m.pores.take() else { return Ok(()) };
+    let mut result = Ok(());
+    if f.network.tri.points.len() != m.len() {
+        result = f.rebuild(m);
+    }
+    if result.is_ok() {
+        result = f.advance(m, m.clock.dt);
+    }
+    if result.is_ok() {
+        f.add_forces(&m.particles.pos, &mut m.particles.force);
+    }
+    m.pores = Some(f);
+    result
+}

@@ -1,0 +1,264 @@
+//! The `pore_flow` stage: pore density flow coupled into the time step.
+//!
+//! A scene switches it on ([`Model::enable_pore_flow`]); the network is then built from the
+//! packing as it is, every pore at ρ0 (zero gauge pressure), and lives in
+//! [`Model::pores`]. Each mechanical step (`backend/cpu/pore_flow.rs`, between the wall
+//! forces and the integration) follows the elements — the pore volumes, centres and throat
+//! conductances from the current positions and bonds, the network rebuilt with its fluid
+//! carried over once an element has drifted `rebuild_drift` × the mean radius — advances
+//! the fluid by dt in sub-steps under its stable flow step (the guard stops the run naming
+//! the pore when that needs more than `max_substeps`), and adds each pore's pressure to the
+//! forces on the elements at its corners ([`super::pressure_forces`]). Nothing of it exists
+//! in a scene that does not enable it: no network, no pass, no branch in the fused core.
+
+use super::flow::{BoundaryKind, PoreBoundary, PoreFlow, PoreRegion};
+use super::pressure_forces::add_pressure_forces;
+use super::Fluid;
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::physics::Vec3;
+
+/// What a scene asks of the pore fluid (part of [`crate::model::Settings`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PoreSettings {
+    pub enabled: bool,
+    pub fluid: Fluid,
+    /// Boundary regions, in order (the last that holds a pore wins); pores in none are
+    /// sealed (impermeable).
+    pub boundaries: Vec<PoreBoundary>,
+}
+
+/// What a plan with the `pore_flow` stage runs (for the plan's words and lane account).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoreFlowPlan {
+    pub pores: usize,
+    pub throats: usize,
+    pub bulk_modulus: f64,
+    pub density: f64,
+    pub viscosity: f64,
+    pub max_substeps: u32,
+    pub fixed_pressure_regions: usize,
+    pub flux_regions: usize,
+}
+
+impl PoreFlowPlan {
+    /// The plan's pore flow, when the scene enabled it.
+    pub fn of(m: &Model) -> Option<Self> {
+        let s = &m.settings.pores;
+        let f = m.pores.as_ref().filter(|_| s.enabled)?;
+        let count = |want: fn(&BoundaryKind) -> bool| s.boundaries.iter().filter(|b| want(&b.kind)).count();
+        Some(PoreFlowPlan {
+            pores: f.network.pore_count(),
+            throats: f.network.throats.len(),
+            bulk_modulus: s.fluid.bulk_modulus,
+            density: s.fluid.density,
+            viscosity: s.fluid.viscosity,
+            max_substeps: s.fluid.max_substeps,
+            fixed_pressure_regions: count(|k| matches!(k, BoundaryKind::Pressure(_))),
+            flux_regions: count(|k| matches!(k, BoundaryKind::Flux(_))),
+        })
+    }
+
+    /// The stage's lanes: per pore (mass, pressure, volume, centre, region, source), per
+    /// throat (conductance, opening, flow, the two pores), per element (its row of corners).
+    pub fn lanes(&self) -> Vec<&'static str> {
+        vec![
+            "pore: mass, pressure, volume, centre, region, source",
+            "throat: a, b, conductance, opening, flow",
+            "element: corners",
+        ]
+    }
+
+    /// Bytes of the network and fluid the stage holds (f64 values, u32 indices), about.
+    pub fn bytes(&self) -> usize {
+        self.pores * (8 * 4 + 24 + 4 + 8) + self.throats * (4 * 4 + 8 * 3 + 1 + 1)
+    }
+}
+
+/// A permeability measured on the current network: steady Darcy flow between two opposite
+/// faces of the packing held at a pressure difference (the Kirchhoff solution of the network's
+/// own conductances), k = μ·Q·L/(A·Δp).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Permeability {
+    /// k (m²).
+    pub k: f64,
+    /// The axis (0 = x, 1 = y, 2 = z) the flow ran along.
+    pub axis: usize,
+    /// Q (m³/s) at Δp = 1 Pa.
+    pub flux: f64,
+    /// L (m): between the inner edges of the two reservoir bands (each a tenth of the
+    /// pores' extent along the axis).
+    pub length: f64,
+    /// A (m²): the cross-section of the element centres' bounding box.
+    pub area: f64,
+    /// The network's porosity: Σ pore volume / Σ tetrahedron volume.
+    pub porosity: f64,
+}
+
+impl PoreFlow {
+    /// Adds each pore's pressure to the forces on the elements at its corners.
+    pub fn add_forces(&self, pos: &[Vec3], force: &mut [Vec3]) {
+        add_pressure_forces(&self.network, &self.pressure, pos, force);
+    }
+
+    /// Each element's pore pressure: the mean over the tetrahedra it is a corner of, each
+    /// weighted by its pore's volume share (its tetrahedron's volume); 0 for an element at no
+    /// corner (fewer than four elements, or a duplicate position).
+    pub fn element_pressure(&self, pos: &[Vec3]) -> Vec<f64> {
+        let net = &self.network;
+        (0..net.elem_start.len().saturating_sub(1))
+            .map(|i| {
+                let (mut pw, mut w) = (0.0, 0.0);
+                for &e in &net.elem_corners[net.elem_start[i] as usize..net.elem_start[i + 1] as usize] {
+                    let t = (e / 4) as usize;
+                    let v = super::geometry::tet_volume(net.tri.tets[t].v.map(|j| pos[j as usize])).abs();
+                    pw += v * self.pressure[net.tet_pore[t] as usize];
+                    w += v;
+                }
+                if w > 0.0 {
+                    pw / w
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// The network's porosity: Σ pore volume / Σ tetrahedron volume (the convex hull of the
+    /// element centres).
+    pub fn porosity(&self, pos: &[Vec3]) -> f64 {
+        let net = &self.network;
+        let hull: f64 =
+            net.tri.tets.iter().map(|t| super::geometry::tet_volume(t.v.map(|j| pos[j as usize])).abs()).sum();
+        net.volume.iter().sum::<f64>() / hull
+    }
+
+    /// The steady volumetric flow (m³/s) from `inlet` held at 1 Pa to `outlet` held at 0
+    /// through a copy of the current network (every other pore sealed), and the mean centres
+    /// of the two regions' pores (m): Darcy's law over any pair of regions,
+    /// k = μ·Q·L/(A·Δp).
+    pub fn darcy_flux(&self, inlet: PoreRegion, outlet: PoreRegion) -> Result<(f64, Vec3, Vec3)> {
+        let mut f = self.clone();
+        f.boundaries.clear();
+        f.set_boundaries(vec![
+            PoreBoundary { region: inlet, kind: BoundaryKind::Pressure(1.0) },
+            PoreBoundary { region: outlet, kind: BoundaryKind::Pressure(0.0) },
+        ])?;
+        f.solve_steady(1e-12)?;
+        let mean = |b: u32| {
+            let (mut c, mut n) = (Vec3::zeros(), 0.0f64);
+            for (p, r) in f.region.iter().enumerate() {
+                if *r == b {
+                    c += f.network.centre[p];
+                    n += 1.0;
+                }
+            }
+            c / n.max(1.0)
+        };
+        Ok((f.boundary_flow[0], mean(0), mean(1)))
+    }
+
+    /// Measures the permeability along `axis` on a copy of the current network: the pores in
+    /// the first and last tenth of the pores' extent along it are reservoirs at 1 Pa and 0,
+    /// everything else sealed, the steady state solved (conjugate gradients to 1e-12).
+    pub fn permeability(&self, pos: &[Vec3], axis: usize) -> Result<Permeability> {
+        if axis > 2 {
+            return Err(Error::param("permeability axis", axis as f64, "must be 0 (x), 1 (y) or 2 (z)"));
+        }
+        let net = &self.network;
+        let (lo, hi) = net.centre.iter().fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c[axis]), b.max(c[axis])));
+        let band = 0.1 * (hi - lo);
+        let big = 1e300;
+        let slab = |from: f64, to: f64, p: f64| {
+            let (mut a, mut b) = (Vec3::repeat(-big), Vec3::repeat(big));
+            a[axis] = from;
+            b[axis] = to;
+            PoreBoundary::boxed(a, b, BoundaryKind::Pressure(p))
+        };
+        let mut f = self.clone();
+        f.boundaries.clear();
+        f.set_boundaries(vec![slab(-big, lo + band, 1.0), slab(hi - band, big, 0.0)])?;
+        f.solve_steady(1e-12)?;
+        let flux = f.boundary_flow[0];
+        let (bl, bh) = pos.iter().fold((Vec3::repeat(f64::MAX), Vec3::repeat(f64::MIN)), |(a, b), x| {
+            (a.zip_map(x, f64::min), b.zip_map(x, f64::max))
+        });
+        let ext = bh - bl;
+        let area = ext[(axis + 1) % 3] * ext[(axis + 2) % 3];
+        let length = hi - lo - 2.0 * band;
+        Ok(Permeability {
+            k: self.fluid.viscosity * flux * length / area,
+            axis,
+            flux,
+            length,
+            area,
+            porosity: self.porosity(pos),
+        })
+    }
+}
+
+impl Model {
+    /// Switches pore flow on: builds the pore network of the packing as it is now, every pore
+    /// filled with the scene's fluid at ρ0 (zero gauge pressure), with the scene's boundary
+    /// regions. Enabling again rebuilds it (the fluid starts afresh).
+    pub fn enable_pore_flow(&mut self) -> Result<()> {
+        if self.len() < 4 {
+            return Err(Error::InvalidScene(format!(
+                "pore flow needs a packing of at least 4 elements (the pores are the tetrahedra of their centres); \
+                 this model has {}: build the sample first",
+                self.len()
+            )));
+        }
+        let s = &self.settings.pores;
+        let mut f = PoreFlow::new(self, s.fluid.clone())?;
+        f.set_boundaries(s.boundaries.clone())?;
+        self.pores = Some(Box::new(f));
+        self.settings.pores.enabled = true;
+        self.revision += 1;
+        Ok(())
+    }
+
+    /// Switches pore flow off and drops the network and its fluid.
+    pub fn disable_pore_flow(&mut self) {
+        self.settings.pores.enabled = false;
+        self.pores = None;
+        self.revision += 1;
+    }
+
+    /// Sets the pore fluid (checked; the network's conductances follow at once).
+    pub fn set_pore_fluid(&mut self, fluid: Fluid) -> Result<()> {
+        fluid.check()?;
+        if let Some(mut f) = self.pores.take() {
+            // The masses stay; the pressures follow the new equation of state.
+            f.fluid = fluid.clone();
+            f.network.refresh(self, &fluid);
+            f.update_pressure();
+            self.pores = Some(f);
+        }
+        self.settings.pores.fluid = fluid;
+        Ok(())
+    }
+
+    /// Adds a boundary region (after the others, so it wins where they overlap).
+    pub fn add_pore_boundary(&mut self, region: PoreRegion, kind: BoundaryKind) -> Result<()> {
+        if let PoreRegion::Elements(ids) = &region {
+            self.check_ids(ids)?;
+        }
+        let mut all = self.settings.pores.boundaries.clone();
+        all.push(PoreBoundary { region, kind });
+        if let Some(f) = self.pores.as_mut() {
+            f.set_boundaries(all.clone())?;
+        }
+        self.settings.pores.boundaries = all;
+        Ok(())
+    }
+
+    /// Removes every boundary region: the whole hull sealed again.
+    pub fn clear_pore_boundaries(&mut self) -> Result<()> {
+        if let Some(f) = self.pores.as_mut() {
+            f.set_boundaries(Vec::new())?;
+        }
+        self.settings.pores.boundaries.clear();
+        Ok(())
+    }
+}
