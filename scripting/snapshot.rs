@@ -113,3 +113,36 @@ fn array(s: &mut String, ty: &str, name: &str, components: usize, values: impl I
 fn xml_text(t: &str) -> String {
     t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace("--", "- -")
 }
+
+/// The elements as a CSV table (`d.export_elements`): id, centre, radius, velocity, displacement since
+/// the model was built, material name and the groups holding the element (`;`-separated, by
+/// name), one row per element; numbers in the shortest form that reads back to the same f64.
+pub fn elements_csv(m: &Model) -> String {
+    let p = &m.particles;
+    let n = p.len();
+    let mut groups = vec![String::new(); n];
+    for name in m.groups.names() {
+        for &i in m.groups.get(name).unwrap_or(&[]) {
+            let g = &mut groups[i as usize];
+            if !g.is_empty() {
+                g.push(';');
+            }
+            g.push_str(name);
+        }
+    }
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let header = ["id", "x", "y", "z", "r", "vx", "vy", "vz", "dx", "dy", "dz", "material", "groups"];
+    w.write_record(header).expect("a CSV record written to memory cannot fail");
+    for i in 0..n {
+        let (x, v, o) = (p.pos[i], p.vel[i], p.origin[i]);
+        let material = m.materials.get(p.material[i] as usize).map_or("", |mat| mat.name.as_str());
+        let nums = [x.x, x.y, x.z, p.radius[i], v.x, v.y, v.z, x.x - o.x, x.y - o.y, x.z - o.z];
+        let mut row = vec![i.to_string()];
+        row.extend(nums.iter().map(|v| format!("{v:?}")));
+        row.push(material.to_string());
+        row.push(groups[i].clone());
+        w.write_record(&row).expect("a CSV record written to memory cannot fail");
+    }
+    String::from_utf8(w.into_inner().expect("flushing a CSV writer into memory cannot fail"))
+        .expect("CSV of UTF-8 names and numbers is UTF-8")
+}

@@ -1,10 +1,11 @@
 //! ParaView snapshots as scripts see them: `d.snapshot("name")` writes `name.vtp` now;
 //! `d.snapshot_every(n)` writes `snapshots/<model>_<step>.vtp` every n steps of every run and
-//! balance, listed by time in `<model>.pvd` (see [`crate::snapshot`]).
+//! balance, listed by time in `<model>.pvd` (see [`crate::snapshot`]); `d.export_elements("name")` writes
+//! the elements as a CSV table (or a `.vtp`).
 
 use super::model::{ModelData, ModelHandle};
 use super::{err, Host, RhaiResult};
-use crate::snapshot::{pvd, vtp};
+use crate::snapshot::{elements_csv, pvd, vtp};
 use matdem_engine::simulation::Observer;
 use matdem_engine::Model;
 use rhai::{Dynamic, Engine, INT};
@@ -85,6 +86,33 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 if std::path::Path::new(name).extension().is_some() { name.to_string() } else { format!("{name}.vtp") };
             let path = h.out_path(&file)?;
             let text = vtp(&d.data().sim.model);
+            crate::atomic::write(&path, text.as_bytes())
+                .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+            h.note_written([path.clone()]);
+            Ok(Dynamic::from(path.display().to_string()))
+        })
+    });
+    let h = host.clone();
+    engine.register_fn("export_elements", move |d: &mut ModelHandle, name: &str| -> RhaiResult<Dynamic> {
+        let ext = std::path::Path::new(name).extension().map(|e| e.to_string_lossy().to_lowercase());
+        let file = match ext.as_deref() {
+            None => format!("{name}.csv"),
+            Some("csv" | "vtp") => name.to_string(),
+            Some(other) => return Err(err(format!(
+                "export_elements: `{name}`: write a .csv table or a .vtp ParaView file (a name without an extension \
+                     gets .csv), not .{other}"
+            ))),
+        };
+        h.observe("export_elements", || {
+            let path = h.out_path(&file)?;
+            let text = {
+                let data = d.data();
+                if file.to_lowercase().ends_with(".vtp") {
+                    vtp(&data.sim.model)
+                } else {
+                    elements_csv(&data.sim.model)
+                }
+            };
             crate::atomic::write(&path, text.as_bytes())
                 .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);

@@ -1,6 +1,6 @@
 //! Elements in and out (MatDEM's step 2, "cut and assign"): delete (`delElement`), add from
-//! a table (`addElement`), keep only some groups (`makeModelByGroups`), move a group
-//! (`moveGroup`), freeze a group into a wall (`defineWallElement`).
+//! a table (`addElement`), keep only some groups (`makeModelByGroups`), move or turn a group
+//! (`moveGroup`, `rotateGroup`), freeze a group into a wall (`defineWallElement`).
 //!
 //! These are actions: a resumed run repeats them while it replays, so the model keeps the
 //! shape (particle count, groups) the journaled observations were made on. Each checks its
@@ -8,6 +8,7 @@
 
 use super::*;
 use crate::api::geometry::Geometry;
+use matdem_engine::geometry::ElementSet;
 use matdem_engine::state::particles::dof;
 
 pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
@@ -62,6 +63,27 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 }
                 m.positions_changed();
                 Ok(())
+            },
+        )
+        .register_fn(
+            "rotate_group",
+            |d: &mut ModelHandle, sel: Dynamic, axis: Dynamic, deg: Dynamic, about: Dynamic| -> RhaiResult<INT> {
+                let axis = vec3(&axis, "rotate_group: axis")?;
+                let angle = finite(&deg, "rotate_group: angle (degrees)")?.to_radians();
+                let centre = vec3(&about, "rotate_group: about_point")?;
+                let mut m = d.model();
+                let ids = resolve_ids(&m, &sel)?;
+                // The engine's rigid rotation (the one geometry objects use) checks the axis.
+                let pos: Vec<Vec3> = ids.iter().map(|&i| m.particles.pos[i as usize]).collect();
+                let radius: Vec<f64> = ids.iter().map(|&i| m.particles.radius[i as usize]).collect();
+                let turned = ElementSet::new(pos, radius)
+                    .and_then(|s| s.rotated(centre, axis, angle))
+                    .map_err(|e| err(format!("rotate_group: {e}")))?;
+                for (&i, p) in ids.iter().zip(turned.pos()) {
+                    m.particles.pos[i as usize] = *p;
+                }
+                m.positions_changed();
+                Ok(ids.len() as INT)
             },
         )
         .register_fn("freeze", |d: &mut ModelHandle, sel: Dynamic| -> RhaiResult<INT> {
