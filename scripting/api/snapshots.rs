@@ -98,10 +98,12 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         let file = match ext.as_deref() {
             None => format!("{name}.csv"),
             Some("csv" | "vtp") => name.to_string(),
-            Some(other) => return Err(err(format!(
+            Some(other) => {
+                return Err(err(format!(
                 "export_elements: `{name}`: write a .csv table or a .vtp ParaView file (a name without an extension \
                      gets .csv), not .{other}"
-            ))),
+            )))
+            }
         };
         h.observe("export_elements", || {
             let path = h.out_path(&file)?;
