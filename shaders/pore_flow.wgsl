@@ -1,11 +1,14 @@
 // The `pore_flow` stage's flow update on the GPU (f32): one explicit sub-step of the pore
 // fluid, in two passes of one invocation per pore.
 //
-// - `pore_pressure`: a pore held at a pressure gets the mass of that pressure in its volume;
-//   every pore's pressure follows from its mass, p = K_f·(m/(ρ0·V) − 1).
+// Each pore keeps its excess mass e = m − ρ0·V (V its volume, fixed while the device steps),
+// not m: in f32 the small changes of a nearly incompressible fluid would be lost against m.
+//
+// - `pore_pressure`: a pore held at a pressure gets the excess of that pressure; every pore's
+//   pressure follows from its excess, p = K_f·e/(ρ0·V) (= K_f·(m/(ρ0·V) − 1)).
 // - `pore_mass`: each pore gathers its own row of throats, inflow = Σ_t g_t·(p_other − p_self),
-//   and adds ρ0·h·(inflow + source) to its own mass. No atomics: both pores of a throat compute
-//   the same g·Δp, so the mass one loses the other gains (to f32 round-off).
+//   and adds ρ0·h·(inflow + source) to its own excess. No atomics: both pores of a throat
+//   compute the same g·Δp, so the mass one loses the other gains (to f32 round-off).
 //
 // The network's geometry (volumes, conductances) and its rebuilds stay on the host; the
 // guard's stable step V/(K_f·Σg) is the host's too. CPU twin: pores/flow.rs (`substep`), run
@@ -20,9 +23,9 @@ struct Fluid {
 }
 
 @group(0) @binding(0) var<uniform> fluid: Fluid;
-// Per pore: (volume, fixed pressure or NaN-free flag in .z, source, is_fixed).
+// Per pore: (volume, fixed pressure, volumetric source, 1 when held at the pressure else 0).
 @group(0) @binding(1) var<storage, read> pore: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> mass: array<f32>;
+@group(0) @binding(2) var<storage, read_write> excess: array<f32>;
 @group(0) @binding(3) var<storage, read_write> pressure: array<f32>;
 // CSR rows of throats per pore.
 @group(0) @binding(4) var<storage, read> row_start: array<u32>;
@@ -43,9 +46,9 @@ fn pore_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     }
     let v = pore[p].x;
     if pore[p].w > 0.5 {
-        mass[p] = fluid.density * v * (1.0 + pore[p].y / fluid.bulk_modulus);
+        excess[p] = fluid.density * v * pore[p].y / fluid.bulk_modulus;
     }
-    pressure[p] = fluid.bulk_modulus * (mass[p] / (fluid.density * v) - 1.0);
+    pressure[p] = fluid.bulk_modulus * excess[p] / (fluid.density * v);
 }
 
 @compute @workgroup_size(64)
@@ -62,5 +65,5 @@ fn pore_mass(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let other = select(ab.x, ab.y, ab.x == p);
         inflow += conductance[t] * (pressure[other] - own);
     }
-    mass[p] += fluid.density * fluid.h * (inflow + pore[p].z);
+    excess[p] += fluid.density * fluid.h * (inflow + pore[p].z);
 }

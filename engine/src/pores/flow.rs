@@ -203,7 +203,8 @@ impl PoreFlow {
         added
     }
 
-    fn fixed_pressure(&self, p: usize) -> Option<f64> {
+    /// The pressure pore `p` is held at, when a boundary region holds it.
+    pub fn fixed_pressure(&self, p: usize) -> Option<f64> {
         match self.region[p] {
             FREE => None,
             b => match self.boundaries[b as usize].kind {
