@@ -6,30 +6,16 @@
 
 mod common;
 use common::*;
-use std::collections::HashMap;
-use std::path::Path;
-
-fn metrics(dir: &Path) -> HashMap<String, f64> {
-    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let (name, value) = l.split_once(',').unwrap();
-            (name.to_string(), value.parse().unwrap())
-        })
-        .collect()
-}
 
 #[test]
 fn slope_quick_mode_slides_along_the_joint_and_writes_its_charts() {
     let dir = temp_dir("slope_quick");
     let out = dir.join("out");
-    let start = std::time::Instant::now();
-    let pkg = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slope");
-    let o = bin().arg("run").arg(&pkg).args(["--set", "quick=true", "--out"]).arg(&out).output().unwrap();
-    let wall = start.elapsed().as_secs_f64();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    eprintln!("slope quick mode: {wall:.1} s wall\n{}", stdout(&o));
+    let (log, wall) = run_example_quick("slope", &out);
+    eprintln!(
+        "slope quick mode: {wall:.1} s wall
+{log}"
+    );
 
     for name in [
         "displacement_vs_factor",

@@ -1,6 +1,7 @@
 //! Helpers for the host's end-to-end tests.
 #![allow(dead_code)]
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -58,3 +59,26 @@ let d = b.build_initial_model();
 d.set_group_mat("sample", material_micro("m", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.4e-3, restitution: 0.3 }));
 d.set_standard_dt();
 "#;
+
+/// Runs the packaged example `examples/NAME` in quick mode with its outputs in `out`; panics
+/// with its output if it fails, and returns its stdout and wall time (s).
+pub fn run_example_quick(name: &str, out: &Path) -> (String, f64) {
+    let start = std::time::Instant::now();
+    let pkg = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name);
+    let o = bin().arg("run").arg(&pkg).args(["--set", "quick=true", "--out"]).arg(out).output().unwrap();
+    let wall = start.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    (stdout(&o), wall)
+}
+
+/// The `name,value` rows of a run's `metrics.csv`.
+pub fn metrics(dir: &Path) -> HashMap<String, f64> {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let (name, value) = l.split_once(',').unwrap();
+            (name.to_string(), value.parse().unwrap())
+        })
+        .collect()
+}
