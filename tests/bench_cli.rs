@@ -1,7 +1,6 @@
 //! `matdem-rs bench` end to end: a small lattice, JSON output, and the GPU refusal.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn bench_json_reports_positive_figures() {

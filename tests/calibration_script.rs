@@ -2,7 +2,6 @@
 //! pooling and charts, single-factor regressions, the response-surface inversion, generic
 //! least squares on a script function and the shear-test Mohr–Coulomb fit.
 
-mod common;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
@@ -27,7 +26,7 @@ for p in d.points() { let r = synthetic(p); tau.push(r.tau); phi.push(r.phi); C.
 
 #[test]
 fn an_l25_design_its_anova_with_pooling_and_the_charts() {
-    let dir = common::temp_dir("calibration_anova");
+    let dir = crate::common::temp_dir("calibration_anova");
     let e = engine(&dir);
     let script = format!(
         r#"{DESIGN}
@@ -70,7 +69,7 @@ fn an_l25_design_its_anova_with_pooling_and_the_charts() {
 
 #[test]
 fn regressions_and_the_inversion_recover_known_answers() {
-    let dir = common::temp_dir("calibration_inversion");
+    let dir = crate::common::temp_dir("calibration_inversion");
     let e = engine(&dir);
     let script = format!(
         r#"{DESIGN}
@@ -111,7 +110,7 @@ fn regressions_and_the_inversion_recover_known_answers() {
 
 #[test]
 fn bad_calibration_input_is_refused_with_what_to_do() {
-    let dir = common::temp_dir("calibration_bad");
+    let dir = crate::common::temp_dir("calibration_bad");
     let e = engine(&dir);
     for (script, needle) in [
         ("orthogonal_array(18, 3)", "L9 and L27"),

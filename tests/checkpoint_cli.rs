@@ -1,8 +1,7 @@
 //! MatDEM's build → test workflow across scripts: `d.save` in one script, `load_model` in the
 //! next, continuing exactly as one script would; damaged or missing files refused clearly.
 
-mod common;
-use common::{bin, stderr, temp_dir};
+use crate::common::{bin, stderr, temp_dir};
 use std::path::Path;
 use std::process::Output;
 

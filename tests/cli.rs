@@ -1,8 +1,7 @@
 //! The command line end to end: `run` on the oedometer package in quick mode, `plan`,
 //! `--set` parameters and `--help`.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn csv_column(text: &str, name: &str) -> Vec<f64> {
     let mut lines = text.lines();

@@ -5,8 +5,7 @@
 //! positive at the end); the residual of A against itself is 0 and the others are finite; the
 //! zoned groups hold fewer grains than A. The measured values themselves are in docs/cpt.md.
 
-mod common;
-use common::{bin, temp_dir};
+use crate::common::{bin, temp_dir};
 
 fn column(csv: &str, name: &str) -> Vec<f64> {
     let mut lines = csv.lines();

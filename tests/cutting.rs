@@ -4,8 +4,7 @@
 //! selects what it should; a joint at 20 % strength breaks first under tension, at 20 % of
 //! the intact column's peak force; every bad input is refused by name and changes nothing.
 
-mod common;
-use common::{run_script, stderr, stdout, temp_dir};
+use crate::common::{run_script, stderr, stdout, temp_dir};
 use matdem_rs::api::Host;
 use rhai::{Dynamic, Engine, Scope};
 use std::rc::Rc;

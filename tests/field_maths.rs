@@ -2,13 +2,12 @@
 //! NaN or infinity made silently (each refusal names the element), empty selections, porosity
 //! windows, chart gaps, and CSV files quoted per RFC 4180.
 
-mod common;
 use matdem_rs::api::Host;
 use rhai::Dynamic;
 use std::rc::Rc;
 
 fn engine(name: &str) -> (rhai::Engine, Rc<Host>, std::path::PathBuf) {
-    let dir = common::temp_dir(name);
+    let dir = crate::common::temp_dir(name);
     let host = Rc::new(Host::new(dir.clone()));
     (matdem_rs::new_engine(host.clone()), host, dir)
 }
@@ -220,12 +219,12 @@ fn a_column_name_with_comma_and_newline_round_trips_through_csv() {
 
 #[test]
 fn load_table_reads_quoted_cells_from_a_spreadsheet_export() {
-    let dir = common::temp_dir("csv_load");
+    let dir = crate::common::temp_dir("csv_load");
     std::fs::write(dir.join("data.csv"), "\"depth, m\",\"say \"\"hi\"\"\"\n1.5,2\n").unwrap();
     let script = r#"let t = load_table("data.csv"); print(t["depth, m"][0] + t["say \"hi\""][0]);"#;
-    let o = common::run_script(&dir, "load.rhai", script, &["--backend", "cpu"]);
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    assert_eq!(common::stdout(&o).trim(), "3.5");
+    let o = crate::common::run_script(&dir, "load.rhai", script, &["--backend", "cpu"]);
+    assert!(o.status.success(), "{}", crate::common::stderr(&o));
+    assert_eq!(crate::common::stdout(&o).trim(), "3.5");
 }
 
 #[test]

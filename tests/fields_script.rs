@@ -3,13 +3,12 @@
 //! thermal expansion of radii, the water table, `d.plan()` listing the field stages and their
 //! lanes, records and snapshots carrying temperature, and the refusals of bad input.
 
-mod common;
-use common::SMALL_BOX;
+use crate::common::SMALL_BOX;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
 fn engine(name: &str) -> rhai::Engine {
-    matdem_rs::new_engine(Rc::new(Host::new(common::temp_dir(name))))
+    matdem_rs::new_engine(Rc::new(Host::new(crate::common::temp_dir(name))))
 }
 
 fn refusal(name: &str, script: &str) -> String {
@@ -141,7 +140,7 @@ fn snapshots_carry_the_temperature() {
 // to call first.
 #[test]
 fn a_particle_picture_shows_the_temperature_field() {
-    let dir = common::temp_dir("show_temperature");
+    let dir = crate::common::temp_dir("show_temperature");
     let script = format!(
         r#"{SMALL_BOX}
         d.enable("heat");

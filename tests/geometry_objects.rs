@@ -3,8 +3,7 @@
 //! an FCC lattice built through the script API with the lattice formulas' material returns
 //! their E and ν along [111]; every bad input is refused by name and changes nothing.
 
-mod common;
-use common::{run_script, stderr, stdout, temp_dir};
+use crate::common::{run_script, stderr, stdout, temp_dir};
 use matdem_rs::api::Host;
 use rhai::{Dynamic, Engine, Scope};
 use std::rc::Rc;

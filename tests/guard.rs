@@ -4,8 +4,7 @@
 //! standard step is never flagged, and a gravity that flings particles is named as the cause
 //! instead of dt.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 fn oedometer() -> PathBuf {

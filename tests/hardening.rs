@@ -2,8 +2,7 @@
 //! runs into one folder, resume into another folder than the interrupted run's, or — with
 //! any manifest and any archive a property test makes up — write outside the output folder.
 
-mod common;
-use common::*;
+use crate::common::*;
 use matdem_engine::backend::RunControl;
 use matdem_rs::package::Package;
 use matdem_rs::run::{default_out_dir, RunConfig};

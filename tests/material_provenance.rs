@@ -1,8 +1,7 @@
 //! Materials say what they are: every value that was derived or left at a default is shown
 //! by `print(m)` with where it came from, and an ambiguous Hertz definition is refused.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn run(name: &str, script: &str) -> std::process::Output {
     let dir = temp_dir(name);

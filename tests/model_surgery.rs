@@ -3,8 +3,7 @@
 //! deletes keep groups, rows and bonds consistent; writes replay on resume; a GPU model
 //! takes writes between runs.
 
-mod common;
-use common::{bin, gpu_required, run_script, stderr, stdout, temp_dir, SMALL_BOX};
+use crate::common::{bin, gpu_required, run_script, stderr, stdout, temp_dir, SMALL_BOX};
 use matdem_engine::physics::contact_law::PairState;
 use matdem_rs::api::model::ModelHandle;
 use matdem_rs::api::Host;

@@ -2,8 +2,7 @@
 //! the manifest before anything runs, and `pack` makes one archive that `run` and `info`
 //! take as is — the oedometer gives the same results from its folder and from its archive.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 fn oedometer() -> PathBuf {

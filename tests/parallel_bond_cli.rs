@@ -3,8 +3,7 @@
 //! software Vulkan in CI); the script reads back how many bonds it made and how many hold, the
 //! plan's stage and the bonds' energy. Bad parameters are refused naming the key.
 
-mod common;
-use common::{gpu_required, run_script, stderr, stdout, temp_dir};
+use crate::common::{gpu_required, run_script, stderr, stdout, temp_dir};
 
 const SCRIPT: &str = r#"
 let b = new_box("pb");

@@ -4,13 +4,12 @@
 //! `d.permeability`, `d.pore_network`), `d.plan()` listing the stage, and the refusals of bad
 //! input with what to do instead.
 
-mod common;
-use common::SMALL_BOX;
+use crate::common::SMALL_BOX;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
 fn engine(name: &str) -> rhai::Engine {
-    matdem_rs::new_engine(Rc::new(Host::new(common::temp_dir(name))))
+    matdem_rs::new_engine(Rc::new(Host::new(crate::common::temp_dir(name))))
 }
 
 fn refusal(name: &str, script: &str) -> String {

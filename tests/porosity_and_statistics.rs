@@ -4,8 +4,7 @@
 //! sphere whole gives exactly their volume); the coordination number without rattlers; bad
 //! input refused by name.
 
-mod common;
-use common::{run_script, stderr, stdout, temp_dir};
+use crate::common::{run_script, stderr, stdout, temp_dir};
 use matdem_rs::api::Host;
 use rhai::{Dynamic, Engine};
 use std::rc::Rc;

@@ -2,8 +2,7 @@
 //! and across errors; `:help NAME` prints a function's doc; Ctrl-C (SIGINT) cancels the
 //! running balance and the session goes on. Every child is killed on every path.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Child, Stdio};
 use std::sync::mpsc;

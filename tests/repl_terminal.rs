@@ -3,8 +3,7 @@
 //! an API name, Ctrl-C at the prompt drops the line being typed, Ctrl-C during a balance
 //! cancels the balance (the terminal sends SIGINT) and the session goes on, Ctrl-D ends it.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::io::{Read, Write};
 use std::process::{Child, Stdio};
 use std::sync::{Arc, Mutex};

@@ -4,8 +4,7 @@
 //! Without Chromium the browser half skips with a note; under `.ci/run`
 //! (MATDEM_REQUIRE_CHROMIUM=1) it fails instead.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::Command;
 

@@ -2,8 +2,7 @@
 //! saves a resume point and exits 130; `--resume` then ends with outputs equal bit for bit to
 //! those of a run that was never interrupted (CPU backend). Also the run record.
 
-mod common;
-use common::{bin, stderr, temp_dir};
+use crate::common::{bin, stderr, temp_dir};
 use std::io::Read;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

@@ -2,7 +2,6 @@
 //! counts, empty groups and masks, wrong types, unknown names — in process: every call ends
 //! in a value or a script error, never a panic or an abort. Prints how many cases ran.
 
-mod common;
 use matdem_rs::api::Host;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -180,7 +179,7 @@ const CALLS: &[&str] = &[
 
 #[test]
 fn random_bad_values_give_script_errors_never_panics() {
-    let dir = common::temp_dir("robustness");
+    let dir = crate::common::temp_dir("robustness");
     let host = Rc::new(Host::new(dir));
     // A run asked for a huge number of steps does the first chunk and stops: the test is
     // about the values reaching the engine, not about running a long simulation. The flag

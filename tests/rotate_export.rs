@@ -2,8 +2,7 @@
 //! ParaView file in the run's output folder) through the CLI: exact rigid rotations, files
 //! whose rows round-trip bit for bit, and bad input refused by name with the model unchanged.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// A 3 × 2 × 1 simple-cubic block of 1 mm elements in group "block", the first at the origin.
 const BLOCK: &str = r#"

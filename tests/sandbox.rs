@@ -2,8 +2,7 @@
 //! absolute paths, symbolic links, imports, an endless loop, deep recursion, huge data — and
 //! each fails with a message that names the path or the limit and says what is allowed.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 

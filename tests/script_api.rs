@@ -1,13 +1,12 @@
 //! The script API from Rhai, in process: builder, balance, groups, whole arrays, masks,
 //! tables, charts and pictures.
 
-mod common;
-use common::SMALL_BOX;
+use crate::common::SMALL_BOX;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
 fn eval<T: Clone + 'static>(name: &str, script: &str) -> T {
-    let dir = common::temp_dir(name);
+    let dir = crate::common::temp_dir(name);
     let host = Rc::new(Host::new(dir));
     let engine = matdem_rs::new_engine(host);
     engine.eval::<T>(script).unwrap_or_else(|e| panic!("script failed: {e}"))
@@ -60,7 +59,7 @@ fn groups_from_masks_fix_and_balance_settle_the_sample() {
 
 #[test]
 fn records_make_a_table_saved_as_csv_and_a_chart() {
-    let dir = common::temp_dir("records");
+    let dir = crate::common::temp_dir("records");
     let host = Rc::new(Host::new(dir.clone()));
     let engine = matdem_rs::new_engine(host);
     let script = format!(
@@ -86,7 +85,7 @@ fn records_make_a_table_saved_as_csv_and_a_chart() {
 
 #[test]
 fn bad_values_are_refused_with_a_message() {
-    let dir = common::temp_dir("bad_values");
+    let dir = crate::common::temp_dir("bad_values");
     let host = Rc::new(Host::new(dir));
     let engine = matdem_rs::new_engine(host);
     for (script, needle) in [
@@ -133,7 +132,7 @@ fn rolling_resistance_is_set_read_and_refused_from_scripts() {
         ("#{ model: \"cdt\", mu_r: 0.1, damping: 0.3 }", "model: \"epsd\""),
         ("#{ model: \"cdt\", mu: 0.1 }", "mu_r"),
     ] {
-        let dir = common::temp_dir("rolling_bad");
+        let dir = crate::common::temp_dir("rolling_bad");
         let engine = matdem_rs::new_engine(Rc::new(Host::new(dir)));
         let e = engine.eval::<()>(&format!("{SMALL_BOX} d.rolling_resistance = {bad};")).unwrap_err().to_string();
         assert!(e.contains(advice), "{bad}: {e}");

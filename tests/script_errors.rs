@@ -1,8 +1,7 @@
 //! Error reports as a user sees them: file:line:column, the source line, a caret, and a
 //! non-zero exit. Checked as snapshots (with the temporary path normalised).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn report(name: &str, script: &str) -> (i32, String) {
     let dir = temp_dir(name);

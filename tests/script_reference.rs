@@ -2,8 +2,7 @@
 //! entry in scripting/api/docs.rs, and docs/script-reference.md is what `matdem-rs doc`
 //! prints.
 
-mod common;
-use common::*;
+use crate::common::*;
 use matdem_rs::api::reference::{markdown, undocumented};
 
 fn engine() -> rhai::Engine {

@@ -4,8 +4,7 @@
 //! bonds breaking more often, per bond, than the rest (counted by the script from
 //! `d.breakages()`, not assumed).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn slope_quick_mode_slides_along_the_joint_and_writes_its_charts() {

@@ -2,8 +2,7 @@
 //! counts match the model (points, bonds as lines, components per array), and a `.pvd` that
 //! lists the series in time order. Each file is parsed back.
 
-mod common;
-use common::{bin, stderr, stdout, temp_dir};
+use crate::common::{bin, stderr, stdout, temp_dir};
 use roxmltree::{Document, Node};
 use std::path::Path;
 

@@ -1,8 +1,7 @@
 //! `matdem-rs study` end to end: every combination runs, a failing setting is recorded and
 //! the others go on, errors are relative to the reference, and the table and chart are written.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// Reports 1/x, and refuses x = 0 the way an unstable setting would stop.
 const SCRIPT: &str = r#"

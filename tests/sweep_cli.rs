@@ -3,8 +3,7 @@
 //! again, an interrupted sweep resumes and ends bit for bit as an uninterrupted one, a changed
 //! source is refused, and the Slurm job array lists exactly the pending points.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::Output;
 

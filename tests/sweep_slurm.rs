@@ -5,8 +5,7 @@
 //! the others complete; the merged table equals that of the same sweep run locally, byte
 //! for byte (CPU backend, which is deterministic).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};

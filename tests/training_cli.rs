@@ -2,8 +2,7 @@
 //! later script loading (and rescaling) the trained material with one call; the stdlib
 //! material tests write their charts.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn train_refuses_invalid_targets_and_says_what_to_do() {

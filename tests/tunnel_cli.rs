@@ -3,8 +3,7 @@
 //! it writes its charts and pictures, the opening closes (inwards, finite, largest at the
 //! wall), the run ends at rest, and the bonds that break break near the opening.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn tunnel_quick_mode_closes_the_opening_at_rest_and_writes_its_charts() {

@@ -1,12 +1,11 @@
 //! Paper 001 from a script: the zoned builder (`new_zoned`), its report, scaled copies of a
 //! model and the material scaling law, and the refusals of bad input.
 
-mod common;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 
 fn engine(name: &str) -> rhai::Engine {
-    matdem_rs::new_engine(Rc::new(Host::new(common::temp_dir(name))))
+    matdem_rs::new_engine(Rc::new(Host::new(crate::common::temp_dir(name))))
 }
 
 const SMALL_ZONED: &str = r#"

@@ -3,9 +3,7 @@
 //! buoyancy lost (a spherical cap where the level cuts an element); Stokes drag brings a
 //! sinking element to its terminal speed.
 
-mod common;
-
-use common::material;
+use crate::common::material;
 use matdem_engine::backend::RunControl;
 use matdem_engine::physics::buoyancy::submerged_volume;
 use matdem_engine::plan::Stage;

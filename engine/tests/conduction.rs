@@ -4,9 +4,7 @@
 //! boundaries, an FCC block's effective conductivity 2√2·H/d, the stability guard, and
 //! thermal expansion of a free element, a bonded bar and a clamped bar (σ = E·α·ΔT).
 
-mod common;
-
-use common::material;
+use crate::common::material;
 use matdem_engine::backend::RunControl;
 use matdem_engine::fields::{ThermalMode, ThermalProps};
 use matdem_engine::physics::conduction::pair_conductance;

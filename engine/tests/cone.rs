@@ -6,9 +6,7 @@
 //! the tip and sleeve forces (qc, fs) the wall records; and the GPU's (WGSL, f32) cone against
 //! the CPU's (skipped without an adapter unless MATDEM_REQUIRE_GPU=1).
 
-mod common;
-
-use common::{material, rel, run};
+use crate::common::{material, rel, run};
 use matdem_engine::state::particles::dof;
 use matdem_engine::walls::{cone_profile_distance, WallPart};
 use matdem_engine::{Model, NormalKind, Simulation, Vec3, Wall, WallMotion, WallShape};
@@ -297,7 +295,7 @@ fn grains_around_a_moving_cone() -> Model {
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_cone_matches_cpu() {
-    let Some(ctx) = common::gpu("gpu_cone") else { return };
+    let Some(ctx) = crate::common::gpu("gpu_cone") else { return };
     let model = grains_around_a_moving_cone();
     let mut cpu = Simulation::new(model.clone());
     let mut gpu = Simulation::with_gpu(model, ctx);

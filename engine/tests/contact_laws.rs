@@ -9,9 +9,7 @@
 //! `cargo test -p matdem-engine --release --test contact_laws -- --nocapture` to see the
 //! measured values.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use matdem_engine::builder::Rng;
 use matdem_engine::physics::contact_law::BreakKind;
 use matdem_engine::state::particles::dof;

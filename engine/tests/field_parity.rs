@@ -4,9 +4,7 @@
 //! column. Skipped without an adapter unless MATDEM_REQUIRE_GPU=1 (CI: lavapipe).
 #![cfg(feature = "gpu")]
 
-mod common;
-
-use common::{gpu, material};
+use crate::common::{gpu, material};
 use matdem_engine::backend::RunControl;
 use matdem_engine::fields::{ThermalMode, ThermalProps};
 use matdem_engine::plan::Stage;

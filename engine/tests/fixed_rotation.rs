@@ -9,9 +9,7 @@
 //!
 //! on the CPU and, on lavapipe, the GPU (the WGSL integrate honours the same bits).
 
-mod common;
-
-use common::{material, rel};
+use crate::common::{material, rel};
 use matdem_engine::backend::RunControl;
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Model, NormalKind, Simulation, Vec3, Wall};
@@ -96,6 +94,6 @@ fn a_sphere_with_rotation_fixed_slides_to_rest_and_a_free_one_rolls_at_five_seve
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_fixed_rotation_slides_and_free_rotation_rolls() {
-    let Some(ctx) = common::gpu("gpu_fixed_rotation") else { return };
+    let Some(ctx) = crate::common::gpu("gpu_fixed_rotation") else { return };
     check(|m| Simulation::with_gpu(m, ctx.clone()), "gpu");
 }

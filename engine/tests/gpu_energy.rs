@@ -10,9 +10,7 @@
 //! Without a GPU adapter each test prints a note and passes, unless MATDEM_REQUIRE_GPU=1.
 #![cfg(feature = "gpu")]
 
-mod common;
-
-use common::{damped_glass_pair, gpu, material, rel, run, two_spheres, GLASS_R};
+use crate::common::{damped_glass_pair, gpu, material, rel, run, two_spheres, GLASS_R};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::status::Energies;
 use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall, WallMotion};

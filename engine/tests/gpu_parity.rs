@@ -9,9 +9,7 @@
 //! chaotic, so they compare what the physics fixes (weights, stresses, mean heights).
 #![cfg(feature = "gpu")]
 
-mod common;
-
-use common::{
+use crate::common::{
     damped_glass_pair, gpu, material, probe_pair, probe_wall, rel, run, run_impact, sphere_on_plane, two_spheres,
     HertzImpact,
 };

@@ -5,9 +5,7 @@
 //! contact, stop with a message naming it on both backends — or with `GuardMode::Warn` go on —
 //! and let a dt under its limit run.
 
-mod common;
-
-use common::{material, rel, run, sphere_mass};
+use crate::common::{material, rel, run, sphere_mass};
 use matdem_engine::guard::{GuardMode, STIFFNESS_FRACTION};
 use matdem_engine::{Error, Model, NormalKind, Simulation, Vec3, Wall};
 
@@ -76,7 +74,7 @@ fn under_the_limit_or_in_warn_mode_the_run_goes_on() {
 #[cfg(feature = "gpu")]
 #[test]
 fn the_gpu_guard_sees_the_same_contact() {
-    let Some(ctx) = common::gpu("gpu_guard_stiffness") else { return };
+    let Some(ctx) = crate::common::gpu("gpu_guard_stiffness") else { return };
     let (m, critical) = resting_sphere(0.8);
     let mut cpu = Simulation::new(m.clone());
     let mut gpu = Simulation::with_gpu(m, ctx.clone());

@@ -9,9 +9,7 @@
 //! 5e11 Pa/m), k̄* = 2, σ̄c = c̄ = 1 MPa, φ̄ = 30°: every bond breaks at a strain below 1e-2 rad
 //! or 2e-6 m, where the geometry is still that of the start.
 
-mod common;
-
-use common::{material, rel};
+use crate::common::{material, rel};
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::simple_cubic;
 use matdem_engine::physics::contact_law::BreakKind;
@@ -390,7 +388,7 @@ fn driven_on_both(
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_parity_of_driven_bonded_pairs() {
-    let Some(ctx) = common::gpu("parallel_bond_pairs") else { return };
+    let Some(ctx) = crate::common::gpu("parallel_bond_pairs") else { return };
     let (z, x) = (Vec3::zeros(), Vec3::x());
     let cases = [
         ("tension", [z, x * 1e-3], [z, z]),
@@ -451,7 +449,7 @@ fn pulled_block() -> Model {
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_parity_of_a_bonded_block_pulled_to_breaking() {
-    let Some(ctx) = common::gpu("parallel_bond_block") else { return };
+    let Some(ctx) = crate::common::gpu("parallel_bond_block") else { return };
     let m = pulled_block();
     let mut cpu = Simulation::new(m.clone());
     let mut gpu = Simulation::with_gpu(m, ctx);

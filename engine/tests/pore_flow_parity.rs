@@ -4,9 +4,7 @@
 //! without an adapter unless MATDEM_REQUIRE_GPU=1 (CI: lavapipe).
 #![cfg(feature = "gpu")]
 
-mod common;
-
-use common::gpu;
+use crate::common::gpu;
 use matdem_engine::backend::gpu::pore_flow::PoreFlowKernel;
 use matdem_engine::physics::Vec3;
 use matdem_engine::pores::{BoundaryKind, Fluid, PoreBoundary, PoreFlow, PoreRegion};

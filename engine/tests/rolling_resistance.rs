@@ -13,9 +13,7 @@
 //! - both models on the GPU against the CPU's (the same roll, slope and pile), and the device's
 //!   row builds carrying epsd's springs.
 
-mod common;
-
-use common::{material, rel};
+use crate::common::{material, rel};
 use matdem_engine::backend::RunControl;
 use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
 use matdem_engine::plan::Stage;
@@ -218,7 +216,7 @@ fn the_stage_costs_nothing_when_off_and_epsd_alone_has_lanes() {
 #[cfg(feature = "gpu")]
 mod gpu {
     use super::*;
-    use common::gpu;
+    use crate::common::gpu;
 
     // The GPU's cdt rolls the sphere to rest as the CPU's does (f32: within 1 %, and within 1 % of
     // the closed form).

@@ -3,9 +3,7 @@
 //! same progress reports, the same sampled steps and the same cancellation on the CPU and on
 //! a GPU. The GPU half skips without an adapter unless MATDEM_REQUIRE_GPU=1.
 
-mod common;
-
-use common::{damped_glass_pair, gpu, run};
+use crate::common::{damped_glass_pair, gpu, run};
 use matdem_engine::backend::RunControl;
 use matdem_engine::simulation::Observer;
 use matdem_engine::{Error, Simulation};

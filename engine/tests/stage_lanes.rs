@@ -5,9 +5,7 @@
 //! not have is a 128-byte placeholder. Switching the heat ledger off changes no motion, bit
 //! for bit.
 
-mod common;
-
-use common::material;
+use crate::common::material;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::simple_cubic;
 use matdem_engine::physics::parallel_bond::ParallelBondParams;
@@ -190,7 +188,7 @@ fn the_heat_ledger_changes_no_motion() {
 fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
-    let Some(ctx) = common::gpu("stage_lanes_gpu") else { return };
+    let Some(ctx) = crate::common::gpu("stage_lanes_gpu") else { return };
     let device_bytes = |e: Effects| {
         let mut m = block(e);
         let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
@@ -258,7 +256,7 @@ fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them_on_the
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
     use matdem_engine::fields::ThermalProps;
-    let Some(ctx) = common::gpu("field_lanes_gpu") else { return };
+    let Some(ctx) = crate::common::gpu("field_lanes_gpu") else { return };
     let device_bytes = |heat: bool, water: bool| {
         let mut m = block(Effects::default());
         if heat {
@@ -331,7 +329,7 @@ fn gpu_rolling_resistance_lanes() {
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
     use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
-    let Some(ctx) = common::gpu("rolling_lanes_gpu") else { return };
+    let Some(ctx) = crate::common::gpu("rolling_lanes_gpu") else { return };
     let device_bytes = |rolling: Option<RollingModel>| {
         let mut m = block(Effects { friction: true, rotation: true, ..Default::default() });
         if let Some(model) = rolling {

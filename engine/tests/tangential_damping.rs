@@ -13,9 +13,7 @@
 //! and successive maxima of the displacement shrink by the log decrement
 //! Λ = 2π·ζ_t/√(1 − ζ_t²).
 
-mod common;
-
-use common::{material, rel, run};
+use crate::common::{material, rel, run};
 use matdem_engine::{Model, NormalKind, Simulation, TangentialKind, Vec3, Wall};
 use std::f64::consts::PI;
 
@@ -242,7 +240,7 @@ fn the_plan_names_the_tangential_dashpot() {
 #[cfg(feature = "gpu")]
 mod gpu {
     use super::*;
-    use common::{gpu, probe_wall, run_impact, sphere_on_plane};
+    use crate::common::{gpu, probe_wall, run_impact, sphere_on_plane};
 
     // The GPU rings like the CPU: ω_d and Λ within 0.5 % of the CPU's (x sampled every 4
     // steps on both) and within 1 % and 3 % of the analytic answer.
@@ -295,7 +293,7 @@ mod gpu {
         assert!(rel(pb.vel[0].x, pa.vel[0].x) < 1e-3);
         assert!(rel(spin(&gpu), spin(&cpu)) < 1e-3);
 
-        let mut pair = common::two_spheres(mat, 0.005, 1e-6, 0.5, NormalKind::Hertz);
+        let mut pair = crate::common::two_spheres(mat, 0.005, 1e-6, 0.5, NormalKind::Hertz);
         pair.settings.tangential = TangentialKind::MindlinDamped;
         pair.settings.rotation = true;
         pair.particles.enable_rotation();
@@ -303,8 +301,8 @@ mod gpu {
         pair.set_dt(1e-7).unwrap();
         let mut cpu = Simulation::new(pair.clone());
         let mut gpu = Simulation::with_gpu(pair, ctx);
-        run_impact(&mut cpu, 20_000, common::probe_pair);
-        run_impact(&mut gpu, 20_000, common::probe_pair);
+        run_impact(&mut cpu, 20_000, crate::common::probe_pair);
+        run_impact(&mut gpu, 20_000, crate::common::probe_pair);
         let (pa, pb) = (&cpu.model.particles, &gpu.model.particles);
         let (wa, wb) = (spin_z(&cpu), spin_z(&gpu));
         eprintln!("pair: v0 {:?} vs {:?}; ω {wa:.4} vs {wb:.4}", pa.vel[0], pb.vel[0]);

@@ -27,7 +27,10 @@ pub fn gpu_required() -> bool {
 
 /// A fresh folder under the target directory (kept for inspection after a failure).
 pub fn temp_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    // Every test file shares one binary and its tests run in parallel: libtest names each
+    // test's thread after the test, so two files asking for the same name stay apart.
+    let test = std::thread::current().name().unwrap_or("main").replace("::", "-");
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(test).join(name);
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d

@@ -1,0 +1,31 @@
+//! The integration tests, one module per file, in one binary: a binary per file linked
+//! wgpu, naga and rhai dozens of times over, which filled CI's disk (ld died with SIGBUS)
+//! and spent minutes linking. A new test file needs its `mod` line here.
+
+mod common;
+
+mod buoyancy;
+mod checkpoint;
+mod conduction;
+mod cone;
+mod contact_laws;
+mod energy_and_stability;
+mod field_parity;
+mod fixed_rotation;
+mod gpu_energy;
+mod gpu_parity;
+mod guard_stiffness;
+mod lattice;
+mod module_deps;
+mod parallel_bond;
+mod pore_coupling;
+mod pore_flow;
+mod pore_flow_parity;
+mod pore_network;
+mod rolling_resistance;
+mod run_loop;
+mod scaling_law;
+mod stage_lanes;
+mod tangential_damping;
+mod training;
+mod zoned;

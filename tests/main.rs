@@ -1,0 +1,41 @@
+//! The integration tests, one module per file, in one binary: a binary per file linked
+//! wgpu, naga and rhai dozens of times over, which filled CI's disk (ld died with SIGBUS)
+//! and spent minutes linking. A new test file needs its `mod` line here.
+
+mod common;
+
+mod bench_cli;
+mod calibration_script;
+mod checkpoint_cli;
+mod cli;
+mod cpt_cli;
+mod cutting;
+mod field_maths;
+mod fields_script;
+mod geometry_objects;
+mod guard;
+mod hardening;
+mod material_provenance;
+mod model_surgery;
+mod packages;
+mod parallel_bond_cli;
+mod pore_flow_script;
+mod porosity_and_statistics;
+mod repl;
+mod repl_terminal;
+mod report_page;
+mod resume_cli;
+mod robustness;
+mod rotate_export;
+mod sandbox;
+mod script_api;
+mod script_errors;
+mod script_reference;
+mod slope_cli;
+mod snapshot_cli;
+mod study_cli;
+mod sweep_cli;
+mod sweep_slurm;
+mod training_cli;
+mod tunnel_cli;
+mod zones_script;
