@@ -1,5 +1,5 @@
 //! ParaView snapshots: the particles as VTK PolyData XML (`.vtp`) — one point per particle
-//! with radius, velocity, displacement, force, group, material (and temperature, with heat on), and each intact bond as a
+//! with radius, velocity, displacement, force, group, material (and temperature, with heat on; water content, with moisture on), and each intact bond as a
 //! line — and a `.pvd` collection that lists a series of them by time, so ParaView plays
 //! them as an animation (open the `.pvd`, then apply a Glyph filter scaled by `radius`).
 
@@ -47,6 +47,9 @@ pub fn vtp(m: &Model) -> String {
     array(&mut s, "Int64", "material", 1, p.material.iter().map(|k| k.to_string()), "");
     if m.settings.heat.enabled && p.thermal.temperature.len() == n {
         array(&mut s, "Float64", "temperature", 1, p.thermal.temperature.iter().map(|&t| num(t)), "");
+    }
+    if m.settings.moisture.enabled && p.moisture.water.len() == n {
+        array(&mut s, "Float64", "water", 1, p.moisture.water.iter().map(|&w| num(w)), "");
     }
     s.push_str("      </PointData>\n      <Points>\n");
     array(&mut s, "Float64", "position", 3, vec3(n, |i| p.pos[i]), "");

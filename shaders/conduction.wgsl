@@ -1,15 +1,14 @@
 // The `conduction` stage on the GPU: one field step of heat conduction in forward-Euler
-// sub-steps, then thermal expansion. Each element sums its own row (the pairs that overlap or
-// are bonded, H = 4·a·k1·k2/(k1 + k2) with a the Hertz radius √(R*·δ), at least the bond's neck
-// for a bonded pair) and writes only its own next temperature and ΣH; `settle` then makes the
+// sub-steps of the shared diffusion core (diffusion.wgsl, prepended), then thermal expansion.
+// Each element sums its own row (the pairs that overlap or are bonded, H = 4·a·k1·k2/(k1 + k2)
+// with a the Hertz radius √(R*·δ), at least the bond's neck for a bonded pair) and writes only
+// its own next temperature and ΣH; `settle` then makes the
 // next temperatures current, and `expand` sets r = r0·(1 + α·(T − T0)) in origin.w, which every
 // stage reads as the radius. No atomics. CPU twin: backend/cpu/conduction.rs.
 
 // Some element expands (the plan's `expansion`).
 override EXPANSION: bool = false;
 
-const FIXED: u32 = 1u;
-const INSULATED: u32 = 2u;
 
 struct Conduction {
     // One forward-Euler sub-step (s).
@@ -37,6 +36,18 @@ struct Conduction {
 // x expansion coefficient α, y radius r0 at T0.
 @group(0) @binding(12) var<storage, read> expansion: array<vec2<f32>>;
 
+fn field_value(j: u32) -> f32 {
+    return thermal[j].x;
+}
+
+fn field_sealed(j: u32) -> bool {
+    return mode[j] == FIELD_SEALED;
+}
+
+fn field_pair(i: u32, j: u32, ri: f32, rj: f32, dist: f32, bonded: bool) -> f32 {
+    return pair_conductance(thermal[i].z, thermal[j].z, ri, rj, dist, bonded);
+}
+
 fn pair_conductance(ki: f32, kj: f32, ri: f32, rj: f32, dist: f32, bonded: bool) -> f32 {
     let overlap = ri + rj - dist;
     var a = 0.0;
@@ -60,31 +71,12 @@ fn conduct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
     let i = slab.first + local;
     let ti = thermal[i];
-    let oi = origin[i].xyz;
-    let ri = origin[i].w;
-    let ui = disp[i].xyz;
-    var q = ti.w;
-    var sum_h = 0.0;
-    if mode[i] != INSULATED {
-        let start = local * params.cap;
-        let end = start + row_len[i];
-        for (var e = start; e < end; e++) {
-            let j = other[e];
-            if mode[j] == INSULATED {
-                continue;
-            }
-            let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
-            let tj = thermal[j];
-            let h = pair_conductance(ti.z, tj.z, ri, origin[j].w, length(d), state[e].w != 0.0);
-            q += h * (tj.x - ti.x);
-            sum_h += h;
-        }
-    }
-    conductance[i] = sum_h;
-    if mode[i] == FIXED {
+    let x = row_exchange(i, local, ti.x, Exchange(ti.w, 0.0));
+    conductance[i] = x.g;
+    if mode[i] == FIELD_FIXED {
         next[i] = ti.x;
     } else {
-        next[i] = ti.x + field.dt * q / ti.y;
+        next[i] = ti.x + field.dt * x.q / ti.y;
     }
 }
 

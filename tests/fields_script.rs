@@ -1,7 +1,8 @@
 //! Issue 15 from a script: `d.enable("heat")`, `d.temperature` as a writable whole-array field,
 //! `d.thermal` per material and per group, fixed and heated groups, the field step settings,
 //! thermal expansion of radii, the water table, `d.plan()` listing the field stages and their
-//! lanes, records and snapshots carrying temperature, and the refusals of bad input.
+//! lanes, records and snapshots carrying temperature, and the refusals of bad input; moisture
+//! (`d.enable("moisture")`, `d.water`, evaporation, the tables, records, snapshots, pictures).
 
 use crate::common::SMALL_BOX;
 use matdem_rs::api::Host;
@@ -110,7 +111,7 @@ fn bad_field_input_is_refused_with_what_to_do() {
         ("d.enable(\"heat\"); d.thermal(\"m\", #{ conductivity: -1.0 })", "≥ 0"),
         ("d.heat_substeps = 0", "integer ≥ 1"),
         ("d.fluid_density = -1.0", "fluid_density"),
-        ("d.enable(\"moisture\")", "heat"),
+        ("d.enable(\"humidity\")", "moisture"),
         ("d.fix_temperature(\"sample\", 300.0)", "d.enable(\"heat\")"),
         // No capacity: refused before the run, naming the setting.
         ("d.enable(\"heat\"); d.run(1)", "specific_heat"),
@@ -154,4 +155,91 @@ fn a_particle_picture_shows_the_temperature_field() {
 
     let e = refusal("show_temperature_off", &format!("{SMALL_BOX}\nd.show(\"temperature\", \"t\");"));
     assert!(e.contains("no temperature field") && e.contains("d.enable(\"heat\")"), "{e}");
+}
+
+// Moisture on: every element starts at d.initial_water; a sealed, fixed-free box conserves
+// Σ m·ω; evaporation from the top dries it by what leaves the top; the radius table shrinks the
+// elements; the plan names the stage and its lanes; records carry mean and total water; the
+// picture names the field and its unit.
+#[test]
+fn moisture_from_a_script_diffuses_dries_shrinks_and_is_recorded() {
+    let dir = crate::common::temp_dir("moisture_script");
+    let script = format!(
+        r#"{SMALL_BOX}
+        d.r = d.r * 1.1;
+        d.initial_water = 0.25;
+        d.enable("moisture");
+        let w0 = d.water.mean();
+        d.moisture("m", #{{ diffusivity: 1e-3 }});
+        d.water = 0.1 + d.z * 50.0;
+        let total0 = d.total_water;
+        d.run(50);
+        let total1 = d.total_water;
+        d.add_group("top", d.z > 0.002);
+        d.evaporate("top", #{{ transfer: 1e-3, ambient: 0.02 }});
+        d.water_radius_table = [[0.0, 0.95], [0.3, 1.0]];
+        let r0 = d.r;
+        d.moisture_every = 5;
+        d.moisture_substeps = 2;
+        d.run(200);
+        d.record();
+        d.show("water", "water");
+        let shrink = (d.r / r0).mean();
+        #{{ w0: w0, total0: total0, total1: total1, total2: d.total_water, plan: d.plan(), shrink: shrink,
+            mean: d.status["mean_water"][0], total: d.status["total_water"][0], table: d.water_radius_table.len() }}"#
+    );
+    let out: rhai::Map =
+        matdem_rs::new_engine(Rc::new(Host::new(dir.clone()))).eval(&script).unwrap_or_else(|e| panic!("{e}"));
+    let f = |k: &str| out[k].as_float().unwrap();
+    assert!((f("w0") - 0.25).abs() < 1e-15, "{}", f("w0"));
+    assert!(((f("total1") - f("total0")) / f("total0")).abs() < 1e-12, "{} against {}", f("total1"), f("total0"));
+    assert!(f("total2") < f("total1"), "evaporation dried it");
+    assert!((f("total") - f("total2")).abs() < 1e-12 * f("total2"));
+    assert!(f("mean") > 0.02 && f("mean") < 0.3);
+    assert!(f("shrink") < 1.0, "the radius table shrank the elements: {}", f("shrink"));
+    let plan = out["plan"].clone().into_string().unwrap();
+    assert!(plan.contains("moisture(forward euler every 5 step(s) in 2 sub-step(s), drying shrinkage)"), "{plan}");
+    assert!(
+        plan.contains("moisture 49 B (water, diffusivity, transfer, ambient, conductance, mode, radius0)"),
+        "{plan}"
+    );
+    assert_eq!(out["table"].as_int().unwrap(), 2);
+    let svg = std::fs::read_to_string(dir.join("water.svg")).unwrap();
+    assert!(svg.contains("water content [kg/kg]"));
+}
+
+#[test]
+fn bad_moisture_input_is_refused_with_what_to_do() {
+    let cases = [
+        ("d.water", "d.enable(\"moisture\")"),
+        ("d.water = 0.2", "d.enable(\"moisture\")"),
+        ("d.enable(\"moisture\"); d.water = -0.1", "≥ 0"),
+        ("d.enable(\"moisture\"); d.moisture(\"clay\", #{ diffusivity: 1.0 })", "neither a material nor a group"),
+        ("d.enable(\"moisture\"); d.moisture(\"m\", #{ difusivity: 1.0 })", "diffusivity"),
+        ("d.enable(\"moisture\"); d.evaporate(\"sample\", #{ ambient: 0.1 })", "transfer"),
+        ("d.water_radius_table = [[0.3, 1.0], [0.1, 0.9]]", "increase"),
+        ("d.water_strength_table = [[0.0, 1.5]]", "(0, 1]"),
+        ("d.water_strength_table = [0.0, 1.0]", "[[water content, value]"),
+        ("d.moisture_substeps = 0", "integer ≥ 1"),
+        ("d.seal(\"sample\")", "d.enable(\"moisture\")"),
+        ("d.show(\"water\", \"w\")", "no water field"),
+    ];
+    for (k, (call, expected)) in cases.into_iter().enumerate() {
+        let e = refusal(&format!("moisture_bad_{k}"), &format!("{SMALL_BOX} {call}"));
+        assert!(e.contains(expected), "{call}: {e}");
+    }
+}
+
+// ParaView snapshots carry the water content when moisture is on, and not otherwise.
+#[test]
+fn snapshots_carry_the_water_content() {
+    use matdem_engine::{Material, Model, Vec3};
+    let mut m = Model::new();
+    let k = m.add_material(Material::from_micro("m", 2650.0, 1e5, 1e4, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
+    m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+    assert!(!matdem_rs::snapshot::vtp(&m).contains("\"water\""));
+    m.enable_moisture();
+    m.set_water(&[0.1875]).unwrap();
+    let vtp = matdem_rs::snapshot::vtp(&m);
+    assert!(vtp.contains("Name=\"water\"") && vtp.contains("0.1875"), "{vtp}");
 }

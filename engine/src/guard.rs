@@ -35,7 +35,8 @@ pub fn check_time_step(m: &Model) -> Result<()> {
         }
     }
     check_gravity(m)?;
-    m.check_conduction()
+    m.check_conduction()?;
+    m.check_moisture()
 }
 
 /// Refuses a gravity that by itself moves a free particle more than

@@ -18,7 +18,9 @@
 //! - [`simulation::Simulation`] runs many steps on either, with one run loop (chunks, the
 //!   stability [`guard`]'s cadence, sampling, observers, cancellation) and MatDEM's `balance`.
 //! - [`fields`] holds the scene's fields: heat conduction with thermal expansion (the
-//!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage).
+//!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage);
+//!   [`moisture`] the water content with evaporation, drying shrinkage and bond strength (the
+//!   `moisture` stage); both diffuse through the shared core [`diffusion`].
 //! - [`status`] measures energies, heat, coordination number and porosity.
 //! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
 //!   later run continues it bit for bit.
@@ -34,6 +36,7 @@ pub mod backend;
 pub mod bench;
 pub mod builder;
 pub mod checkpoint;
+pub mod diffusion;
 pub mod error;
 pub mod fields;
 pub mod geometry;
@@ -43,6 +46,7 @@ pub mod laws;
 pub mod materials;
 pub mod memory_budget;
 pub mod model;
+pub mod moisture;
 pub mod neighbours;
 pub mod physics;
 pub mod plan;

@@ -99,6 +99,10 @@ pub struct Settings {
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
     pub water: crate::fields::WaterTable,
+    /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
+    /// stage; off by default). Not saved in checkpoints yet: a loaded model has moisture off.
+    #[serde(skip)]
+    pub moisture: crate::moisture::MoistureSettings,
     /// Rolling resistance (the `rolling_resistance` stage; off by default). Not yet carried by
     /// checkpoints: a loaded model has none until the script sets it again.
     #[serde(skip)]
@@ -125,6 +129,7 @@ impl Default for Settings {
             heat_ledger: true,
             heat: crate::fields::HeatSettings::default(),
             water: crate::fields::WaterTable::default(),
+            moisture: crate::moisture::MoistureSettings::default(),
             rolling: None,
             pores: crate::pores::PoreSettings::default(),
         }
@@ -261,6 +266,10 @@ impl Model {
             self.particles.thermal.temperature[id] = self.settings.heat.reference;
             self.init_thermal(id);
         }
+        if self.particles.moisture.allocated(self.len()) {
+            self.particles.moisture.water[id] = self.settings.moisture.initial;
+            self.init_moisture(id);
+        }
         let w = self.walls.len();
         self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
         if !self.wall_rolling.is_empty() {
@@ -314,6 +323,10 @@ impl Model {
             self.particles.mass[i] = self.sphere_mass(self.particles.material[i] as usize, r);
             // A radius set by hand is the element's radius at the reference temperature.
             if let Some(r0) = self.particles.thermal.radius0.get_mut(i) {
+                *r0 = r;
+            }
+            // And the radius at which the shrinkage table's factor is 1.
+            if let Some(r0) = self.particles.moisture.radius0.get_mut(i) {
                 *r0 = r;
             }
         }

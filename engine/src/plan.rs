@@ -5,6 +5,7 @@
 use crate::fields::{BuoyancyPlan, ConductionPlan};
 use crate::materials::Material;
 use crate::model::{Model, NormalKind, TangentialKind};
+use crate::moisture::MoisturePlan;
 use crate::physics::contact_law::PairParams;
 use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
@@ -57,13 +58,17 @@ pub enum Stage {
     /// Optional: heat conduction between elements in contact or bonded, sources, fixed and
     /// insulated groups, thermal expansion of radii, every field step (fields.rs).
     Conduction,
+    /// Optional: moisture diffusion between elements in contact or bonded (the diffusion core
+    /// heat uses, its own conductances), evaporation, fixed and sealed groups, and the water
+    /// content's coupling to radii and bond strengths, every field step (moisture.rs).
+    Moisture,
     /// The stability guard's checks, every `guard_every` steps.
     Guard,
 }
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 12] = [
+    pub const ALL: [Stage; 13] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
@@ -75,6 +80,7 @@ impl Stage {
         Stage::Heat,
         Stage::Buoyancy,
         Stage::Conduction,
+        Stage::Moisture,
         Stage::Guard,
     ];
 
@@ -92,6 +98,7 @@ impl Stage {
             Stage::Heat => "heat",
             Stage::Buoyancy => "buoyancy",
             Stage::Conduction => "conduction",
+            Stage::Moisture => "moisture",
             Stage::Guard => "guard",
         }
     }
@@ -133,6 +140,8 @@ pub struct StepPlan {
     pub parallel_bond_entries: usize,
     /// Heat conduction (the scene enables heat).
     pub conduction: Option<ConductionPlan>,
+    /// Moisture diffusion (the scene enables moisture).
+    pub moisture: Option<MoisturePlan>,
     /// The water table's buoyancy (the scene sets a level).
     pub buoyancy: Option<BuoyancyPlan>,
     /// Rolling resistance (the scene sets one with μ_r > 0).
@@ -217,6 +226,7 @@ impl StepPlan {
             parallel_bond,
             parallel_bond_entries: if parallel_bond.is_some() { pb.other.len() } else { 0 },
             conduction: ConductionPlan::of(m),
+            moisture: MoisturePlan::of(m),
             buoyancy: BuoyancyPlan::of(m),
             rolling,
             pore_flow: PoreFlowPlan::of(m),
@@ -239,6 +249,7 @@ impl StepPlan {
             Stage::PoreFlow => self.pore_flow.is_some(),
             Stage::Buoyancy => self.buoyancy.is_some(),
             Stage::Conduction => self.conduction.is_some(),
+            Stage::Moisture => self.moisture.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
         }
     }
@@ -299,6 +310,15 @@ impl StepPlan {
                 stage: Stage::Conduction.name(),
                 lanes: c.lanes(),
                 bytes_per_particle: c.bytes_per_particle(),
+                bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
+            });
+        }
+        if let Some(w) = &self.moisture {
+            sets.push(LaneSet {
+                stage: Stage::Moisture.name(),
+                lanes: w.lanes(),
+                bytes_per_particle: w.bytes_per_particle(),
                 bytes_per_entry: 0,
                 bytes_per_row_entry: 0,
             });
@@ -485,6 +505,17 @@ impl fmt::Display for StepPlan {
             w.push(')');
             stages.push(w);
         }
+        if let Some(w) = &self.moisture {
+            let mut s = format!("moisture(forward euler every {} step(s) in {} sub-step(s)", w.every, w.substeps);
+            if w.radius_table.is_some() {
+                s.push_str(", drying shrinkage");
+            }
+            if w.strength_table.is_some() {
+                s.push_str(", bond strength by water content");
+            }
+            s.push(')');
+            stages.push(s);
+        }
         writeln!(f, "step plan: {}", stages.join(" → "))?;
         let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
         writeln!(f, "stages: {}", names.join(" → "))?;
@@ -538,6 +569,9 @@ impl fmt::Display for StepPlan {
         }
         if self.buoyancy.is_none() {
             off.push("buoyancy");
+        }
+        if self.moisture.is_none() {
+            off.push("moisture");
         }
         off.push("fluid flow");
         if self.rolling.is_none() {

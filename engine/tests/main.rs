@@ -17,6 +17,7 @@ mod gpu_parity;
 mod guard_stiffness;
 mod lattice;
 mod module_deps;
+mod moisture;
 mod parallel_bond;
 mod pore_coupling;
 mod pore_flow;

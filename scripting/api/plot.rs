@@ -77,6 +77,13 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
             }
             t.clone()
         }
+        "water" => {
+            let w = &p.moisture.water;
+            if w.len() != n {
+                return Err(err("show: no water field: call d.enable(\"moisture\") first (docs/fields.md)"));
+            }
+            w.clone()
+        }
         other => {
             return Err(super::raise(matdem_engine::Error::unknown(
                 "particle field",
@@ -93,6 +100,7 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
                     "size_class",
                     "contact_load",
                     "temperature",
+                    "water",
                 ],
             )))
         }
@@ -102,6 +110,7 @@ fn particle_field(d: &ModelHandle, name: &str) -> RhaiResult<(Vec<f64>, String)>
         "speed" => "speed [m/s]".to_string(),
         "contact_load" | "force" => "contact load [N]".to_string(),
         "temperature" => "temperature [K]".to_string(),
+        "water" => "water content [kg/kg]".to_string(),
         other => other.to_string(),
     };
     Ok((v, label))

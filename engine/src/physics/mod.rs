@@ -4,6 +4,7 @@
 pub mod buoyancy;
 pub mod conduction;
 pub mod contact_law;
+pub mod moisture;
 pub mod parallel_bond;
 pub mod restitution;
 pub mod rolling_resistance;

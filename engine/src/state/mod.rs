@@ -2,6 +2,7 @@
 
 pub mod contacts;
 pub mod groups;
+pub mod moisture;
 pub mod parallel_bonds;
 pub mod particles;
 pub mod thermal;

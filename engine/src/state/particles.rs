@@ -2,6 +2,7 @@
 //! (0-based), so a stage touches only the lanes it needs and a GPU upload is a lane copy.
 
 use crate::physics::Vec3;
+use crate::state::moisture::MoistureLanes;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
 
@@ -46,6 +47,10 @@ pub struct Particles {
     /// Saved after the model in a checkpoint (format 4), so that older checkpoints still read.
     #[serde(skip)]
     pub thermal: ThermalLanes,
+    /// The `moisture` stage's lanes: water content, diffusivity, … (empty while moisture is
+    /// off). Not in checkpoints yet: a loaded model has moisture off.
+    #[serde(skip)]
+    pub moisture: MoistureLanes,
 }
 
 /// Angular velocity and torque lanes.
@@ -100,6 +105,7 @@ impl Particles {
         }
         // The reference temperature is the model's: it sets it after the push.
         self.thermal.push(n, 0.0, radius);
+        self.moisture.push(n, 0.0, radius);
         n
     }
 
@@ -135,6 +141,7 @@ impl Particles {
             }
         }
         self.thermal.retain(keep);
+        self.moisture.retain(keep);
         map
     }
 
@@ -146,12 +153,12 @@ impl Particles {
         }
     }
 
-    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal).
+    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal, moisture).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         let core = self.pos.len() * (4 * size_of::<Vec3>() + 2 * size_of::<f64>() + size_of::<u32>() + 1);
         let rotation = self.rotation.as_ref().map_or(0, |r| (r.ang_vel.len() + r.torque.len()) * size_of::<Vec3>());
-        core + rotation + self.heat.bytes() + self.thermal.bytes()
+        core + rotation + self.heat.bytes() + self.thermal.bytes() + self.moisture.bytes()
     }
 
     /// Moment of inertia of a solid sphere, 2/5·m·r².

@@ -3,12 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-/// [`ThermalLanes::mode`]: the element exchanges heat with its neighbours.
-pub const FREE: u8 = 0;
-/// Held at its temperature.
-pub const FIXED: u8 = 1;
-/// Exchanges no heat with any neighbour.
-pub const INSULATED: u8 = 2;
+/// [`ThermalLanes::mode`]: free (exchanges heat with its neighbours), fixed (held at its
+/// temperature), insulated (exchanges no heat with any neighbour): the diffusion core's modes.
+pub use crate::diffusion::{FIXED, FREE, SEALED as INSULATED};
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct ThermalLanes {

@@ -6,7 +6,8 @@
 //! servos), `running` (run and balance, journaled for resume), `observation` (records,
 //! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
 //! `regions` (masks from geometry, layers), `fields` (temperature, heat conduction, the
-//! water table) and `pores` (pore density flow).
+//! water table), `moisture` (water content, evaporation, drying shrinkage) and `pores`
+//! (pore density flow).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -25,6 +26,7 @@ mod elements;
 mod fields;
 mod groups;
 mod lanes;
+mod moisture;
 mod observation;
 mod pores;
 mod regions;
@@ -175,6 +177,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     elements::register(engine, &host);
     regions::register(engine, &host);
     fields::register(engine, &host);
+    moisture::register(engine, &host);
     cutting::register(engine, &host);
     pores::register(engine, &host);
 }

@@ -85,8 +85,16 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     m.enable_heat();
                     Ok(())
                 }
+                "moisture" => {
+                    m.enable_moisture();
+                    Ok(())
+                }
                 "pore_flow" => m.enable_pore_flow().map_err(|e| err(format!("d.enable(\"pore_flow\"): {e}"))),
-                other => Err(raise(matdem_engine::Error::unknown("effect", other, &["rotation", "heat", "pore_flow"]))),
+                other => Err(raise(matdem_engine::Error::unknown(
+                    "effect",
+                    other,
+                    &["rotation", "heat", "moisture", "pore_flow"],
+                ))),
             }
         })
         .register_fn("disable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
@@ -94,6 +102,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             match effect {
                 // The lanes stay (a later enable continues from them); the plan drops the stage.
                 "heat" => m.settings.heat.enabled = false,
+                "moisture" => m.settings.moisture.enabled = false,
                 "water" => m.settings.water.level = None,
                 "rolling_resistance" => m.settings.rolling = None,
                 // The network and its fluid go; a later enable builds them afresh.
@@ -102,7 +111,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     return Err(raise(matdem_engine::Error::unknown(
                         "effect",
                         other,
-                        &["heat", "water", "rolling_resistance", "pore_flow"],
+                        &["heat", "moisture", "water", "rolling_resistance", "pore_flow"],
                     )))
                 }
             }

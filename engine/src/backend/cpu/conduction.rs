@@ -4,16 +4,18 @@
 //! Each element sums its own row, Q_i = P_i + Σ_j H_ij·(T_j − T_i) over the pairs that
 //! overlap or are bonded (H from `physics::conduction`), and writes only its own next
 //! temperature T_i + Δt·Q_i/C_i and its ΣH_i: no atomics, the same bits on any thread count.
+//! The row sum and the update are the diffusion core moisture shares (`crate::diffusion`).
 //! Both rows of a pair see the same H (it is symmetric), so with insulated boundaries Σ C·T
 //! changes only by the sources, to round-off. Fixed elements keep their temperature; an
 //! insulated element exchanges nothing. With expansion, r_i = r0_i·(1 + α_i·(T_i − T0)),
 //! the mass kept: contacts and bonds see the new radii at the next force pass.
 
 use super::blocks::{for_blocks, Rows};
+use crate::diffusion::{self, Exchange};
 use crate::fields::ConductionPlan;
 use crate::model::Model;
 use crate::physics::conduction::pair_conductance;
-use crate::state::thermal::{FIXED, INSULATED};
+use crate::state::thermal::FIXED;
 
 /// Runs the field step if it falls after the step that starts at `m.clock.step`. `next` is
 /// the backend's scratch lane.
@@ -37,34 +39,38 @@ pub fn conduction(m: &mut Model, plan: &ConductionPlan, next: &mut Vec<f64>) {
     }
 }
 
+/// Heat's terms of the shared diffusion core: the source, and the Batchelor–O'Brien
+/// conductance of each contact or bond.
+struct Heat<'a> {
+    source: &'a [f64],
+    conductivity: &'a [f64],
+    radius: &'a [f64],
+    bond_radius: f64,
+}
+
+impl Exchange for Heat<'_> {
+    #[inline(always)]
+    fn own(&self, i: usize, _: f64) -> (f64, f64) {
+        (self.source[i], 0.0)
+    }
+
+    #[inline(always)]
+    fn pair(&self, i: usize, j: usize, dist: f64, bonded: bool) -> f64 {
+        let (k, r) = (self.conductivity, self.radius);
+        pair_conductance(k[i], k[j], r[i], r[j], dist, bonded, self.bond_radius)
+    }
+}
+
 /// One forward-Euler sub-step: `next` gets each element's new temperature.
 fn substep(m: &mut Model, plan: &ConductionPlan, dt: f64, next: &mut [f64]) {
     let p = &mut m.particles;
     let c = &m.contacts;
-    let (pos, radius) = (&p.pos, &p.radius);
     let th = &mut p.thermal;
-    let (t, cap, k, src, mode) = (&th.temperature, &th.capacity, &th.conductivity, &th.source, &th.mode);
-    let beta = plan.bond_radius;
+    let heat =
+        Heat { source: &th.source, conductivity: &th.conductivity, radius: &p.radius, bond_radius: plan.bond_radius };
+    let (pos, t, cap, mode) = (&p.pos, &th.temperature, &th.capacity, &th.mode);
     for_blocks(0..pos.len(), Rows::None, (&mut next[..], &mut th.conductance[..]), (), &|range, (next, g), ()| {
-        for i in range.clone() {
-            let li = i - range.start;
-            let mut q = src[i];
-            let mut sum_h = 0.0;
-            if mode[i] != INSULATED {
-                for e in c.row(i) {
-                    let j = c.other[e] as usize;
-                    if mode[j] == INSULATED {
-                        continue;
-                    }
-                    let d = (pos[j] - pos[i]).norm();
-                    let h = pair_conductance(k[i], k[j], radius[i], radius[j], d, c.state[e].bonded, beta);
-                    q += h * (t[j] - t[i]);
-                    sum_h += h;
-                }
-            }
-            g[li] = sum_h;
-            next[li] = if mode[i] == FIXED { t[i] } else { t[i] + dt * q / cap[i] };
-        }
+        diffusion::substep(&heat, pos, c, t, cap, mode, dt, range, next, g)
     });
 }
 

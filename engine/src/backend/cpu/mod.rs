@@ -10,6 +10,7 @@ pub mod contact_forces;
 pub mod fused;
 pub mod heat;
 pub mod integrate;
+pub mod moisture;
 pub mod parallel_bond;
 pub mod pore_flow;
 mod prefetch;
@@ -36,6 +37,8 @@ pub struct CpuBackend {
     pairs: PairScratch,
     /// The conduction stage's next temperatures (empty without it).
     next_temperature: Vec<f64>,
+    /// The moisture stage's next water contents (empty without it).
+    next_water: Vec<f64>,
     /// The pore_flow stage's guard error, returned at the end of the step that raised it.
     pore_error: Option<crate::error::Error>,
 }
@@ -51,12 +54,21 @@ impl CpuBackend {
     /// The backend for `plan`, with the particles' viscous damping coefficients
     /// ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(plan: StepPlan, damping_c: Vec<f64>) -> Self {
-        CpuBackend { plan, damping_c, pairs: PairScratch::default(), next_temperature: Vec::new(), pore_error: None }
+        CpuBackend {
+            plan,
+            damping_c,
+            pairs: PairScratch::default(),
+            next_temperature: Vec::new(),
+            next_water: Vec::new(),
+            pore_error: None,
+        }
     }
 
     /// Heap bytes of the backend's own per-particle and per-pair buffers.
     pub fn scratch_bytes(&self) -> usize {
-        (self.damping_c.capacity() + self.next_temperature.capacity()) * std::mem::size_of::<f64>() + self.pairs.bytes()
+        (self.damping_c.capacity() + self.next_temperature.capacity() + self.next_water.capacity())
+            * std::mem::size_of::<f64>()
+            + self.pairs.bytes()
     }
 
     /// Advances the model by one step as separate passes, one per named stage (what an
@@ -118,6 +130,11 @@ impl CpuBackend {
             let t = Instant::now();
             conduction::conduction(m, c, &mut self.next_temperature);
             times.add(Stage::Conduction, t.elapsed());
+        }
+        if let Some(w) = &self.plan.moisture {
+            let t = Instant::now();
+            moisture::moisture(m, w, &mut self.next_water);
+            times.add(Stage::Moisture, t.elapsed());
         }
         m.clock.step += 1;
         m.clock.time += dt;
@@ -209,13 +226,16 @@ impl CpuBackend {
     }
 
     /// The optional stages after integration, each when the plan has it: the water table's
-    /// buoyancy, then heat conduction (its field step).
+    /// buoyancy, then heat conduction, then moisture (their field steps).
     fn field_stages(&mut self, m: &mut Model) {
         if let Some(b) = &self.plan.buoyancy {
             buoyancy::buoyancy(m, b, &self.damping_c);
         }
         if let Some(c) = &self.plan.conduction {
             conduction::conduction(m, c, &mut self.next_temperature);
+        }
+        if let Some(w) = &self.plan.moisture {
+            moisture::moisture(m, w, &mut self.next_water);
         }
     }
 }
@@ -247,7 +267,8 @@ impl Backend for CpuBackend {
             return Err(e);
         }
         check_state(m)?;
-        m.check_conduction()
+        m.check_conduction()?;
+        m.check_moisture()
     }
 
     /// The model is the state: the stiffest contact is found on it directly, O(contacts).

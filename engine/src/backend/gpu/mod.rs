@@ -36,6 +36,7 @@ pub mod guard;
 pub mod heat;
 pub mod integrate;
 pub mod memory;
+pub mod moisture;
 pub mod neighbours;
 pub mod parallel_bond;
 pub mod pore_flow;
@@ -88,6 +89,7 @@ struct Pipelines {
     /// The optional field stages, only when the plan has them.
     buoyancy: Option<wgpu::ComputePipeline>,
     conduction: Option<conduction::Pipelines>,
+    moisture: Option<moisture::Pipelines>,
 }
 
 /// The pipelines of the walls and wall_forces stages.
@@ -112,6 +114,7 @@ struct Kernels {
     guard: Vec<Kernel>,
     buoyancy: Option<Kernel>,
     conduction: Option<conduction::Kernels>,
+    moisture: Option<moisture::Kernels>,
 }
 
 /// [`WallPipelines`] bound to one upload; the wall forces one per slab.
@@ -135,6 +138,8 @@ struct Session {
     /// The conduction stage's lanes, when the plan has it (the water's uniform lives in its
     /// kernel's bind group).
     thermal: Option<conduction::Lanes>,
+    /// The moisture stage's lanes, when the plan has it.
+    water: Option<moisture::Lanes>,
 }
 
 /// How the rows of a backend's runs were built, for tests and benchmarks: a rebuild on the
@@ -229,6 +234,7 @@ impl GpuBackend {
             guard: guard::pipeline(device, &constants),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
             conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
+            moisture: plan.moisture.as_ref().map(|w| moisture::pipelines(device, &constants, w)),
         };
         // The kernels scale velocities, so they take c_i/m_i.
         let damping_rate = damping.iter().zip(&m.particles.mass).map(|(c, mass)| c / mass).collect();
@@ -298,6 +304,9 @@ impl GpuBackend {
         if self.plan.conduction.is_some() {
             m.fit_thermal();
         }
+        if self.plan.moisture.is_some() {
+            m.fit_moisture();
+        }
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
@@ -352,6 +361,7 @@ impl GpuBackend {
         let p = &self.pipelines;
         let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
         let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
+        let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
             rows: rows::kernels(device, &p.rows, &lanes),
@@ -378,13 +388,21 @@ impl GpuBackend {
                 .zip(thermal.as_ref())
                 .zip(self.plan.conduction.as_ref())
                 .map(|((c, f), plan)| conduction::kernels(device, c, &lanes, f, plan)),
+            moisture: p
+                .moisture
+                .as_ref()
+                .zip(moist.as_ref())
+                .zip(self.plan.moisture.as_ref())
+                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan)),
         };
-        self.device_bytes =
-            lanes.bytes + bonds.as_ref().map_or(0, |b| b.bytes) + thermal.as_ref().map_or(0, |t| t.bytes);
+        self.device_bytes = lanes.bytes
+            + bonds.as_ref().map_or(0, |b| b.bytes)
+            + thermal.as_ref().map_or(0, |t| t.bytes)
+            + moist.as_ref().map_or(0, |w| w.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal })
+        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal, water: moist })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -452,6 +470,11 @@ impl GpuBackend {
                         c.dispatch(&mut pass);
                     }
                 }
+                if let (Some(w), Some(plan)) = (&kr.moisture, &self.plan.moisture) {
+                    if plan.runs_after(s.step0 + s.steps + t) {
+                        w.dispatch(&mut pass);
+                    }
+                }
             }
             dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
             if guard {
@@ -481,6 +504,9 @@ impl GpuBackend {
         }
         if let (Some(t), Some(plan)) = (&s.thermal, &self.plan.conduction) {
             t.download(&self.ctx, &s.lanes, m, plan)?;
+        }
+        if let (Some(w), Some(plan)) = (&s.water, &self.plan.moisture) {
+            w.download(&self.ctx, &s.lanes, m, plan)?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;

@@ -19,12 +19,24 @@ pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
 pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
 pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
-pub const CONDUCTION: &str = include_str!("../../../../shaders/conduction.wgsl");
+/// The conduction stage: the diffusion core it shares with moisture (diffusion.wgsl), then its
+/// own file.
+pub const CONDUCTION: &str = concat!(
+    include_str!("../../../../shaders/diffusion.wgsl"),
+    "\n",
+    include_str!("../../../../shaders/conduction.wgsl")
+);
 pub const ROLLING_RESISTANCE: &str = include_str!("../../../../shaders/rolling_resistance.wgsl");
+/// The moisture stage: the diffusion core it shares (diffusion.wgsl), then its own file.
+pub const MOISTURE: &str = concat!(
+    include_str!("../../../../shaders/diffusion.wgsl"),
+    "\n",
+    include_str!("../../../../shaders/moisture.wgsl")
+);
 pub const PORE_FLOW: &str = include_str!("../../../../shaders/pore_flow.wgsl");
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 14] = [
+pub const STAGES: [(&str, &str); 15] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -38,6 +50,7 @@ pub const STAGES: [(&str, &str); 14] = [
     ("guard", GUARD),
     ("buoyancy", BUOYANCY),
     ("conduction", CONDUCTION),
+    ("moisture", MOISTURE),
     ("pore_flow", PORE_FLOW),
 ];
 

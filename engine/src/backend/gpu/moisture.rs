@@ -1,0 +1,218 @@
+//! The `moisture` stage on the GPU (shaders/diffusion.wgsl + shaders/moisture.wgsl): its
+//! lanes, pipelines and the dispatch of one field step (per sub-step: `exchange` once per slab
+//! of rows, then `settle`; then `shrink` with a radius table and `strengthen`, per slab, with a
+//! strength table). Built only when the plan has the stage; its buffers are made at upload and
+//! the water contents and conductances (and radii, bond shares) come back at each download.
+//! CPU twin: `backend/cpu/moisture.rs`.
+
+use super::buffers::DeviceLanes;
+use super::device::GpuContext;
+use super::shaders::{self, groups_for, Kernel};
+use crate::error::Result;
+use crate::model::Model;
+use crate::moisture::MoisturePlan;
+use crate::plan::Stage;
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// `Moisture` in moisture.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct FieldParams {
+    dt: f32,
+    bond_radius: f32,
+    radius_points: u32,
+    strength_points: u32,
+}
+
+/// The stage's pipelines.
+pub struct Pipelines {
+    exchange: wgpu::ComputePipeline,
+    settle: wgpu::ComputePipeline,
+    shrink: Option<wgpu::ComputePipeline>,
+    strengthen: Option<wgpu::ComputePipeline>,
+}
+
+pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
+    let make = |entry| shaders::pipeline(device, Stage::Moisture.name(), shaders::MOISTURE, entry, constants);
+    Pipelines {
+        exchange: make("exchange"),
+        settle: make("settle"),
+        shrink: plan.radius_table.is_some().then(|| make("shrink")),
+        strengthen: plan.strength_table.is_some().then(|| make("strengthen")),
+    }
+}
+
+/// The stage's device lanes.
+pub struct Lanes {
+    params: wgpu::Buffer,
+    /// (ω, m, α_w, χ) per particle.
+    water: wgpu::Buffer,
+    next: wgpu::Buffer,
+    conductance: wgpu::Buffer,
+    mode: wgpu::Buffer,
+    ambient: wgpu::Buffer,
+    /// r0 per particle; a placeholder without a radius table.
+    radius0: wgpu::Buffer,
+    /// The tables' points; a placeholder without tables.
+    tables: wgpu::Buffer,
+    /// Bytes of the lanes.
+    pub bytes: u64,
+}
+
+const STORAGE: wgpu::BufferUsages =
+    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
+
+impl Lanes {
+    /// The model's moisture lanes in f32 (the model's lanes must be fitted).
+    pub fn upload(ctx: &GpuContext, m: &Model, plan: &MoisturePlan) -> Self {
+        let w = &m.particles.moisture;
+        let n = m.len();
+        let mut bytes = 0u64;
+        let mut make = |label: &str, data: &[u8]| {
+            let zeros = [0u8; 128];
+            let contents = if data.is_empty() { &zeros[..] } else { data };
+            bytes += contents.len() as u64;
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: STORAGE,
+            })
+        };
+        let water: Vec<[f32; 4]> = (0..n)
+            .map(|i| [w.water[i] as f32, m.particles.mass[i] as f32, w.diffusivity[i] as f32, w.transfer[i] as f32])
+            .collect();
+        let mode: Vec<u32> = w.mode.iter().map(|&b| u32::from(b)).collect();
+        let ambient: Vec<f32> = w.ambient.iter().map(|&a| a as f32).collect();
+        let radius0: Vec<f32> =
+            if plan.radius_table.is_some() { w.radius0.iter().map(|&r| r as f32).collect() } else { Vec::new() };
+        let points = |t: &Option<crate::physics::moisture::Table>| -> Vec<[f32; 2]> {
+            t.as_ref().map_or_else(Vec::new, |t| t.points.iter().map(|&(x, y)| [x as f32, y as f32]).collect())
+        };
+        let (rp, sp) = (points(&plan.radius_table), points(&plan.strength_table));
+        let params = FieldParams {
+            dt: plan.substep(m.clock.dt) as f32,
+            bond_radius: plan.bond_radius as f32,
+            radius_points: rp.len() as u32,
+            strength_points: sp.len() as u32,
+        };
+        let tables: Vec<[f32; 2]> = rp.into_iter().chain(sp).collect();
+        Lanes {
+            water: make("water", bytemuck::cast_slice(&water)),
+            next: make("next water", &vec![0u8; 4 * n]),
+            conductance: make("moisture conductance", &vec![0u8; 4 * n]),
+            mode: make("moisture mode", bytemuck::cast_slice(&mode)),
+            ambient: make("ambient water", bytemuck::cast_slice(&ambient)),
+            radius0: make("radius0 (moisture)", bytemuck::cast_slice(&radius0)),
+            tables: make("moisture tables", bytemuck::cast_slice(&tables)),
+            params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("moisture"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            }),
+            bytes,
+        }
+    }
+
+    /// Brings the water contents and conductances back (and the radii, with a radius table;
+    /// the bond shares come back with the pair states).
+    pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &MoisturePlan) -> Result<()> {
+        let n = d.n;
+        let water: Vec<[f32; 4]> = super::buffers::read(ctx, &self.water, n)?;
+        let g: Vec<f32> = super::buffers::read(ctx, &self.conductance, n)?;
+        let w = &mut m.particles.moisture;
+        for i in 0..n {
+            w.water[i] = f64::from(water[i][0]);
+            w.conductance[i] = f64::from(g[i]);
+        }
+        if plan.radius_table.is_some() {
+            let origin: Vec<[f32; 4]> = super::buffers::read(ctx, &d.origin, n)?;
+            for (r, o) in m.particles.radius.iter_mut().zip(&origin) {
+                *r = f64::from(o[3]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The pipelines bound to one upload.
+pub struct Kernels {
+    exchange: Vec<Kernel>,
+    settle: Kernel,
+    shrink: Option<Kernel>,
+    strengthen: Vec<Kernel>,
+    substeps: u32,
+}
+
+pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes, plan: &MoisturePlan) -> Kernels {
+    // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
+    let exchange = d.per_slab(device, &p.exchange, |s| {
+        vec![
+            &d.params,
+            &d.origin,
+            &d.disp,
+            &d.row_len,
+            &s.other,
+            &s.state,
+            &s.uniform,
+            &f.params,
+            &f.water,
+            &f.next,
+            &f.conductance,
+            &f.mode,
+            &f.ambient,
+        ]
+    });
+    let settle = Kernel::bind_at(device, &p.settle, &[(0, &d.params), (8, &f.water), (9, &f.next)], groups_for(d.n));
+    let shrink = p.shrink.as_ref().map(|k| {
+        Kernel::bind_at(
+            device,
+            k,
+            &[(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.water), (13, &f.radius0), (14, &f.tables)],
+            groups_for(d.n),
+        )
+    });
+    let strengthen = p.strengthen.as_ref().map_or_else(Vec::new, |k| {
+        d.slabs
+            .iter()
+            .map(|s| {
+                Kernel::bind_at(
+                    device,
+                    k,
+                    &[
+                        (0, &d.params),
+                        (3, &d.row_len),
+                        (4, &s.other),
+                        (5, &s.state),
+                        (6, &s.uniform),
+                        (7, &f.params),
+                        (8, &f.water),
+                        (14, &f.tables),
+                    ],
+                    groups_for(s.count),
+                )
+            })
+            .collect()
+    });
+    Kernels { exchange, settle, shrink, strengthen, substeps: plan.substeps }
+}
+
+impl Kernels {
+    /// One field step, in the kernels' order (each in the stage's debug group).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.push_debug_group(Stage::Moisture.name());
+        for _ in 0..self.substeps {
+            for k in &self.exchange {
+                k.dispatch(pass);
+            }
+            self.settle.dispatch(pass);
+        }
+        if let Some(k) = &self.shrink {
+            k.dispatch(pass);
+        }
+        for k in &self.strengthen {
+            k.dispatch(pass);
+        }
+        pass.pop_debug_group();
+    }
+}

@@ -1,0 +1,138 @@
+// The `moisture` stage on the GPU: one field step of moisture diffusion in forward-Euler
+// sub-steps of the shared core (diffusion.wgsl, prepended), then the coupling. Each element
+// sums its own row (G = α·π·a², α the series mean of the two diffusivities, a the Hertz
+// radius √(R*·δ), at least the bond's neck for a bonded pair), plus its evaporation
+// E = χ·π·r² towards the ambient water content, and writes only its own next water content
+// and ΣG; `settle` makes the next contents current; `shrink` sets r = r0·f_r(ω) in origin.w
+// (which every stage reads as the radius); `strengthen` sets each bond's share of its
+// strength s(ω̄) in state.w, ω̄ the pair's mean, quantised as the CPU's u16 share is.
+// No atomics. CPU twin: backend/cpu/moisture.rs (physics/moisture.rs for the laws).
+
+const PI: f32 = 3.14159265358979;
+
+struct Moisture {
+    // One forward-Euler sub-step (s).
+    dt: f32,
+    // A bond's neck radius as a fraction of the smaller radius.
+    bond_radius: f32,
+    // Points of the radius table (then the strength table's) in `tables`.
+    radius_points: u32,
+    strength_points: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> origin: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> row_len: array<u32>;
+@group(0) @binding(4) var<storage, read> other: array<u32>;
+@group(0) @binding(5) var<storage, read_write> state: array<vec4<f32>>;
+@group(0) @binding(6) var<uniform> slab: Slab;
+@group(0) @binding(7) var<uniform> field: Moisture;
+// x water content ω, y capacity (the element's mass), z diffusivity α_w, w evaporation χ.
+@group(0) @binding(8) var<storage, read_write> water: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> next: array<f32>;
+@group(0) @binding(10) var<storage, read_write> conductance: array<f32>;
+@group(0) @binding(11) var<storage, read> mode: array<u32>;
+// The ambient water content each element dries towards.
+@group(0) @binding(12) var<storage, read> ambient: array<f32>;
+// The radius r0 where the radius table's factor is 1.
+@group(0) @binding(13) var<storage, read> radius0: array<f32>;
+// (ω, value) points: the radius table's, then the strength table's.
+@group(0) @binding(14) var<storage, read> tables: array<vec2<f32>>;
+
+fn field_value(j: u32) -> f32 {
+    return water[j].x;
+}
+
+fn field_sealed(j: u32) -> bool {
+    return mode[j] == FIELD_SEALED;
+}
+
+fn field_pair(i: u32, j: u32, ri: f32, rj: f32, dist: f32, bonded: bool) -> f32 {
+    let ai = water[i].z;
+    let aj = water[j].z;
+    let overlap = ri + rj - dist;
+    var a = 0.0;
+    if overlap > 0.0 {
+        a = sqrt(ri * rj / (ri + rj) * overlap);
+    }
+    if bonded {
+        a = max(a, field.bond_radius * min(ri, rj));
+    }
+    if a > 0.0 && ai + aj > 0.0 {
+        return 2.0 * ai * aj / (ai + aj) * PI * a * a;
+    }
+    return 0.0;
+}
+
+// Table::at: piecewise linear over `count` points from `first`, flat beyond the ends.
+fn table_at(first: u32, count: u32, w: f32) -> f32 {
+    if w <= tables[first].x {
+        return tables[first].y;
+    }
+    for (var k = 1u; k < count; k++) {
+        let p1 = tables[first + k];
+        if w <= p1.x {
+            let p0 = tables[first + k - 1u];
+            return p0.y + (p1.y - p0.y) * (w - p0.x) / (p1.x - p0.x);
+        }
+    }
+    return tables[first + count - 1u].y;
+}
+
+@compute @workgroup_size(64)
+fn exchange(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
+        return;
+    }
+    let i = slab.first + local;
+    let wi = water[i];
+    let r = origin[i].w;
+    let e = wi.w * PI * r * r;
+    let x = row_exchange(i, local, wi.x, Exchange(e * (ambient[i] - wi.x), e));
+    conductance[i] = x.g;
+    if mode[i] == FIELD_FIXED {
+        next[i] = wi.x;
+    } else {
+        next[i] = wi.x + field.dt * x.q / wi.y;
+    }
+}
+
+@compute @workgroup_size(64)
+fn settle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n {
+        return;
+    }
+    water[i].x = next[i];
+}
+
+@compute @workgroup_size(64)
+fn shrink(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n {
+        return;
+    }
+    origin[i].w = radius0[i] * table_at(0u, field.radius_points, water[i].x);
+}
+
+@compute @workgroup_size(64)
+fn strengthen(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = invocation(gid, groups);
+    if local >= slab.count {
+        return;
+    }
+    let i = slab.first + local;
+    let start = local * params.cap;
+    let end = start + row_len[i];
+    for (var e = start; e < end; e++) {
+        if state[e].w != 0.0 {
+            let j = other[e];
+            let s = table_at(field.radius_points, field.strength_points, 0.5 * (water[i].x + water[j].x));
+            // PairState::weakened_for: the share in steps of 1/65535, never none of it.
+            let weakened = clamp(round((1.0 - s) * 65535.0), 0.0, 65534.0);
+            state[e].w = 1.0 - weakened / 65535.0;
+        }
+    }
+}
