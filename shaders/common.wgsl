@@ -26,6 +26,9 @@ const PART_TIP: u32 = 1u;
 const PART_SLEEVE: u32 = 2u;
 const PART_CAP: u32 = 3u;
 const MAX_WALLS: u32 = 8u;
+// The `kind` lane's bit of a killed element (dof::KILLED << 24, Model::kill): in no row and
+// touching no wall. Its other fixity bits are set too, so the integrator keeps it at rest.
+const KILLED: u32 = 0x40000000u;
 
 // Slots of the counters buffer.
 const C_STEP: u32 = 0u;

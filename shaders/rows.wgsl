@@ -29,6 +29,8 @@ const MAX_CARRY: u32 = 64u;
 @group(0) @binding(11) var<storage, read_write> dashpot: array<f32>;
 // Per entry: the epsd rolling spring (a placeholder without ROLLING_SPRING).
 @group(0) @binding(12) var<storage, read_write> rolling: array<vec4<f32>>;
+// Material and fixities per particle: a killed element (the KILLED bit) is in no row.
+@group(0) @binding(13) var<storage, read> kind: array<u32>;
 
 @compute @workgroup_size(64)
 fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -88,12 +90,17 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let ui = disp[i].xyz;
     let ri = origin[i].w;
     let c = cell_of(oi + ui, params.cell);
+    // A killed element looks for no neighbour (and is skipped by everyone else's search below).
+    let alive = (kind[i] & KILLED) == 0u;
     // Cells that hash to one bucket are visited once, so no j is seen twice.
     var seen: array<u32, 27>;
     var buckets = 0u;
     for (var z = -1; z <= 1; z++) {
         for (var y = -1; y <= 1; y++) {
             for (var x = -1; x <= 1; x++) {
+                if !alive {
+                    continue;
+                }
                 let b = bucket_of(c + vec3<i32>(x, y, z), params.buckets);
                 var again = false;
                 for (var q = 0u; q < buckets; q++) {
@@ -107,7 +114,7 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
                 let end = cell_start[b + 1u];
                 for (var s = cell_start[b]; s < end; s++) {
                     let j = cell_items[s];
-                    if j == i {
+                    if j == i || (kind[j] & KILLED) != 0u {
                         continue;
                     }
                     // Both parts of the position differ little between neighbours: subtract each first.

@@ -60,7 +60,8 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let hit = wall_hit(wall, oi, ui);
         let ng = hit.ng;
         let inward = ng.xyz;
-        let overlap = ri - ng.w;
+        // A killed element never touches a wall (its wall states were cleared when it was killed).
+        let overlap = select(ri - ng.w, -1.0, (kind[k] & KILLED) != 0u);
         let e = kl * nw + w;
         if inside {
             let st = wall_state[e];

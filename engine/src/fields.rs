@@ -8,6 +8,7 @@
 //! lanes; the pair conductance and the submerged volume are in `physics/`, the passes in the
 //! backends.
 
+use crate::element_values::base_name;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::physics::conduction::pair_conductance;
@@ -216,7 +217,9 @@ impl Model {
     /// Sets element `i`'s capacity, conductivity and expansion from its material.
     pub(crate) fn init_thermal(&mut self, i: usize) {
         let name = &self.materials[self.particles.material[i] as usize].name;
-        let p = self.settings.heat.materials.get(name).copied().unwrap_or_default();
+        // A clone made by a per-element write (`rock~3`) has its base material's properties.
+        let heat = &self.settings.heat.materials;
+        let p = heat.get(name).or_else(|| heat.get(base_name(name))).copied().unwrap_or_default();
         let n = self.particles.len();
         let mass = self.particles.mass[i];
         let th = &mut self.particles.thermal;
@@ -246,7 +249,8 @@ impl Model {
         self.settings.heat.materials.insert(material.to_string(), props);
         self.fit_thermal();
         for i in 0..self.len() {
-            if self.particles.material[i] == k {
+            let mi = self.particles.material[i];
+            if mi == k || base_name(&self.materials[mi as usize].name) == material {
                 self.init_thermal(i);
             }
         }

@@ -37,10 +37,12 @@ pub mod bench;
 pub mod builder;
 pub mod checkpoint;
 pub mod diffusion;
+pub mod element_values;
 pub mod error;
 pub mod fields;
 pub mod geometry;
 pub mod guard;
+pub mod kill;
 #[macro_use]
 pub mod laws;
 pub mod materials;

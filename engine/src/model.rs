@@ -10,7 +10,7 @@ use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::state::groups::Groups;
 use crate::state::parallel_bonds::ParallelBonds;
-use crate::state::particles::Particles;
+use crate::state::particles::{dof, Particles};
 use crate::walls::{Wall, MAX_WALLS};
 use serde::{Deserialize, Serialize};
 use std::str::FromStr;
@@ -215,7 +215,7 @@ impl Model {
         self.particles.is_empty()
     }
 
-    fn touch(&mut self) {
+    pub(crate) fn touch(&mut self) {
         self.revision += 1;
     }
 
@@ -231,6 +231,14 @@ impl Model {
                 }
             }
             return Ok(k as u32);
+        }
+        if self.materials.len() >= crate::element_values::MAX_MATERIALS {
+            return Err(Error::InvalidScene(format!(
+                "material `{}`: a scene may have at most {} materials (the contact pass reads an M×M table of pair \
+                 constants); reuse one, or bin per-element values into fewer classes",
+                m.name,
+                crate::element_values::MAX_MATERIALS
+            )));
         }
         self.materials.push(m);
         Ok(self.materials.len() as u32 - 1)
@@ -348,7 +356,10 @@ impl Model {
         self.check_ids(ids)?;
         for &i in ids {
             let f = &mut self.particles.fixed[i as usize];
-            *f = if fixed { *f | dofs } else { *f & !dofs };
+            // A killed element stays blocked in everything: freeing it would let it drift.
+            if *f & dof::KILLED == 0 {
+                *f = if fixed { *f | dofs } else { *f & !dofs };
+            }
         }
         Ok(())
     }

@@ -7,6 +7,7 @@ use crate::physics::contact_law::{normal_energy, shear_energy, Hertz, Linear, No
 use crate::physics::parallel_bond;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
+use crate::state::particles::dof;
 use crate::walls::WallShape;
 use serde::{Deserialize, Serialize};
 
@@ -93,7 +94,8 @@ fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -
         for (w, wall) in m.walls.iter().enumerate() {
             let (_, gap) = wall.normal_and_distance(&p.pos[i]);
             let overlap = p.radius[i] - gap;
-            if overlap > 0.0 {
+            // A killed element holds no wall contact (kill.rs).
+            if overlap > 0.0 && p.fixed[i] & dof::KILLED == 0 {
                 let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
                 e.normal_elastic += N::energy(pp, p.radius[i], overlap);
                 let st = &m.wall_contacts[i * m.walls.len() + w];
@@ -177,7 +179,8 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
             }
         }
     }
-    let n = p.len().max(1) as f64;
+    // Killed elements are out of the model (kill.rs): not counted.
+    let n = (p.len() - m.killed_count()).max(1) as f64;
     s.coordination = 2.0 * s.contacts as f64 / n;
     s.mean_normal_force = if touching > 0 { f_sum / touching as f64 } else { 0.0 };
     let g = m.settings.gravity;
@@ -244,7 +247,8 @@ impl Region {
 /// volumes, [`crate::geometry::sphere_box`]), not whole or not at all by their centres.
 pub fn porosity(m: &Model, region: &Region) -> f64 {
     let p = &m.particles;
-    let solid: f64 = (0..p.len()).map(|i| region.shared_volume(p.pos[i], p.radius[i])).sum();
+    let solid: f64 =
+        (0..p.len()).filter(|&i| !m.is_killed(i)).map(|i| region.shared_volume(p.pos[i], p.radius[i])).sum();
     let v = region.volume();
     if v > 0.0 {
         1.0 - solid / v
@@ -285,7 +289,9 @@ pub fn coordination_without_rattlers(m: &Model) -> Coordination {
             walls + pairs
         })
         .collect();
-    let mut rattler = vec![false; n];
+    // Killed elements (kill.rs) are neither counted nor rattlers: they are out of the model.
+    let mut rattler: Vec<bool> = (0..n).map(|i| m.is_killed(i)).collect();
+    let killed = rattler.iter().filter(|k| **k).count();
     let mut queue: Vec<usize> = (0..n).filter(|&i| count[i] < 2).collect();
     while let Some(i) = queue.pop() {
         if rattler[i] {
@@ -311,7 +317,7 @@ pub fn coordination_without_rattlers(m: &Model) -> Coordination {
         .sum();
     Coordination {
         coordination: if counted > 0 { contacts as f64 / counted as f64 } else { 0.0 },
-        rattlers: n - counted,
+        rattlers: n - killed - counted,
         counted,
     }
 }
@@ -329,7 +335,7 @@ pub fn wall_stress(m: &Model, w: usize) -> f64 {
     let p = &m.particles;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for i in 0..p.len() {
-        if wall.normal_and_distance(&p.pos[i]).1 < p.radius[i] {
+        if wall.normal_and_distance(&p.pos[i]).1 < p.radius[i] && !m.is_killed(i) {
             lo = lo.min(p.pos[i].z - p.radius[i]);
             hi = hi.max(p.pos[i].z + p.radius[i]);
         }

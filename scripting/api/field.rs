@@ -366,6 +366,10 @@ pub fn register(engine: &mut Engine) {
         .register_fn("min", |f: &mut Field| f.min())
         .register_fn("is_finite", |f: &mut Field| f.is_finite())
         .register_fn("abs", |f: &mut Field| f.unary("abs", f64::abs, |_| unreachable_message()))
+        // Binning (per-element material values take at most 256 classes): round to the nearest
+        // integer, half away from zero, or down.
+        .register_fn("round", |f: &mut Field| f.unary("round", f64::round, |_| unreachable_message()))
+        .register_fn("floor", |f: &mut Field| f.unary("floor", f64::floor, |_| unreachable_message()))
         .register_fn("sqrt", |f: &mut Field| {
             f.unary("sqrt", f64::sqrt, |x| {
                 format!(

@@ -123,7 +123,10 @@ fn picture(d: &ModelHandle, values: Vec<f64>, label: String, slice: Option<f64>)
     let p = &data.sim.model.particles;
     let n = p.len().max(1) as f64;
     let y_mid = p.pos.iter().map(|x| x.y).sum::<f64>() / n;
-    let keep: Vec<usize> = (0..p.len()).filter(|&i| slice.is_none_or(|w| (p.pos[i].y - y_mid).abs() <= w)).collect();
+    // Killed elements (d.kill) are out of the model: not drawn.
+    let m = &data.sim.model;
+    let keep: Vec<usize> =
+        (0..p.len()).filter(|&i| !m.is_killed(i) && slice.is_none_or(|w| (p.pos[i].y - y_mid).abs() <= w)).collect();
     let title = match slice {
         Some(w) => format!("{} — {} (slice |y − ȳ| ≤ {:.2e} m)", data.name, label, w),
         None => format!("{} — {}", data.name, label),

@@ -2,10 +2,13 @@
 //! skin, found by its larger particle.
 
 use crate::physics::Vec3;
+use crate::state::particles::dof;
 use rayon::prelude::*;
 
-/// All pairs (i < j) closer than r_i + r_j + skin.
-pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u32)> {
+/// All pairs (i < j) closer than r_i + r_j + skin, neither of them killed (`fixed` has
+/// [`dof::KILLED`]: a killed element is in no row).
+pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) -> Vec<(u32, u32)> {
+    let killed = |i: usize| fixed[i] & dof::KILLED != 0;
     let n = pos.len();
     let (mut lo, mut hi) = (pos[0], pos[0]);
     for x in pos {
@@ -54,6 +57,9 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u
         .with_min_len(256)
         .map(|i| {
             let mut out = Vec::new();
+            if killed(i) {
+                return out;
+            }
             let (xi, ri) = (pos[i], radius[i]);
             let reach = 2.0 * ri + skin;
             let k = (reach / h).ceil() as isize;
@@ -70,7 +76,7 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], skin: f64) -> Vec<(u32, u
                             let j = j as usize;
                             let rj = radius[j];
                             // The larger particle (ties: the lower id) owns the pair.
-                            if rj > ri || (rj == ri && j <= i) {
+                            if rj > ri || (rj == ri && j <= i) || killed(j) {
                                 continue;
                             }
                             let cut = ri + rj + skin;

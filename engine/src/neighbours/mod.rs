@@ -22,6 +22,7 @@ use crate::model::Model;
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
+use crate::state::particles::dof;
 use cell_list::find_pairs;
 use rayon::prelude::*;
 
@@ -33,7 +34,7 @@ pub fn rebuild(m: &mut Model) {
         m.contacts.skin = m.settings.skin_ratio * m.mean_radius();
     }
     let skin = m.contacts.skin;
-    let mut pairs = if n == 0 { Vec::new() } else { find_pairs(&p.pos, &p.radius, skin) };
+    let mut pairs = if n == 0 { Vec::new() } else { find_pairs(&p.pos, &p.radius, &p.fixed, skin) };
     // Keep bonded pairs whatever their distance.
     let old = &m.contacts;
     for i in 0..old.row_start.len().saturating_sub(1) {
@@ -128,6 +129,10 @@ pub fn rebuild_wall_mask(m: &mut Model) {
     let states = &m.wall_contacts;
     let mask_of = |i: usize| -> u8 {
         let mut bits = 0u8;
+        // A killed element touches no wall (its states were cleared when it was killed).
+        if p.fixed[i] & dof::KILLED != 0 {
+            return bits;
+        }
         for (w, wall) in walls.iter().enumerate() {
             let (_, gap) = wall.normal_and_distance(&p.pos[i]);
             // Keep a wall whose state is set even when far: the next wall pass must see

@@ -18,6 +18,10 @@ pub mod dof {
     pub const RY: u8 = 16;
     pub const RZ: u8 = 32;
     pub const ROTATION: u8 = RX | RY | RZ;
+    /// Killed (MatDEM `killElement`, `Model::kill`): every other bit set too, out of the
+    /// neighbour rows and the wall contacts, left out of statistics and pictures. Bit 6, so the
+    /// GPU's `kind` lane carries it at bit 30 beside the other fixities.
+    pub const KILLED: u8 = 64;
 }
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]

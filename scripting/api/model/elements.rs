@@ -1,4 +1,5 @@
-//! Elements in and out (MatDEM's step 2, "cut and assign"): delete (`delElement`), add from
+//! Elements in and out (MatDEM's step 2, "cut and assign"): delete (`delElement`), kill during
+//! a run keeping every id (`killElement`, engine/src/kill.rs), add from
 //! a table (`addElement`), keep only some groups (`makeModelByGroups`), move or turn a group
 //! (`moveGroup`, `rotateGroup`), freeze a group into a wall (`defineWallElement`).
 //!
@@ -21,6 +22,20 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let ids = resolve_ids(&m, &sel)?;
             m.remove_particles(&ids).map_err(raise)?;
             Ok(ids.len() as INT)
+        })
+        .register_fn("kill", |d: &mut ModelHandle, sel: Dynamic| -> RhaiResult<Map> {
+            let mut m = d.model();
+            let ids = resolve_ids(&m, &sel)?;
+            let r = m.kill(&ids).map_err(raise)?;
+            let mut out = Map::new();
+            out.insert("killed".into(), (r.killed as INT).into());
+            out.insert("bonds_broken".into(), (r.bonds_broken as INT).into());
+            out.insert("energy".into(), r.energy.into());
+            Ok(out)
+        })
+        .register_get("killed", |d: &mut ModelHandle| {
+            let m = d.model();
+            Mask(Rc::new((0..m.len()).map(|i| m.is_killed(i)).collect()))
         })
         .register_fn("keep_groups", |d: &mut ModelHandle, names: Array| -> RhaiResult<INT> {
             let mut m = d.model();

@@ -53,6 +53,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let mut m = d.model();
             let ids = resolve_ids(&m, &sel)?;
             let v = vec3(&Dynamic::from_array(v), "velocity")?;
+            // A killed element stays at rest (its blocked degrees of freedom would keep a velocity).
+            if let Some(&i) = ids.iter().find(|&&i| m.is_killed(i as usize)) {
+                return Err(err(format!(
+                    "set_velocity: particle {i} was killed (d.kill) and stays at rest; leave the killed elements out \
+                     of the selection; nothing was changed"
+                )));
+            }
             for i in ids {
                 m.particles.vel[i as usize] = v;
             }

@@ -1,5 +1,6 @@
 //! Whole-array lanes of the model (MatDEM `d.mo.aX`): positions, radii, velocities, angular
-//! velocities, forces, displacements, masses. Reads are observations (journaled for resume);
+//! velocities, forces, displacements, masses, and the micro values kn ks xb fs0 mu_p (written
+//! by copy-on-write of the elements' materials, `matdem_engine::element_values`). Reads are observations (journaled for resume);
 //! writes (`d.x = field`, `d.set("vx", ids, value)`) are actions a resumed run repeats.
 //!
 //! A write checks every value before it changes anything, so a refused write leaves the
@@ -8,6 +9,7 @@
 //! no sync of its own.
 
 use super::*;
+use matdem_engine::element_values::ElementValue;
 
 fn lane(d: &ModelHandle, f: impl Fn(&Model, usize) -> f64) -> Field {
     let m = d.model();
@@ -37,6 +39,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
     lane_get!("displacement", |m, i| (m.particles.pos[i] - m.particles.origin[i]).norm());
     lane_get!("mass", |m, i| m.particles.mass[i]);
     lane_get!("material", |m, i| m.particles.material[i] as f64);
+    // Per-element micro values (MatDEM d.mo.aKN …), from each element's material.
+    for which in ElementValue::ALL {
+        let (h, name) = (host.clone(), which.name());
+        engine.register_get(name, move |d: &mut ModelHandle| -> RhaiResult<Dynamic> {
+            h.observe(name, || Ok(Dynamic::from(Field::new(d.model().element_values(which)))))
+        });
+    }
     for (k, name) in ["wx", "wy", "wz"].into_iter().enumerate() {
         let h = host.clone();
         engine.register_get(name, move |d: &mut ModelHandle| -> RhaiResult<Dynamic> {
@@ -76,10 +85,12 @@ enum Lane {
     AngVel(usize),
     /// Radius (m); mass and inertia follow.
     Radius,
+    /// A micro value (kn ks xb fs0 mu_p), by copy-on-write of the elements' materials.
+    Micro(ElementValue),
 }
 
 impl Lane {
-    const ALL: [Lane; 10] = [
+    const ALL: [Lane; 15] = [
         Lane::Pos(0),
         Lane::Pos(1),
         Lane::Pos(2),
@@ -90,6 +101,11 @@ impl Lane {
         Lane::AngVel(1),
         Lane::AngVel(2),
         Lane::Radius,
+        Lane::Micro(ElementValue::Kn),
+        Lane::Micro(ElementValue::Ks),
+        Lane::Micro(ElementValue::Xb),
+        Lane::Micro(ElementValue::Fs0),
+        Lane::Micro(ElementValue::MuP),
     ];
 
     fn name(self) -> &'static str {
@@ -99,6 +115,7 @@ impl Lane {
             Lane::Vel(k) => XYZ[1][k],
             Lane::AngVel(k) => XYZ[2][k],
             Lane::Radius => "r",
+            Lane::Micro(v) => v.name(),
         }
     }
 
@@ -155,15 +172,38 @@ fn write_lane(m: &mut Model, lane: Lane, ids: Option<Vec<u32>>, value: &Dynamic,
             return Err(err(format!("{call}: {}", rotation_off(lane.name()))));
         }
     }
-    let bad = |v: f64| !v.is_finite() || (lane == Lane::Radius && v <= 0.0);
+    let bad = |v: f64| {
+        !v.is_finite()
+            || match lane {
+                Lane::Radius | Lane::Micro(ElementValue::Kn) => v <= 0.0,
+                Lane::Micro(_) => v < 0.0,
+                _ => false,
+            }
+    };
     if let Some(k) = values.iter().position(|&v| bad(v)) {
-        let what = if lane == Lane::Radius { "a finite number > 0 m" } else { "a finite number" };
+        let what = match lane {
+            Lane::Radius => "a finite number > 0 m",
+            Lane::Micro(ElementValue::Kn) => "a finite number > 0 N/m",
+            Lane::Micro(_) => "a finite number ≥ 0",
+            _ => "a finite number",
+        };
         return Err(err(format!(
             "{call}: particle {} (value {k}) would get {} = {}; each value must be {what}; nothing was changed",
             ids[k],
             lane.name(),
             values[k]
         )));
+    }
+    if let Lane::Vel(_) | Lane::AngVel(_) = lane {
+        // A killed element stays at rest: a velocity would move it (its blocked degrees of
+        // freedom keep the velocity they have).
+        if let Some(k) = ids.iter().position(|&i| m.is_killed(i as usize)) {
+            return Err(err(format!(
+                "{call}: particle {} (value {k}) was killed (d.kill) and stays at rest; leave the killed elements \
+                 out of the selection (& !d.killed); nothing was changed",
+                ids[k]
+            )));
+        }
     }
     let p = &mut m.particles;
     match lane {
@@ -185,6 +225,9 @@ fn write_lane(m: &mut Model, lane: Lane, ids: Option<Vec<u32>>, value: &Dynamic,
             }
         }
         Lane::Radius => m.set_radii(&ids, &values).map_err(raise)?,
+        Lane::Micro(which) => {
+            m.set_element_values(which, &ids, &values).map_err(|e| err(format!("{call}: {e}")))?;
+        }
     }
     Ok(())
 }

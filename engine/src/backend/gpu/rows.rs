@@ -184,6 +184,7 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels
                 &s.uniform,
                 &s.dashpot,
                 &s.rolling,
+                &d.kind,
             ]
         })
     };
