@@ -10,6 +10,7 @@
 //! `physics/moisture.rs`, the passes in the backends (`moisture.rs` in each).
 
 use crate::diffusion::{self, Exchange};
+use crate::element_values::base_name;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::physics::moisture::{evaporation_conductance, pair_moisture_conductance, Table};
@@ -184,7 +185,9 @@ impl Model {
     /// Sets element `i`'s diffusivity from its material.
     pub(crate) fn init_moisture(&mut self, i: usize) {
         let name = &self.materials[self.particles.material[i] as usize].name;
-        let a = self.settings.moisture.materials.get(name).copied().unwrap_or(0.0);
+        // A clone made by a per-element write (`rock~3`) has its base material's diffusivity.
+        let known = &self.settings.moisture.materials;
+        let a = known.get(name).or_else(|| known.get(base_name(name))).copied().unwrap_or(0.0);
         if let Some(d) = self.particles.moisture.diffusivity.get_mut(i) {
             *d = a;
         }
@@ -206,7 +209,8 @@ impl Model {
         self.settings.moisture.materials.insert(material.to_string(), diffusivity);
         self.fit_moisture();
         for i in 0..self.len() {
-            if self.particles.material[i] == k {
+            let mi = self.particles.material[i];
+            if mi == k || base_name(&self.materials[mi as usize].name) == material {
                 self.init_moisture(i);
             }
         }

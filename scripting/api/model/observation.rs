@@ -137,9 +137,11 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
         }
     }
     let t = &m.particles.thermal.temperature;
-    if m.settings.heat.enabled && t.len() == m.len() && !t.is_empty() {
-        row.push(("mean_temperature".to_string(), t.iter().sum::<f64>() / t.len() as f64));
-        row.push(("max_temperature".to_string(), t.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
+    // Over the elements still in the model (killed ones keep the temperature they had).
+    let alive: Vec<f64> = (0..t.len()).filter(|&i| !m.is_killed(i)).map(|i| t[i]).collect();
+    if m.settings.heat.enabled && t.len() == m.len() && !alive.is_empty() {
+        row.push(("mean_temperature".to_string(), alive.iter().sum::<f64>() / alive.len() as f64));
+        row.push(("max_temperature".to_string(), alive.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
     }
     let w = &m.particles.moisture.water;
     if m.settings.moisture.enabled && w.len() == m.len() && !w.is_empty() {
