@@ -17,7 +17,8 @@
 //! bonds with their forces and moments (after the annex, from format 3: a format-2 file, which
 //! ends at the annex, loads with none) and the fields — heat and water settings, the thermal
 //! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
-//! file loads with heat off and no water). The engine
+//! file loads with heat off and no water), and moisture (its settings and lanes, when a scene
+//! used it) at the end, from format 7 (an older file loads with moisture off). The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
@@ -26,7 +27,9 @@
 
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
+use crate::moisture::MoistureSettings;
 use crate::provenance::Provenance;
+use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
@@ -35,11 +38,11 @@ use serde::{Deserialize, Serialize};
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; files of a version this build does not know
 /// are refused, not misread.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
 /// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water),
 /// 2 to 4 the materials' provenance (their values then have none recorded), 2 to 5 the bonds'
-/// strength shares (every bond whole).
+/// strength shares (every bond whole), 2 to 6 moisture (off).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -91,6 +94,20 @@ struct PayloadOut<'a> {
     fields: FieldsOut<'a>,
     provenance: Vec<&'a Provenance>,
     weakened: Vec<(u32, u16)>,
+    moisture: Option<MoistureOut<'a>>,
+}
+
+/// Moisture's settings and lanes (format 7), `None` when the scene never used it.
+#[derive(Serialize)]
+struct MoistureOut<'a> {
+    settings: &'a MoistureSettings,
+    lanes: &'a MoistureLanes,
+}
+
+#[derive(Deserialize)]
+struct MoistureIn {
+    settings: MoistureSettings,
+    lanes: MoistureLanes,
 }
 
 #[derive(Deserialize)]
@@ -105,6 +122,20 @@ struct PayloadIn {
     provenance: Vec<Provenance>,
     /// Format 6: the weakened bonds (joints) as (row entry, `PairState::weakened`), the rest
     /// whole. Kept out of the pair state's own encoding so formats 2 to 5 still read.
+    weakened: Vec<(u32, u16)>,
+    /// Format 7: moisture, when the scene used it.
+    moisture: Option<MoistureIn>,
+}
+
+/// Format 6: the payload ends at the bond shares.
+#[derive(Deserialize)]
+struct PayloadInV6 {
+    writer: String,
+    model: Model,
+    annex: Vec<u8>,
+    parallel_bonds: ParallelBonds,
+    fields: Fields,
+    provenance: Vec<Provenance>,
     weakened: Vec<(u32, u16)>,
 }
 
@@ -173,6 +204,8 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
         .filter(|(_, s)| s.bonded && s.weakened != 0)
         .map(|(e, s)| (e as u32, s.weakened))
         .collect();
+    let used = model.settings.moisture != MoistureSettings::default() || !model.particles.moisture.water.is_empty();
+    let moisture = used.then_some(MoistureOut { settings: &model.settings.moisture, lanes: &model.particles.moisture });
     let out = PayloadOut {
         writer: WRITER,
         model,
@@ -181,6 +214,7 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
         fields,
         provenance,
         weakened,
+        moisture,
     };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
@@ -240,6 +274,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 fields: Fields::default(),
                 provenance: Vec::new(),
                 weakened: Vec::new(),
+                moisture: None,
             })
         } else if version == 3 {
             let p: PayloadInV3 = postcard::from_bytes(payload)?;
@@ -251,6 +286,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 fields: Fields::default(),
                 provenance: Vec::new(),
                 weakened: Vec::new(),
+                moisture: None,
             })
         } else if version == 4 {
             let p: PayloadInV4 = postcard::from_bytes(payload)?;
@@ -262,6 +298,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 fields: p.fields,
                 provenance: Vec::new(),
                 weakened: Vec::new(),
+                moisture: None,
             })
         } else if version == 5 {
             let p: PayloadInV5 = postcard::from_bytes(payload)?;
@@ -273,6 +310,19 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
                 fields: p.fields,
                 provenance: p.provenance,
                 weakened: Vec::new(),
+                moisture: None,
+            })
+        } else if version == 6 {
+            let p: PayloadInV6 = postcard::from_bytes(payload)?;
+            Ok(PayloadIn {
+                writer: p.writer,
+                model: p.model,
+                annex: p.annex,
+                parallel_bonds: p.parallel_bonds,
+                fields: p.fields,
+                provenance: p.provenance,
+                weakened: p.weakened,
+                moisture: None,
             })
         } else {
             postcard::from_bytes(payload)
@@ -288,6 +338,10 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.settings.heat = p.fields.heat;
     p.model.settings.water = p.fields.water;
     p.model.particles.thermal = p.fields.thermal;
+    if let Some(w) = p.moisture {
+        p.model.settings.moisture = w.settings;
+        p.model.particles.moisture = w.lanes;
+    }
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
         m.provenance = prov;
     }
@@ -320,6 +374,9 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     }
     if !p.thermal.consistent(n) {
         return Err("thermal lanes do not match the particles".into());
+    }
+    if !p.moisture.consistent(n) {
+        return Err("moisture lanes do not match the particles".into());
     }
     if let Some(rot) = &p.rotation {
         if rot.ang_vel.len() != n || rot.torque.len() != n {

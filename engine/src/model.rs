@@ -100,7 +100,7 @@ pub struct Settings {
     #[serde(skip)]
     pub water: crate::fields::WaterTable,
     /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
-    /// stage; off by default). Not saved in checkpoints yet: a loaded model has moisture off.
+    /// stage; off by default). Saved at the end of a checkpoint (format 7).
     #[serde(skip)]
     pub moisture: crate::moisture::MoistureSettings,
     /// Rolling resistance (the `rolling_resistance` stage; off by default). Not yet carried by

@@ -254,12 +254,17 @@ fn materials_keep_their_provenance_through_a_checkpoint() {
 // whole bonds; made from a format-6 file of a model without joints, whose payload ends with the
 // 1 byte of an empty list of shares.
 #[test]
-fn a_format_5_checkpoint_still_loads_with_whole_bonds() {
+fn format_5_and_6_checkpoints_still_load_with_whole_bonds_and_no_moisture() {
     let model = loaded_sample().model;
-    let v6 = encode(&model, b"annex");
-    let payload = &v6[20..v6.len() - 4];
-    assert_eq!(payload[payload.len() - 1], 0, "no weakened bonds");
-    let payload = &payload[..payload.len() - 1];
+    let v7 = encode(&model, b"annex");
+    let payload = &v7[20..v7.len() - 4];
+    // The tail: no weakened bonds (format 6), no moisture (format 7).
+    assert_eq!(&payload[payload.len() - 2..], [0, 0], "no weakened bonds, no moisture");
+    let v6 = payload[..payload.len() - 1].to_vec();
+    let loaded = decode(&framed(6, &v6)).unwrap();
+    assert_eq!(loaded.model.particles.pos, model.particles.pos);
+    assert!(!loaded.model.settings.moisture.enabled && loaded.model.particles.moisture.water.is_empty());
+    let payload = &payload[..payload.len() - 2];
     let mut v5 = Vec::new();
     v5.extend_from_slice(b"MDEMCKPT");
     v5.extend_from_slice(&5u32.to_le_bytes());

@@ -289,6 +289,38 @@ fn moisture_lanes_exist_only_when_the_scene_enables_it() {
     assert!(m.particles.moisture.consistent(5));
 }
 
+// A drying chain saved mid-way and loaded continues bit for bit (format 7 carries the
+// moisture settings, tables and lanes).
+#[test]
+fn a_drying_model_continues_bitwise_after_a_checkpoint() {
+    use matdem_engine::checkpoint::{decode, encode};
+    let scene = || {
+        let (mut m, _) = chain(1.0, 0.05);
+        m.materials[0].xb = 1.0;
+        m.materials[0].fs0 = 1e3;
+        m.set_water(&[0.3; N + 1]).unwrap();
+        m.groups.set("top", vec![N as u32]);
+        m.set_evaporation("top", 50.0, 0.02).unwrap();
+        m.set_radius_table(Some(vec![(0.0, 0.97), (0.3, 1.0)])).unwrap();
+        m.set_strength_table(Some(vec![(0.0, 1.0), (0.3, 0.5)])).unwrap();
+        m.settings.moisture.every = 2;
+        m
+    };
+    let mut straight = Simulation::new(scene());
+    straight.run(300, &RunControl::default(), &mut |_| {}).unwrap();
+    let bytes = encode(&straight.model, b"");
+    straight.run(300, &RunControl::default(), &mut |_| {}).unwrap();
+    let loaded = decode(&bytes).unwrap().model;
+    assert!(loaded.settings.moisture.enabled && loaded.settings.moisture.radius_table.is_some());
+    let mut resumed = Simulation::new(loaded);
+    resumed.run(300, &RunControl::default(), &mut |_| {}).unwrap();
+    let (a, b) = (&straight.model.particles, &resumed.model.particles);
+    assert!(a.moisture.water[N] < 0.3 && a.radius[N] < R);
+    assert_eq!(a.moisture, b.moisture);
+    assert_eq!(a.radius, b.radius);
+    assert!(encode(&straight.model, b"") == encode(&resumed.model, b""));
+}
+
 // Expansion and shrinkage both set the radius: refused together, with what to remove.
 #[test]
 fn expansion_and_shrinkage_together_are_refused() {

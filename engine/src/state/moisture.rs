@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::diffusion::{FIXED, FREE, SEALED};
 
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MoistureLanes {
     /// Gravimetric water content ω (kg of water per kg of element).
     pub water: Vec<f64>,
