@@ -12,6 +12,7 @@ pub const SCRIPTS: &[(&str, &str)] = &[
     ("std/loading", include_str!("../stdlib_scripts/loading.rhai")),
     ("std/oedometer", include_str!("../stdlib_scripts/oedometer.rhai")),
     ("std/material_tests", include_str!("../stdlib_scripts/material_tests.rhai")),
+    ("std/direct_shear", include_str!("../stdlib_scripts/direct_shear.rhai")),
 ];
 
 /// Compiles the stdlib into modules and registers them as global functions; returns the

@@ -20,6 +20,7 @@ override ROLLING_SPRING: bool = false;
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;
 const WALL_CONE: u32 = 2u;
+const WALL_STRIP: u32 = 3u;
 // The parts of a wall a contact touches (WallPart in walls.rs).
 const PART_WHOLE: u32 = 0u;
 const PART_TIP: u32 = 1u;
@@ -107,23 +108,27 @@ struct Pair {
 
 // A wall (walls.rs): the shape at upload, its motion and the loads of the last step.
 struct Wall {
-    // Plane: a point; cylinder: the axis point, radius in w; cone: the apex, base radius in w.
+    // Plane, strip: a point; cylinder: the axis point, radius in w; cone: the apex, base radius
+    // in w; strip: its axis's x in w.
     point: vec4<f32>,
     // Unit normal into the particles' region (cone: the unit axis from the apex towards the
-    // rod); w = shape (WALL_PLANE, WALL_CYLINDER, WALL_CONE).
+    // rod); w = shape (WALL_PLANE, WALL_CYLINDER, WALL_CONE, WALL_STRIP).
     normal: vec4<f32>,
     // x = 0 fixed, 1 prescribed velocity, 2 servo; y = target stress; z = max speed; w = area.
+    // A strip (never a servo) keeps its ends lo and hi along its axis in y and z.
     motion: vec4<f32>,
-    // Prescribed velocity; w = a cone's length along its axis (radius / tan(half-angle)).
+    // Prescribed velocity; w = a cone's length along its axis (radius / tan(half-angle)), a
+    // strip's axis's y.
     prescribed: vec4<f32>,
-    // Velocity during the last step; w = a cone's rod end along its axis (length + rod).
+    // Velocity during the last step; w = a cone's rod end along its axis (length + rod), a
+    // strip's axis's z.
     velocity: vec4<f32>,
     // Moved since upload (a cylinder's radius change is x).
     moved: vec4<f32>,
     // Force the particles exert on the wall (xyz) and the summed normal force (w).
     load: vec4<f32>,
     // x = summed normal stiffness, y = contacts; a cone's axial load on its face (z) and its
-    // rod (w).
+    // rod (w); any other wall's summed normal dashpot coefficient (z), for the servo's gain.
     load2: vec4<f32>,
 }
 
@@ -138,6 +143,8 @@ struct Contact {
     // 0 none, 1 tension, 2 shear (BreakKind).
     broke: u32,
     stiffness: f32,
+    // Normal dashpot coefficient (N·s/m; 0 unless DASHPOT), for servo gains.
+    damping: f32,
     // Heat of the whole pair this step (J), by cause, as the CPU's ContactResult books it.
     heat_damping: f32,
     heat_friction: f32,
@@ -232,7 +239,8 @@ fn contact(n: vec3<f32>, overlap: f32, v_rel: vec3<f32>, r_star: f32, m_star: f3
     }
     var fn_total = fn_el;
     if DASHPOT && touching {
-        let f_dash = dashpot_coefficient(p, r_star, m_star, overlap) * vn;
+        out.damping = dashpot_coefficient(p, r_star, m_star, overlap);
+        let f_dash = out.damping * vn;
         fn_total += f_dash;
         // The trapezoid over the step, as on the CPU.
         out.heat_damping = 0.5 * (dashpot_in + f_dash) * vn * dt;
@@ -393,6 +401,9 @@ fn wall_normal_and_gap(w: Wall, o: vec3<f32>, u: vec3<f32>) -> vec4<f32> {
     if u32(w.normal.w) == WALL_CONE {
         return cone_hit(w, o, u).ng;
     }
+    if u32(w.normal.w) == WALL_STRIP {
+        return strip_normal_and_gap(w, o, u);
+    }
     if u32(w.normal.w) == WALL_CYLINDER {
         let rho = vec2<f32>(o.x - w.point.x, o.y - w.point.y) + u.xy;
         let len = length(rho);
@@ -403,6 +414,41 @@ fn wall_normal_and_gap(w: Wall, o: vec3<f32>, u: vec3<f32>) -> vec4<f32> {
     }
     let nrm = w.normal.xyz;
     return vec4<f32>(nrm, dot(o - w.point.xyz, nrm) + dot(u - w.moved.xyz, nrm));
+}
+
+// A plane strip (WallShape::Strip, `strip_profile_distance` in walls.rs): the face of a solid
+// slab behind the plane between lo and hi along the strip's axis; beyond an end a grain touches
+// the end's face, off a corner the corner's edge.
+fn strip_normal_and_gap(w: Wall, o: vec3<f32>, u: vec3<f32>) -> vec4<f32> {
+    let nrm = w.normal.xyz;
+    let axis = vec3<f32>(w.point.w, w.prescribed.w, w.velocity.w);
+    let lo = w.motion.y;
+    let hi = w.motion.z;
+    let d = (o - w.point.xyz) + (u - w.moved.xyz);
+    let s = dot(d, axis);
+    let h = dot(d, nrm);
+    if h <= 0.0 && s >= lo && s <= hi {
+        let to_hi = s - hi;
+        let to_lo = lo - s;
+        if h >= to_hi && h >= to_lo {
+            return vec4<f32>(nrm, h);
+        } else if to_hi >= to_lo {
+            return vec4<f32>(axis, to_hi);
+        }
+        return vec4<f32>(-axis, to_lo);
+    }
+    var ds = 0.0;
+    if s > hi {
+        ds = s - hi;
+    } else if s < lo {
+        ds = s - lo;
+    }
+    let dh = max(h, 0.0);
+    let dist = sqrt(ds * ds + dh * dh);
+    if dist > 0.0 {
+        return vec4<f32>((axis * ds + nrm * dh) / dist, dist);
+    }
+    return vec4<f32>(nrm, 0.0);
 }
 
 // Velocity of a wall's surface.

@@ -53,7 +53,8 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
     // the workgroup's loads on the wall, summed in a fixed tree order.
     for (var w = 0u; w < nw; w++) {
-        // Force on the particle (xyz) and normal load (w); stiffness and contact count.
+        // Force on the particle (xyz) and normal load (w); stiffness, contact count and (cone)
+        // tip and sleeve loads or (other walls) the dashpot coefficient.
         var load = vec4<f32>(0.0);
         var load2 = vec4<f32>(0.0);
         let wall = walls[w];
@@ -94,12 +95,17 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                 }
                 load = vec4<f32>(c.force, max(dot(c.force, inward), 0.0));
                 load2 = vec4<f32>(c.stiffness, 1.0, 0.0, 0.0);
-                // A cone's axial load (the reaction on the wall) on its face or its rod.
-                let axial = -dot(c.force, wall.normal.xyz);
-                if hit.part == PART_TIP {
-                    load2.z = axial;
-                } else if hit.part == PART_SLEEVE {
-                    load2.w = axial;
+                if u32(wall.normal.w) == WALL_CONE {
+                    // A cone's axial load (the reaction on the wall) on its face or its rod.
+                    let axial = -dot(c.force, wall.normal.xyz);
+                    if hit.part == PART_TIP {
+                        load2.z = axial;
+                    } else if hit.part == PART_SLEEVE {
+                        load2.w = axial;
+                    }
+                } else {
+                    // Any other wall: the dashpot coefficient, for the servo's gain.
+                    load2.z = c.damping;
                 }
             }
         }

@@ -1,7 +1,7 @@
 // The `walls` stage on the GPU. One workgroup sums the wall-force partials the workgroups of the
 // last step's wall pass left (in a fixed order: deterministic) into each wall's load, then moves
 // each wall by one step: a prescribed velocity, or a servo that closes 20% of the stress error per
-// step with a gain from the contact stiffness (planes and rings; a cone is never servo-controlled).
+// step with a gain from the contacts' stiffness and dashpots (planes and rings; a cone is never servo-controlled).
 // At the first step after an upload the partials hold
 // the model's last loads. CPU twin: Wall::advance in walls.rs.
 
@@ -60,7 +60,9 @@ fn advance_walls(@builtin(local_invocation_index) li: u32) {
         let motion = u32(wall.motion.x);
         let area = wall.motion.w;
         let stress_now = select(0.0, wall.load.w / area, area > 0.0);
-        let stiffness = wall.load2.x;
+        // Σk + Σc/dt: a move of Δx in one step adds Σc·Δx/dt through the dashpots at once
+        // (Wall::servo_stiffness); z holds Σc on planes and rings (a cone is never a servo).
+        let stiffness = wall.load2.x + wall.load2.z / dt;
         let max_speed = wall.motion.z;
         var v = vec3<f32>(0.0);
         if motion == 1u {

@@ -10,6 +10,7 @@ mod checkpoint_cli;
 mod cli;
 mod cpt_cli;
 mod cutting;
+mod direct_shear;
 mod drying_crack_cli;
 mod field_maths;
 mod fields_script;

@@ -139,6 +139,11 @@ fn scale_shape(shape: &mut WallShape, l: f64, at: &impl Fn(&Vec3) -> Vec3) {
             *radius *= l;
             *rod_length *= l;
         }
+        WallShape::Strip { point, lo, hi, .. } => {
+            *point = at(point);
+            *lo *= l;
+            *hi *= l;
+        }
     }
 }
 

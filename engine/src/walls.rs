@@ -1,6 +1,7 @@
 //! Walls as analytic primitives: planes (box sides, platens), the inside of a vertical
-//! cylinder (the oedometer ring) and the outside of a cone continued by a rod (the CPT
-//! penetrometer, docs/cpt.md). A wall moves at a prescribed velocity or is servo-controlled
+//! cylinder (the oedometer ring), the outside of a cone continued by a rod (the CPT
+//! penetrometer, docs/cpt.md) and plane strips (the sides of the direct shear test's
+//! half-boxes, docs/direct-shear.md). A wall moves at a prescribed velocity or is servo-controlled
 //! to a target stress; the force particles exert on it is recorded every step.
 
 use crate::error::{check_positive, Error, Result};
@@ -23,6 +24,13 @@ pub enum WallShape {
     /// face and on the rod are recorded apart ([`Wall::tip_force`], [`Wall::sleeve_force`]).
     /// Added after the other shapes, so checkpoints of older builds still decode.
     Cone { apex: Vec3, axis: Vec3, half_angle: f64, radius: f64, rod_length: f64 },
+    /// A plane limited to a strip: the plane through `point` with unit `normal` (into the
+    /// particles' region), between `lo` and `hi` (m) along the unit `axis` in the plane,
+    /// measured from `point`, and unlimited across. It is the face of a solid slab behind the
+    /// plane, so a grain beyond an end touches that end's face (the top of a half-box's side
+    /// holds the grains that spill over it, as a real box's wall does) and a grain off a corner
+    /// touches the corner's edge. Added after the cone, so older checkpoints still decode.
+    Strip { point: Vec3, normal: Vec3, axis: Vec3, lo: f64, hi: f64 },
 }
 
 /// Which part of a wall a contact touches: what the cone's tip resistance and sleeve friction
@@ -84,6 +92,40 @@ pub fn cone_profile_distance(s: f64, rho: f64, radius: f64, h: f64, end: f64) ->
     (best.1, best.0, best.2)
 }
 
+/// Where a point is against a strip's slab (see [`WallShape::Strip`]): `s` along the axis from
+/// the strip's point, `h` its height over the plane (positive on the particles' side). Returns
+/// the unit normal out of the slab at the nearest surface point as (along the axis, along
+/// the plane's normal) and the signed distance (negative inside the slab). The slab is
+/// convex: a point outside is nearest to the face, an end or a corner edge; a point inside
+/// is nearest to the face or end it penetrates least.
+pub fn strip_profile_distance(s: f64, h: f64, lo: f64, hi: f64) -> ([f64; 2], f64) {
+    if h <= 0.0 && s >= lo && s <= hi {
+        let (to_hi, to_lo) = (s - hi, lo - s);
+        return if h >= to_hi && h >= to_lo {
+            ([0.0, 1.0], h)
+        } else if to_hi >= to_lo {
+            ([1.0, 0.0], to_hi)
+        } else {
+            ([-1.0, 0.0], to_lo)
+        };
+    }
+    let ds = if s > hi {
+        s - hi
+    } else if s < lo {
+        s - lo
+    } else {
+        0.0
+    };
+    let dh = h.max(0.0);
+    let dist = ds.hypot(dh);
+    if dist > 0.0 {
+        ([ds / dist, dh / dist], dist)
+    } else {
+        // On an edge itself: the face's normal stands in for the undefined direction.
+        ([0.0, 1.0], 0.0)
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum WallMotion {
     Fixed,
@@ -113,6 +155,11 @@ pub struct Wall {
     /// Contacts and summed normal stiffness during the last step (for servo gains).
     pub contacts: u32,
     pub stiffness: f64,
+    /// Summed normal dashpot coefficient of the wall's contacts during the last step (N·s/m;
+    /// zero without a dashpot): the servo's gain uses Σk + Σc/dt. Recomputed every step, so
+    /// checkpoints do not carry it.
+    #[serde(skip)]
+    pub damping: f64,
     /// Velocity during the last step (m/s).
     pub velocity: Vec3,
     /// Distance moved since the wall was created (m).
@@ -170,6 +217,33 @@ impl Wall {
         Ok(Self::new(name, WallShape::Cone { apex, axis: axis / len, half_angle, radius, rod_length }, area))
     }
 
+    /// A plane strip (see [`WallShape::Strip`]): the plane through `point` with `normal` (into
+    /// the particles' region) between `lo` and `hi` along `axis` (in the plane) from `point`.
+    /// `area` is what its stress is measured over (m²; 0 for none).
+    pub fn strip(name: &str, point: Vec3, normal: Vec3, axis: Vec3, lo: f64, hi: f64, area: f64) -> Result<Self> {
+        let (ln, la) = (normal.norm(), axis.norm());
+        let finite = point.iter().chain(normal.iter()).chain(axis.iter()).all(|v| v.is_finite());
+        if !(finite && ln > 0.0 && la > 0.0) {
+            return Err(Error::InvalidScene(format!(
+                "strip `{name}`: the point, the normal and the axis must be finite, the normal and the axis non-zero"
+            )));
+        }
+        let (normal, axis) = (normal / ln, axis / la);
+        if normal.dot(&axis).abs() > 1e-9 {
+            return Err(Error::InvalidScene(format!(
+                "strip `{name}`: the axis must lie in the plane (perpendicular to the normal), got a cosine of {:.3e}                  between them",
+                normal.dot(&axis)
+            )));
+        }
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(Error::InvalidScene(format!(
+                "strip `{name}`: its ends must be finite with lo < hi along the axis, got lo {lo}, hi {hi}"
+            )));
+        }
+        check_positive("area", area, true)?;
+        Ok(Self::new(name, WallShape::Strip { point, normal, axis, lo, hi }, area))
+    }
+
     /// A cone's tip resistance qc (Pa): the tip force over the cone's base area.
     pub fn qc(&self) -> f64 {
         match &self.shape {
@@ -200,6 +274,7 @@ impl Wall {
             normal_force: 0.0,
             contacts: 0,
             stiffness: 0.0,
+            damping: 0.0,
             velocity: Vec3::zeros(),
             displacement: Vec3::zeros(),
             tip_force: 0.0,
@@ -239,6 +314,11 @@ impl Wall {
                 let (n, gap, part) = cone_profile_distance(s, rho, *radius, h, h + rod_length);
                 (axis * n[0] + e * n[1], gap, part)
             }
+            WallShape::Strip { point, normal, axis, lo, hi } => {
+                let d = x - point;
+                let (n, gap) = strip_profile_distance(d.dot(axis), d.dot(normal), *lo, *hi);
+                (axis * n[0] + normal * n[1], gap, WallPart::Whole)
+            }
             _ => {
                 let (n, gap) = self.plane_or_cylinder(x);
                 (n, gap, WallPart::Whole)
@@ -259,7 +339,9 @@ impl Wall {
                     (Vec3::x(), *radius)
                 }
             }
-            WallShape::Cone { .. } => unreachable!("cones are measured by normal_distance_part"),
+            WallShape::Cone { .. } | WallShape::Strip { .. } => {
+                unreachable!("cones and strips are measured by normal_distance_part")
+            }
         }
     }
 
@@ -274,41 +356,47 @@ impl Wall {
     /// Velocity of the wall surface (m/s).
     pub fn surface_velocity(&self, n: &Vec3) -> Vec3 {
         match &self.shape {
-            WallShape::Plane { .. } | WallShape::Cone { .. } => self.velocity,
+            WallShape::Plane { .. } | WallShape::Cone { .. } | WallShape::Strip { .. } => self.velocity,
             // A growing ring moves its surface outwards, against the inward normal.
             WallShape::Cylinder { .. } => -n * self.velocity.x,
         }
     }
 
+    /// The servo's effective contact stiffness (N/m): moving the wall by Δx in one step changes
+    /// the force of its contacts by Σk·Δx through the springs and by Σc·Δx/dt at once through
+    /// the dashpots, so a gain from Σk alone overshoots wherever Σc/dt is not small beside it.
+    pub fn servo_stiffness(&self, dt: f64) -> f64 {
+        self.stiffness + self.damping / dt
+    }
+
     /// Moves the wall by one step: servo walls first choose their speed from the stress
-    /// error of the last step (gain from the contact stiffness, so the step is stable).
+    /// error of the last step (gain from the contacts' stiffness and dashpots, so the step is
+    /// stable).
     pub fn advance(&mut self, dt: f64) {
+        let k = self.servo_stiffness(dt);
         self.velocity = match (&self.motion, &self.shape) {
             (WallMotion::Fixed, _) => Vec3::zeros(),
             (WallMotion::Velocity(v), _) => *v,
             (WallMotion::Servo { stress, max_speed }, WallShape::Plane { normal, .. }) => {
                 let error_force = (stress - self.stress()) * self.area;
-                let speed = if self.stiffness > 0.0 {
-                    // Close 20% of the force error per step.
-                    0.2 * error_force / (self.stiffness * dt)
-                } else {
-                    *max_speed
-                };
+                // Close 20% of the force error per step.
+                let speed = if k > 0.0 { 0.2 * error_force / (k * dt) } else { *max_speed };
                 normal * speed.clamp(-max_speed, *max_speed)
             }
             (WallMotion::Servo { stress, max_speed }, WallShape::Cylinder { .. }) => {
                 let error_force = (self.stress() - stress) * self.area;
-                let speed = if self.stiffness > 0.0 { 0.2 * error_force / (self.stiffness * dt) } else { -max_speed };
+                let speed = if k > 0.0 { 0.2 * error_force / (k * dt) } else { -max_speed };
                 Vec3::new(speed.clamp(-max_speed, *max_speed), 0.0, 0.0)
             }
-            // Hosts refuse a servo on a cone (it is pushed at a prescribed speed).
-            (WallMotion::Servo { .. }, WallShape::Cone { .. }) => Vec3::zeros(),
+            // Hosts refuse a servo on a cone or a strip (they are pushed at a prescribed speed).
+            (WallMotion::Servo { .. }, WallShape::Cone { .. } | WallShape::Strip { .. }) => Vec3::zeros(),
         };
         let d = self.velocity * dt;
         match &mut self.shape {
             WallShape::Plane { point, .. } => *point += d,
             WallShape::Cylinder { radius, .. } => *radius += d.x,
             WallShape::Cone { apex, .. } => *apex += d,
+            WallShape::Strip { point, .. } => *point += d,
         }
         self.displacement += d;
     }

@@ -39,6 +39,10 @@ pub fn walls_stale(c: &Contacts, walls: &[Wall], particles: usize) -> bool {
                 WallShape::Cone { apex, axis, half_angle, radius, rod_length },
                 WallShape::Cone { apex: a0, axis: x0, half_angle: h0, radius: r0, rod_length: l0 },
             ) if (axis, half_angle, radius, rod_length) == (x0, h0, r0, l0) => (apex - a0).norm(),
+            (
+                WallShape::Strip { point, normal, axis, lo, hi },
+                WallShape::Strip { point: p0, normal: n0, axis: x0, lo: l0, hi: h0 },
+            ) if (normal, axis, lo, hi) == (n0, x0, l0, h0) => (point - p0).norm(),
             _ => f64::INFINITY,
         };
         // A NaN move (a wall sent to infinity) counts as stale too.

@@ -110,6 +110,10 @@ pub struct ContactResult {
     pub heat_breakage: f64,
     /// Normal stiffness at this overlap (N/m), for servo gains and time-step checks.
     pub stiffness: f64,
+    /// Normal dashpot coefficient at this overlap (N·s/m); zero without a dashpot. A servo
+    /// wall's gain needs it beside the stiffness: moving the wall by Δx in one step adds
+    /// c·Δx/dt to the force at once.
+    pub damping: f64,
 }
 
 /// The compressive normal law of a scene.
@@ -290,6 +294,7 @@ pub fn contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     let mut fn_total = fn_el;
     if DASHPOT && touching {
         let c = N::dashpot(p, g.r_star, g.m_star, compressed);
+        out.damping = c;
         let f_dash = c * vn;
         fn_total += f_dash;
         // The dashpot force works over the step at the mean of its last and present values

@@ -1,5 +1,6 @@
-//! Walls (MatDEM boundaries): motion, placement, friction, servo-controlled platens, and the
-//! CPT cone (`d.add_cone`, docs/cpt.md).
+//! Walls (MatDEM boundaries): motion, placement, friction, servo-controlled platens, the CPT
+//! cone (`d.add_cone`, docs/cpt.md) and plane strips, the sides of the direct shear test's
+//! half-boxes (`d.add_strip`, `d.limit_boundary`, docs/direct-shear.md).
 
 use super::*;
 
@@ -15,7 +16,9 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let mut m = d.model();
             let w = m.wall_mut(name).map_err(raise)?;
             match &mut w.shape {
-                matdem_engine::WallShape::Plane { point, .. } => *point = to,
+                matdem_engine::WallShape::Plane { point, .. } | matdem_engine::WallShape::Strip { point, .. } => {
+                    *point = to
+                }
                 matdem_engine::WallShape::Cone { apex, .. } => *apex = to,
                 matdem_engine::WallShape::Cylinder { .. } => {
                     return Err(err(format!("place_boundary: `{name}` is a ring; only planes can be placed")))
@@ -53,7 +56,9 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 map.insert("displacement".into(), v3(w.displacement).into());
                 map.insert("contacts".into(), (w.contacts as INT).into());
                 let pos = match &w.shape {
-                    matdem_engine::WallShape::Plane { point, .. } => v3(*point),
+                    matdem_engine::WallShape::Plane { point, .. } | matdem_engine::WallShape::Strip { point, .. } => {
+                        v3(*point)
+                    }
                     matdem_engine::WallShape::Cylinder { radius, .. } => vec![Dynamic::from_float(*radius)],
                     matdem_engine::WallShape::Cone { apex, .. } => v3(*apex),
                 };
@@ -75,6 +80,34 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let wall = cone_from_map(&p)?;
             Ok(d.model().add_wall(wall).map_err(raise)? as INT)
         })
+        // d.add_strip(#{ name, point, normal, axis, from, to, area }): a plane limited to a strip
+        // (a half-box's side): through `point` with `normal` into the particles' region,
+        // between `from` and `to` (m) along `axis` (in the plane) measured from `point`.
+        .register_fn("add_strip", |d: &mut ModelHandle, p: Map| -> RhaiResult<INT> {
+            let wall = strip_from_map(&p)?;
+            Ok(d.model().add_wall(wall).map_err(raise)? as INT)
+        })
+        // d.limit_boundary(name, axis, from, to): a plane wall becomes a strip between `from`
+        // and `to` along `axis`, measured from its point; it keeps its name, motion and friction.
+        .register_fn(
+            "limit_boundary",
+            |d: &mut ModelHandle, name: &str, axis: Array, from: FLOAT, to: FLOAT| -> RhaiResult<()> {
+                let axis = vec3(&Dynamic::from_array(axis), "strip axis")?;
+                let mut m = d.model();
+                let w = m.wall_mut(name).map_err(raise)?;
+                let matdem_engine::WallShape::Plane { point, normal } = w.shape else {
+                    return Err(err(format!(
+                        "limit_boundary: `{name}` is not a plane; only a plane can be limited to a strip"
+                    )));
+                };
+                let strip = matdem_engine::Wall::strip(name, point, normal, axis, from, to, w.area).map_err(raise)?;
+                w.shape = strip.shape;
+                if let WallMotion::Servo { .. } = w.motion {
+                    w.motion = WallMotion::Fixed;
+                }
+                Ok(())
+            },
+        )
         .register_get("boundaries", |d: &mut ModelHandle| {
             d.model().walls.iter().map(|w| Dynamic::from(w.name.clone())).collect::<Array>()
         });
@@ -85,10 +118,19 @@ fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -
         return Err(err(format!("platen stress must be a finite number ≥ 0 Pa, got {stress}")));
     }
     let mut m = d.model();
-    if let matdem_engine::WallShape::Cone { .. } = m.walls[m.wall_index(name).map_err(raise)?].shape {
-        return Err(err(format!(
-            "set_platen_stress: `{name}` is a cone; a cone is pushed at a speed: d.move_boundary(\"{name}\", [vx, vy, vz])"
-        )));
+    match m.walls[m.wall_index(name).map_err(raise)?].shape {
+        matdem_engine::WallShape::Cone { .. } => {
+            return Err(err(format!(
+                "set_platen_stress: `{name}` is a cone; a cone is pushed at a speed: d.move_boundary(\"{name}\", [vx, vy, vz])"
+            )))
+        }
+        matdem_engine::WallShape::Strip { .. } => {
+            return Err(err(format!(
+                "set_platen_stress: `{name}` is a strip (a half-box's side); a strip is moved at a speed: \
+                 d.move_boundary(\"{name}\", [vx, vy, vz]); servo-control a plane platen instead"
+            )))
+        }
+        _ => {}
     }
     let dt = m.clock.dt;
     if dt <= 0.0 {
@@ -134,4 +176,35 @@ fn cone_from_map(map: &Map) -> RhaiResult<matdem_engine::Wall> {
     let radius = num("radius", need("radius")?)?;
     let rod_length = num("rod_length", need("rod_length")?)?;
     matdem_engine::Wall::cone(&name, apex, axis, (0.5 * angle).to_radians(), radius, rod_length).map_err(raise)
+}
+
+/// The keys of `d.add_strip`'s map.
+const STRIP_KEYS: [&str; 7] = ["name", "point", "normal", "axis", "from", "to", "area"];
+
+/// `d.add_strip`'s map as a wall, refusing unknown or missing keys and values of the wrong
+/// type; the engine checks the geometry.
+fn strip_from_map(map: &Map) -> RhaiResult<matdem_engine::Wall> {
+    let what = "add_strip";
+    for k in map.keys() {
+        if !STRIP_KEYS.contains(&k.as_str()) {
+            let e = matdem_engine::Error::unknown("strip key", k.as_str(), &STRIP_KEYS);
+            return Err(err(format!("{what}: {e}")));
+        }
+    }
+    let need = |key: &str| map.get(key).ok_or_else(|| err(format!("{what}: missing `{key}`")));
+    let num = |key: &str, v: &Dynamic| {
+        number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
+    };
+    let name =
+        need("name")?.clone().into_string().map_err(|t| err(format!("{what}: `name` must be a string, got {t}")))?;
+    let point = vec3(need("point")?, "strip point")?;
+    let normal = vec3(need("normal")?, "strip normal")?;
+    let axis = vec3(need("axis")?, "strip axis")?;
+    let from = num("from", need("from")?)?;
+    let to = num("to", need("to")?)?;
+    let area = match map.get("area") {
+        Some(v) => num("area", v)?,
+        None => 0.0,
+    };
+    matdem_engine::Wall::strip(&name, point, normal, axis, from, to, area).map_err(raise)
 }

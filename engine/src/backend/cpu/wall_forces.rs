@@ -20,6 +20,8 @@ pub struct WallLoads {
     pub force: [Vec3; MAX_WALLS],
     pub normal: [f64; MAX_WALLS],
     pub stiffness: [f64; MAX_WALLS],
+    /// Summed normal dashpot coefficients (zero without a dashpot), for servo gains.
+    pub damping: [f64; MAX_WALLS],
     pub contacts: [u32; MAX_WALLS],
     /// A cone's axial load on its face and on its rod (zero for other shapes).
     pub tip: [f64; MAX_WALLS],
@@ -32,6 +34,7 @@ impl Reduce for WallLoads {
             self.force[w] += o.force[w];
             self.normal[w] += o.normal[w];
             self.stiffness[w] += o.stiffness[w];
+            self.damping[w] += o.damping[w];
             self.contacts[w] += o.contacts[w];
             self.tip[w] += o.tip[w];
             self.sleeve[w] += o.sleeve[w];
@@ -56,6 +59,7 @@ pub(super) fn store_loads(walls: &mut [Wall], loads: &WallLoads) {
         wall.force = -loads.force[w];
         wall.normal_force = loads.normal[w];
         wall.stiffness = loads.stiffness[w];
+        wall.damping = loads.damping[w];
         wall.contacts = loads.contacts[w];
         wall.tip_force = loads.tip[w];
         wall.sleeve_force = loads.sleeve[w];
@@ -228,6 +232,7 @@ fn wall_contact<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     loads.force[w] += r.force;
     loads.normal[w] += r.force.dot(&inward).max(0.0);
     loads.stiffness[w] += r.stiffness;
+    loads.damping[w] += r.damping;
     loads.contacts[w] += 1;
     // A cone's loads by part: the axial component of the force on the wall (the reaction).
     if let (WallPart::Tip | WallPart::Sleeve, Some(axis)) = (part, wall.axis()) {

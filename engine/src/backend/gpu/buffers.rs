@@ -166,12 +166,20 @@ impl HostLanes {
                         let h = radius / half_angle.tan();
                         (v4(apex, *radius as f32), v4(axis, 2.0), h as f32, (h + rod_length) as f32)
                     }
+                    // A strip's axis rides in the w lanes of point, prescribed and velocity.
+                    WallShape::Strip { point, normal, axis, .. } => {
+                        (v4(point, axis.x as f32), v4(normal, 3.0), axis.y as f32, axis.z as f32)
+                    }
                 };
-                let (kind, stress, max_speed, prescribed) = match &w.motion {
+                let (kind, mut stress, mut max_speed, prescribed) = match &w.motion {
                     WallMotion::Fixed => (0.0, 0.0, 0.0, Vec3::zeros()),
                     WallMotion::Velocity(v) => (1.0, 0.0, 0.0, *v),
                     WallMotion::Servo { stress, max_speed } => (2.0, *stress as f32, *max_speed as f32, Vec3::zeros()),
                 };
+                // A strip is never a servo (hosts refuse it): its ends ride in the servo's lanes.
+                if let WallShape::Strip { lo, hi, .. } = &w.shape {
+                    (stress, max_speed) = (*lo as f32, *hi as f32);
+                }
                 WallLane {
                     point,
                     normal,
@@ -180,7 +188,12 @@ impl HostLanes {
                     velocity: v4(&w.velocity, cone_end),
                     moved: [0.0; 4],
                     load: v4(&w.force, w.normal_force as f32),
-                    load2: [w.stiffness as f32, w.contacts as f32, w.tip_force as f32, w.sleeve_force as f32],
+                    load2: match &w.shape {
+                        WallShape::Cone { .. } => {
+                            [w.stiffness as f32, w.contacts as f32, w.tip_force as f32, w.sleeve_force as f32]
+                        }
+                        _ => [w.stiffness as f32, w.contacts as f32, w.damping as f32, 0.0],
+                    },
                 }
             })
             .collect();
@@ -511,6 +524,7 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
             WallShape::Plane { point, .. } => *point += moved,
             WallShape::Cylinder { radius, .. } => *radius += moved.x,
             WallShape::Cone { apex, .. } => *apex += moved,
+            WallShape::Strip { point, .. } => *point += moved,
         }
         w.displacement += moved;
         w.velocity = to64(&g.velocity);
@@ -518,8 +532,13 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
         w.normal_force = f64::from(g.load[3]);
         w.stiffness = f64::from(g.load2[0]);
         w.contacts = g.load2[1] as u32;
-        w.tip_force = f64::from(g.load2[2]);
-        w.sleeve_force = f64::from(g.load2[3]);
+        // A cone's z and w lanes are its tip and sleeve loads; other walls' z is Σc.
+        if let WallShape::Cone { .. } = &w.shape {
+            w.tip_force = f64::from(g.load2[2]);
+            w.sleeve_force = f64::from(g.load2[3]);
+        } else {
+            w.damping = f64::from(g.load2[2]);
+        }
     }
     Ok(())
 }
