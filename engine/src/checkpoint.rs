@@ -8,7 +8,7 @@
 //! | 8 | magic `MDEMCKPT` |
 //! | 4 | format version ([`FORMAT_VERSION`]) |
 //! | 8 | payload length n |
-//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex, the model's parallel bonds) |
+//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex, the model's parallel bonds, fields, provenance, strength shares, sections) |
 //! | 4 | CRC-32 (IEEE) of everything before it |
 //!
 //! The model is saved whole, derived rows included: positions, half-step velocities, forces,
@@ -17,8 +17,9 @@
 //! bonds with their forces and moments (after the annex, from format 3: a format-2 file, which
 //! ends at the annex, loads with none) and the fields — heat and water settings, the thermal
 //! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
-//! file loads with heat off and no water), and moisture (its settings and lanes, when a scene
-//! used it) at the end, from format 7 (an older file loads with moisture off). The engine
+//! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
+//! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
+//! network and fluid — from format 7. The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
@@ -27,9 +28,11 @@
 
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
-use crate::moisture::MoistureSettings;
+use crate::physics::rolling_resistance::RollingResistance;
+use crate::physics::Vec3;
+use crate::pores::coupling::PoreSettings;
+use crate::pores::flow::PoreFlow;
 use crate::provenance::Provenance;
-use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
@@ -42,7 +45,8 @@ pub const FORMAT_VERSION: u32 = 7;
 /// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
 /// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water),
 /// 2 to 4 the materials' provenance (their values then have none recorded), 2 to 5 the bonds'
-/// strength shares (every bond whole), 2 to 6 moisture (off).
+/// strength shares (every bond whole), 2 to 6 the optional stages' sections (rolling
+/// resistance and pore flow off).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -94,70 +98,7 @@ struct PayloadOut<'a> {
     fields: FieldsOut<'a>,
     provenance: Vec<&'a Provenance>,
     weakened: Vec<(u32, u16)>,
-    moisture: Option<MoistureOut<'a>>,
-}
-
-/// Moisture's settings and lanes (format 7), `None` when the scene never used it.
-#[derive(Serialize)]
-struct MoistureOut<'a> {
-    settings: &'a MoistureSettings,
-    lanes: &'a MoistureLanes,
-}
-
-#[derive(Deserialize)]
-struct MoistureIn {
-    settings: MoistureSettings,
-    lanes: MoistureLanes,
-}
-
-#[derive(Deserialize)]
-struct PayloadIn {
-    writer: String,
-    model: Model,
-    annex: Vec<u8>,
-    parallel_bonds: ParallelBonds,
-    fields: Fields,
-    /// Each material's provenance, in material order (format 5; kept out of `Material`'s own
-    /// serialisation so material files and older checkpoints stay readable).
-    provenance: Vec<Provenance>,
-    /// Format 6: the weakened bonds (joints) as (row entry, `PairState::weakened`), the rest
-    /// whole. Kept out of the pair state's own encoding so formats 2 to 5 still read.
-    weakened: Vec<(u32, u16)>,
-    /// Format 7: moisture, when the scene used it.
-    moisture: Option<MoistureIn>,
-}
-
-/// Format 6: the payload ends at the bond shares.
-#[derive(Deserialize)]
-struct PayloadInV6 {
-    writer: String,
-    model: Model,
-    annex: Vec<u8>,
-    parallel_bonds: ParallelBonds,
-    fields: Fields,
-    provenance: Vec<Provenance>,
-    weakened: Vec<(u32, u16)>,
-}
-
-/// Format 5: the payload ends at the provenance.
-#[derive(Deserialize)]
-struct PayloadInV5 {
-    writer: String,
-    model: Model,
-    annex: Vec<u8>,
-    parallel_bonds: ParallelBonds,
-    fields: Fields,
-    provenance: Vec<Provenance>,
-}
-
-/// Format 4: the payload ends at the fields.
-#[derive(Deserialize)]
-struct PayloadInV4 {
-    writer: String,
-    model: Model,
-    annex: Vec<u8>,
-    parallel_bonds: ParallelBonds,
-    fields: Fields,
+    sections: Vec<Section>,
 }
 
 /// The fields' settings and lanes (format 4), saved after the parallel bonds.
@@ -175,21 +116,111 @@ struct Fields {
     thermal: ThermalLanes,
 }
 
-/// Format 3: the payload ends at the parallel bonds.
-#[derive(Deserialize)]
-struct PayloadInV3 {
+/// Format 7 on: the optional stages' settings and state, one tagged section each, after the
+/// bonds' strength shares. A stage added later appends a variant (postcard tags variants by
+/// their index), so the payload's layout need not change again for it.
+#[derive(Serialize, Deserialize)]
+enum Section {
+    /// Rolling resistance's setting and epsd's springs (by row entry, then by element × wall;
+    /// empty for cdt or before the first step).
+    Rolling { setting: RollingResistance, rows: Vec<Vec3>, walls: Vec<Vec3> },
+    /// Pore flow: the scene's fluid and boundaries and, while it is on, the network as last
+    /// built (it is rebuilt only after a drift, so it cannot be derived from the positions)
+    /// with its fluid.
+    PoreFlow { settings: PoreSettings, flow: Option<Box<PoreFlow>> },
+}
+
+impl Section {
+    fn of(m: &Model) -> Vec<Section> {
+        let mut out = Vec::new();
+        if let Some(setting) = m.settings.rolling {
+            out.push(Section::Rolling { setting, rows: m.contacts.rolling.clone(), walls: m.wall_rolling.clone() });
+        }
+        if m.settings.pores != PoreSettings::default() || m.pores.is_some() {
+            out.push(Section::PoreFlow { settings: m.settings.pores.clone(), flow: m.pores.clone() });
+        }
+        out
+    }
+
+    fn apply(self, m: &mut Model) -> Result<(), String> {
+        match self {
+            Section::Rolling { setting, rows, walls } => {
+                let n = m.len();
+                if !(rows.is_empty() || rows.len() == m.contacts.other.len()) {
+                    return Err("rolling springs do not match the neighbour rows".into());
+                }
+                if !(walls.is_empty() || walls.len() == n * m.walls.len()) {
+                    return Err("rolling springs do not match particles × walls".into());
+                }
+                m.settings.rolling = Some(setting);
+                m.contacts.rolling = rows;
+                m.wall_rolling = walls;
+            }
+            Section::PoreFlow { settings, flow } => {
+                if let Some(f) = &flow {
+                    f.consistent(m.len())?;
+                }
+                m.settings.pores = settings;
+                m.pores = flow;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a checkpoint holds, as read from any format this build knows.
+struct PayloadIn {
     writer: String,
     model: Model,
     annex: Vec<u8>,
     parallel_bonds: ParallelBonds,
+    fields: Fields,
+    /// Each material's provenance, in material order (format 5; kept out of `Material`'s own
+    /// serialisation so material files and older checkpoints stay readable).
+    provenance: Vec<Provenance>,
+    /// Format 6: the weakened bonds (joints) as (row entry, `PairState::weakened`), the rest
+    /// whole. Kept out of the pair state's own encoding so formats 2 to 5 still read.
+    weakened: Vec<(u32, u16)>,
+    sections: Vec<Section>,
 }
 
-/// Format 2: the payload ends at the annex.
-#[derive(Deserialize)]
-struct PayloadInV2 {
-    writer: String,
-    model: Model,
-    annex: Vec<u8>,
+impl PayloadIn {
+    /// Reads the payload of a `version` file. Each format appended items to the one before
+    /// it, and postcard encodes a struct as its fields one after the other, so the items are
+    /// taken in order and those a format lacks keep their defaults.
+    fn read(payload: &[u8], version: u32) -> Result<Self, postcard::Error> {
+        fn take<'a, T: Deserialize<'a>>(rest: &mut &'a [u8]) -> Result<T, postcard::Error> {
+            let (value, tail) = postcard::take_from_bytes(rest)?;
+            *rest = tail;
+            Ok(value)
+        }
+        fn since<'a, T: Deserialize<'a> + Default>(
+            rest: &mut &'a [u8],
+            version: u32,
+            first: u32,
+        ) -> Result<T, postcard::Error> {
+            if version >= first {
+                take(rest)
+            } else {
+                Ok(T::default())
+            }
+        }
+        let rest = &mut &payload[..];
+        let p = PayloadIn {
+            writer: take(rest)?,
+            model: take(rest)?,
+            annex: take(rest)?,
+            parallel_bonds: since(rest, version, 3)?,
+            fields: since(rest, version, 4)?,
+            provenance: since(rest, version, 5)?,
+            weakened: since(rest, version, 6)?,
+            sections: since(rest, version, 7)?,
+        };
+        if !rest.is_empty() {
+            return Err(postcard::Error::DeserializeBadEncoding);
+        }
+        Ok(p)
+    }
 }
 
 /// The engine version stamped into checkpoints.
@@ -204,8 +235,6 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
         .filter(|(_, s)| s.bonded && s.weakened != 0)
         .map(|(e, s)| (e as u32, s.weakened))
         .collect();
-    let used = model.settings.moisture != MoistureSettings::default() || !model.particles.moisture.water.is_empty();
-    let moisture = used.then_some(MoistureOut { settings: &model.settings.moisture, lanes: &model.particles.moisture });
     let out = PayloadOut {
         writer: WRITER,
         model,
@@ -214,7 +243,7 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
         fields,
         provenance,
         weakened,
-        moisture,
+        sections: Section::of(model),
     };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
@@ -263,72 +292,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         });
     }
     let payload = &bytes[HEADER..body];
-    let read = |payload| -> Result<PayloadIn, postcard::Error> {
-        if version == 2 {
-            let p: PayloadInV2 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn {
-                writer: p.writer,
-                model: p.model,
-                annex: p.annex,
-                parallel_bonds: ParallelBonds::default(),
-                fields: Fields::default(),
-                provenance: Vec::new(),
-                weakened: Vec::new(),
-                moisture: None,
-            })
-        } else if version == 3 {
-            let p: PayloadInV3 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn {
-                writer: p.writer,
-                model: p.model,
-                annex: p.annex,
-                parallel_bonds: p.parallel_bonds,
-                fields: Fields::default(),
-                provenance: Vec::new(),
-                weakened: Vec::new(),
-                moisture: None,
-            })
-        } else if version == 4 {
-            let p: PayloadInV4 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn {
-                writer: p.writer,
-                model: p.model,
-                annex: p.annex,
-                parallel_bonds: p.parallel_bonds,
-                fields: p.fields,
-                provenance: Vec::new(),
-                weakened: Vec::new(),
-                moisture: None,
-            })
-        } else if version == 5 {
-            let p: PayloadInV5 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn {
-                writer: p.writer,
-                model: p.model,
-                annex: p.annex,
-                parallel_bonds: p.parallel_bonds,
-                fields: p.fields,
-                provenance: p.provenance,
-                weakened: Vec::new(),
-                moisture: None,
-            })
-        } else if version == 6 {
-            let p: PayloadInV6 = postcard::from_bytes(payload)?;
-            Ok(PayloadIn {
-                writer: p.writer,
-                model: p.model,
-                annex: p.annex,
-                parallel_bonds: p.parallel_bonds,
-                fields: p.fields,
-                provenance: p.provenance,
-                weakened: p.weakened,
-                moisture: None,
-            })
-        } else {
-            postcard::from_bytes(payload)
-        }
-    };
-    let mut p: PayloadIn = read(payload).map_err(|e| {
+    let mut p = PayloadIn::read(payload, version).map_err(|e| {
         // The writer's version leads the payload, so it can usually be read even when the
         // model that follows cannot.
         let writer = postcard::take_from_bytes::<String>(payload).map(|(w, _)| w).unwrap_or_else(|_| "?".into());
@@ -338,10 +302,6 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.settings.heat = p.fields.heat;
     p.model.settings.water = p.fields.water;
     p.model.particles.thermal = p.fields.thermal;
-    if let Some(w) = p.moisture {
-        p.model.settings.moisture = w.settings;
-        p.model.particles.moisture = w.lanes;
-    }
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
         m.provenance = prov;
     }
@@ -356,6 +316,11 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         }
     }
     check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
+    for section in p.sections {
+        section
+            .apply(&mut p.model)
+            .map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
+    }
     Ok(Checkpoint { model: p.model, annex: p.annex })
 }
 
@@ -374,9 +339,6 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     }
     if !p.thermal.consistent(n) {
         return Err("thermal lanes do not match the particles".into());
-    }
-    if !p.moisture.consistent(n) {
-        return Err("moisture lanes do not match the particles".into());
     }
     if let Some(rot) = &p.rotation {
         if rot.ang_vel.len() != n || rot.torque.len() != n {

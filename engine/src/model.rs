@@ -100,15 +100,15 @@ pub struct Settings {
     #[serde(skip)]
     pub water: crate::fields::WaterTable,
     /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
-    /// stage; off by default). Saved at the end of a checkpoint (format 7).
+    /// stage; off by default). Saved in a checkpoint's sections (format 7) with the water lanes.
     #[serde(skip)]
     pub moisture: crate::moisture::MoistureSettings,
-    /// Rolling resistance (the `rolling_resistance` stage; off by default). Not yet carried by
-    /// checkpoints: a loaded model has none until the script sets it again.
+    /// Rolling resistance (the `rolling_resistance` stage; off by default). Saved in a
+    /// checkpoint's sections (format 7), so that older checkpoints still read.
     #[serde(skip)]
     pub rolling: Option<crate::physics::rolling_resistance::RollingResistance>,
-    /// Pore density flow (the `pore_flow` stage; off by default). Not saved in checkpoints
-    /// yet: a loaded model has pore flow off.
+    /// Pore density flow (the `pore_flow` stage; off by default). Saved, with the network and
+    /// its fluid, in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub pores: crate::pores::PoreSettings,
 }
@@ -173,11 +173,11 @@ pub struct Model {
     pub parallel_bonds: ParallelBonds,
     /// The `rolling_resistance` stage's epsd rolling springs against the walls (N·m),
     /// `wall_rolling[i * walls.len() + w]` as `wall_contacts`; empty unless the plan has epsd.
-    /// Not in checkpoints (a loaded model starts them at zero).
+    /// Saved in a checkpoint's sections (format 7) with the row springs.
     #[serde(skip)]
     pub wall_rolling: Vec<Vec3>,
     /// The `pore_flow` stage's network and fluid, when the scene enabled it
-    /// ([`Model::enable_pore_flow`]). Not saved in checkpoints yet.
+    /// ([`Model::enable_pore_flow`]). Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub pores: Option<Box<crate::pores::PoreFlow>>,
 }

@@ -250,30 +250,97 @@ fn materials_keep_their_provenance_through_a_checkpoint() {
     assert_eq!(&back.model.materials[0].provenance, saved);
 }
 
-// Format 5 (before joints: the payload ends at the materials' provenance) still loads, with
-// whole bonds; made from a format-6 file of a model without joints, whose payload ends with the
-// 1 byte of an empty list of shares.
+// Formats 5 (before joints: the payload ends at the materials' provenance) and 6 (before the
+// optional stages' sections: it ends at the bonds' strength shares) still load, with whole
+// bonds and no optional stage; made from a format-7 file of a model without joints or optional
+// stages, whose payload ends with two empty lists (one byte each).
 #[test]
-fn format_5_and_6_checkpoints_still_load_with_whole_bonds_and_no_moisture() {
+fn format_5_and_6_checkpoints_still_load() {
     let model = loaded_sample().model;
     let v7 = encode(&model, b"annex");
     let payload = &v7[20..v7.len() - 4];
-    // The tail: no weakened bonds (format 6), no moisture (format 7).
-    assert_eq!(&payload[payload.len() - 2..], [0, 0], "no weakened bonds, no moisture");
-    let v6 = payload[..payload.len() - 1].to_vec();
-    let loaded = decode(&framed(6, &v6)).unwrap();
-    assert_eq!(loaded.model.particles.pos, model.particles.pos);
-    assert!(!loaded.model.settings.moisture.enabled && loaded.model.particles.moisture.water.is_empty());
-    let payload = &payload[..payload.len() - 2];
-    let mut v5 = Vec::new();
-    v5.extend_from_slice(b"MDEMCKPT");
-    v5.extend_from_slice(&5u32.to_le_bytes());
-    v5.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    v5.extend_from_slice(payload);
-    let crc = crc32fast::hash(&v5);
-    v5.extend_from_slice(&crc.to_le_bytes());
-    let loaded = decode(&v5).unwrap();
-    assert_eq!(loaded.model.particles.pos, model.particles.pos);
-    assert_eq!(loaded.model.materials[0].provenance, model.materials[0].provenance);
-    assert!(loaded.model.contacts.state.iter().all(|s| s.weakened == 0));
+    assert_eq!(&payload[payload.len() - 2..], &[0, 0], "no weakened bonds, no sections");
+    for (version, cut) in [(5u32, 2), (6, 1)] {
+        let loaded = decode(&framed(version, &payload[..payload.len() - cut])).unwrap();
+        assert_eq!(loaded.annex, b"annex");
+        assert_eq!(loaded.model.particles.pos, model.particles.pos);
+        assert_eq!(loaded.model.materials[0].provenance, model.materials[0].provenance);
+        assert!(loaded.model.contacts.state.iter().all(|s| s.weakened == 0));
+        assert!(loaded.model.settings.rolling.is_none() && loaded.model.pores.is_none());
+    }
+    // A payload longer than its format says is refused, not half-read.
+    let long = framed(6, payload);
+    assert!(matches!(decode(&long), Err(CheckpointError::Incompatible { .. })), "{:?}", decode(&long).err());
+}
+
+// Rolling resistance (epsd: each contact's rolling spring is state) travels in format 7's
+// sections: saved mid-run, loaded and continued, the model ends bit for bit as the straight run.
+#[test]
+fn a_model_with_epsd_rolling_resistance_continues_bitwise_after_a_checkpoint() {
+    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    let mut straight = loaded_sample();
+    straight.model.settings.rolling = Some(RollingResistance::new(RollingModel::Epsd, 0.2, 0.3).unwrap());
+    run(&mut straight, 300);
+    let bytes = encode(&straight.model, b"");
+    run(&mut straight, 500);
+    let loaded = decode(&bytes).unwrap().model;
+    assert_eq!(loaded.settings.rolling, straight.model.settings.rolling);
+    assert!(loaded.contacts.rolling.iter().any(|s| s.norm() > 0.0), "the rolling springs must be loaded");
+    let mut resumed = Simulation::new(loaded);
+    run(&mut resumed, 500);
+    let (a, b) = (&straight.model, &resumed.model);
+    assert_eq!(a.particles.pos, b.particles.pos);
+    assert_eq!(a.particles.rotation.as_ref().unwrap().ang_vel, b.particles.rotation.as_ref().unwrap().ang_vel);
+    assert_eq!(a.contacts.rolling, b.contacts.rolling);
+    assert_eq!(a.wall_rolling, b.wall_rolling);
+}
+
+/// The loaded sample with pore flow on: a soft fluid (so a few sub-steps a step suffice), a
+/// reservoir at 2 kPa in the pores of the bottom layer and the top platen pressing down.
+fn pore_flow_sample() -> Simulation {
+    use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
+    let mut sim = loaded_sample();
+    let m = &mut sim.model;
+    m.settings.pores.fluid = Fluid { bulk_modulus: 1e6, viscosity: 1e-2, max_substeps: 5000, ..Fluid::default() };
+    m.enable_pore_flow().unwrap();
+    let bottom = Vec3::new(-1.0, -1.0, -1.0);
+    m.add_pore_boundary(PoreRegion::Box { lo: bottom, hi: Vec3::new(1.0, 1.0, 1.5e-3) }, BoundaryKind::Pressure(2e3))
+        .unwrap();
+    sim
+}
+
+// Pore flow (its network as last built, the fluid's masses, the boundaries) travels in format
+// 7's sections: saved mid-run, loaded and continued, the model and its fluid end bit for bit as
+// the straight run.
+#[test]
+fn a_model_with_pore_flow_continues_bitwise_after_a_checkpoint() {
+    let mut straight = pore_flow_sample();
+    run(&mut straight, 200);
+    let bytes = encode(&straight.model, b"");
+    run(&mut straight, 300);
+    let loaded = decode(&bytes).unwrap().model;
+    assert_eq!(loaded.settings.pores, straight.model.settings.pores);
+    let mut resumed = Simulation::new(loaded);
+    run(&mut resumed, 300);
+    let (a, b) = (&straight.model, &resumed.model);
+    let (fa, fb) = (a.pores.as_ref().unwrap(), b.pores.as_ref().unwrap());
+    assert!(fa.pressure.iter().any(|&p| p > 100.0), "the reservoir must have pushed fluid in");
+    assert_eq!(a.particles.pos, b.particles.pos);
+    assert_eq!(fa.mass, fb.mass);
+    assert_eq!(fa.pressure, fb.pressure);
+    assert_eq!(fa.boundary_mass.to_bits(), fb.boundary_mass.to_bits());
+    assert_eq!(fa.rebuilds, fb.rebuilds);
+}
+
+// A pore network whose indices do not fit the elements (a crafted or mismatched file) is
+// refused when it is loaded, not stepped.
+#[test]
+fn a_pore_network_that_does_not_fit_the_elements_is_refused() {
+    let mut model = pore_flow_sample().model;
+    let f = model.pores.as_mut().unwrap();
+    f.network.tri.tets[0].v[0] = model.particles.pos.len() as u32 + 5;
+    match decode(&encode(&model, b"")) {
+        Err(CheckpointError::Incompatible { reason, .. }) => assert!(reason.contains("pore network"), "{reason}"),
+        other => panic!("expected a refusal, got {:?}", other.map(|_| ())),
+    }
 }

@@ -19,7 +19,7 @@ use crate::model::Model;
 use crate::physics::Vec3;
 
 /// What a scene asks of the pore fluid (part of [`crate::model::Settings`]).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct PoreSettings {
     pub enabled: bool,
     pub fluid: Fluid,

@@ -13,20 +13,21 @@
 use crate::error::{Error, Result};
 use crate::physics::Vec3;
 use robust::{insphere, orient3d, Coord3D};
+use serde::{Deserialize, Serialize};
 
 /// No neighbour across this face: it lies on the convex hull.
 pub const HULL: u32 = u32::MAX;
 
 /// A positively oriented tetrahedron (`orient(v0, v1, v2, v3) > 0` for the jittered points)
 /// and its neighbours: `n[k]` shares the face opposite `v[k]`, or is [`HULL`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Tet {
     pub v: [u32; 4],
     pub n: [u32; 4],
 }
 
 /// The tetrahedralisation of a point set.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Tetrahedralisation {
     pub tets: Vec<Tet>,
     /// The points as inserted (jittered); the predicates ran on these.

@@ -65,7 +65,7 @@ const FREE: u32 = u32::MAX;
 /// Safety factor under the critical flow step.
 pub const FLOW_SAFETY: f64 = 0.9;
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PoreFlow {
     pub fluid: Fluid,
     pub boundaries: Vec<PoreBoundary>,
@@ -201,6 +201,28 @@ impl PoreFlow {
         let added = self.hold_pressures();
         self.update_pressure();
         added
+    }
+
+    /// Whether the network and the fluid's lanes agree with each other and with `n` elements
+    /// (see [`PoreNetwork::consistent`]).
+    pub fn consistent(&self, n: usize) -> Result<(), String> {
+        self.network.consistent(n)?;
+        let pores = self.network.pore_count();
+        let lanes = [self.mass.len(), self.pressure.len(), self.region.len(), self.source.len()];
+        let regions = self.boundaries.len();
+        let ids_ok = self.boundaries.iter().all(|b| match &b.region {
+            PoreRegion::Elements(ids) => ids.iter().all(|&i| (i as usize) < n),
+            _ => true,
+        });
+        if lanes.iter().any(|&l| l != pores)
+            || self.flow.len() != self.network.throats.len()
+            || self.boundary_flow.len() != regions
+            || self.region.iter().any(|&r| r != FREE && r as usize >= regions)
+            || !ids_ok
+        {
+            return Err("pore fluid lanes do not match the pore network".into());
+        }
+        Ok(())
     }
 
     /// The pressure pore `p` is held at, when a boundary region holds it.

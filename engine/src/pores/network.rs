@@ -11,6 +11,7 @@ use crate::error::Result;
 use crate::model::Model;
 use crate::physics::Vec3;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 /// A tetrahedron whose empty volume is under this fraction of the mean is merged into a
 /// neighbour: slivers from co-spherical points and tightly filled corners would otherwise
@@ -22,7 +23,7 @@ pub const SMALL_PORE_FRACTION: f64 = 0.05;
 pub const VOLUME_FLOOR: f64 = 0.01;
 
 /// A face between two pores: the face of tetrahedron `tet` opposite its corner `face`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Throat {
     pub a: u32,
     pub b: u32,
@@ -30,7 +31,7 @@ pub struct Throat {
     pub face: u8,
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct PoreNetwork {
     pub tri: Tetrahedralisation,
     /// Pore of each tetrahedron.
@@ -87,6 +88,49 @@ fn bonded(m: &Model, i: u32, j: u32) -> bool {
 }
 
 impl PoreNetwork {
+    /// Whether every index in the network lies in range for `n` elements (a checkpoint is
+    /// checked before it is stepped: a well-formed but inconsistent one would otherwise index
+    /// out of bounds).
+    pub fn consistent(&self, n: usize) -> Result<(), String> {
+        let tets = self.tri.tets.len();
+        let pores = self.pore_count();
+        let throats = self.throats.len();
+        let csr = |start: &[u32], items: usize, rows: usize| {
+            start.len() == rows + 1
+                && start.first() == Some(&0)
+                && start.windows(2).all(|w| w[0] <= w[1])
+                && start[rows] as usize == items
+        };
+        let tets_ok = self.tri.tets.iter().all(|t| t.v.iter().all(|&v| (v as usize) < n))
+            && self.tri.points.len() == n
+            && self.orient.len() == tets
+            && self.tet_pore.len() == tets
+            && self.tet_pore.iter().all(|&p| (p as usize) < pores);
+        let pores_ok = csr(&self.pore_tet_start, self.pore_tets.len(), pores)
+            && self.pore_tets.iter().all(|&t| (t as usize) < tets)
+            && self.volume.len() == pores
+            && self.centre.len() == pores;
+        let throats_ok = self
+            .throats
+            .iter()
+            .all(|t| (t.a as usize) < pores && (t.b as usize) < pores && (t.tet as usize) < tets && t.face < 4)
+            && csr(&self.row_start, self.row.len(), pores)
+            && self.row.iter().all(|&t| (t as usize) < throats)
+            && [self.bonded_at_build.len(), self.conductance.len(), self.opening.len(), self.cracked.len()]
+                .iter()
+                .all(|&l| l == throats);
+        let elems_ok = self.built_at.len() == n
+            && csr(&self.elem_start, self.elem_corners.len(), n)
+            && self.elem_corners.iter().all(|&c| (c as usize) < 4 * tets);
+        match (tets_ok, pores_ok, throats_ok, elems_ok) {
+            (true, true, true, true) => Ok(()),
+            (false, ..) => Err("pore network tetrahedra do not match the elements".into()),
+            (_, false, ..) => Err("pore network pores do not match its tetrahedra".into()),
+            (_, _, false, _) => Err("pore network throats do not match its pores".into()),
+            _ => Err("pore network corners do not match the elements".into()),
+        }
+    }
+
     /// The network of the model's current packing.
     pub fn build(m: &Model) -> Result<Self> {
         let pos = &m.particles.pos;

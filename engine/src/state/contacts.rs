@@ -41,7 +41,7 @@ pub struct Contacts {
     pub stale: bool,
     /// The `rolling_resistance` stage's epsd rolling springs (N·m, the torque on this row's
     /// particle), aligned with `other`; empty unless the plan has epsd. Carried across rebuilds
-    /// as `state` is. Not in checkpoints (a loaded model starts them at zero).
+    /// as `state` is. Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub rolling: Vec<Vec3>,
 }
