@@ -573,14 +573,12 @@ impl fmt::Display for StepPlan {
         if self.moisture.is_none() {
             off.push("moisture");
         }
-        off.push("fluid flow");
-        if self.rolling.is_none() {
-            off.push("rolling resistance");
-        }
         if self.pore_flow.is_none() {
             off.push("fluid flow");
         }
-        off.push("rolling resistance");
+        if self.rolling.is_none() {
+            off.push("rolling resistance");
+        }
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

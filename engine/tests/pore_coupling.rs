@@ -330,3 +330,36 @@ fn an_unstable_flow_stops_the_run_naming_the_pore_and_the_critical_step() {
     assert!(sim.model.pores.as_ref().unwrap().pressure.iter().all(|p| p.is_finite()));
     assert_eq!(sim.model.clock.step, 1, "the run stops after the step that found it");
 }
+
+/// The K_f a message suggests ("soften it below K_f = … Pa").
+fn suggested_bulk_modulus(message: &str) -> f64 {
+    let tail = message.split("soften it below K_f = ").nth(1).unwrap_or_else(|| panic!("no suggestion: {message}"));
+    tail.split(' ').next().unwrap().parse().unwrap()
+}
+
+// A fluid too stiff for the pores it fills is a spring on the grains that the contacts' time
+// step cannot integrate: the run blows up, and the guard's message names the fluid (the pore,
+// its spring against the contacts', the critical step with it) and a bulk modulus to soften it
+// to — with which the same scene runs to the end.
+#[test]
+fn a_fluid_too_stiff_for_its_pores_is_named_with_the_bulk_modulus_that_runs() {
+    let scene = |k_f: f64| {
+        let mut m = column(3, 4);
+        // Viscous enough that the flow needs few sub-steps: the mechanical step is what fails.
+        m.settings.pores.fluid = Fluid { bulk_modulus: k_f, viscosity: 1e3, max_substeps: 1000, ..Fluid::default() };
+        m.enable_pore_flow().unwrap();
+        m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
+        Simulation::new(m)
+    };
+    let mut stiff = scene(1e13);
+    let e = stiff.run(3000, &RunControl::default(), &mut |_| {}).unwrap_err();
+    let s = e.to_string();
+    assert!(s.contains("whose fluid (K_f = 1.000e13 Pa) pushes back like a spring"), "{s}");
+    let Error::Unstable(i) = &e else { panic!("expected the guard's error, got {e}") };
+    assert!(i.critical_dt < i.dt, "{s}");
+    let k_f = suggested_bulk_modulus(&s);
+    assert!(k_f > 0.0 && k_f < 1e13, "{s}");
+    let mut soft = scene(0.5 * k_f);
+    soft.run(3000, &RunControl::default(), &mut |_| {}).unwrap();
+    assert!(soft.model.particles.vel.iter().all(|v| v.norm().is_finite()));
+}

@@ -89,6 +89,14 @@ pub struct PoreFlow {
     pub substeps: u32,
     /// Network rebuilds since the start.
     pub rebuilds: u32,
+    /// The stiffest element for the fluid and its contacts together, the stiffest of the
+    /// estimates made each time the network was built (before anything can have blown up), for
+    /// the guard's message ([`crate::pores::stiffness`]).
+    #[serde(skip)]
+    pub stiffest: Option<super::stiffness::StiffestElement>,
+    /// Whether `stiffest` has seen the network as last built.
+    #[serde(skip)]
+    estimated: bool,
 }
 
 impl PoreFlow {
@@ -113,6 +121,8 @@ impl PoreFlow {
             boundary_mass: 0.0,
             substeps: 0,
             rebuilds: 0,
+            stiffest: None,
+            estimated: false,
         };
         f.update_pressure();
         Ok(f)
@@ -295,6 +305,14 @@ impl PoreFlow {
             self.network.refresh(m, &self.fluid);
         }
         self.update_pressure();
+        if !self.estimated {
+            if let Some(s) = m.stiffest_with_fluid(self) {
+                if self.stiffest.is_none_or(|old| s.critical_dt < old.critical_dt) {
+                    self.stiffest = Some(s);
+                }
+            }
+            self.estimated = true;
+        }
         let (pore, crit) = self.critical_dt();
         let n = if crit.is_finite() { (dt / (FLOW_SAFETY * crit)).ceil().max(1.0) } else { 1.0 };
         if n > self.fluid.max_substeps as f64 {
@@ -416,6 +434,7 @@ impl PoreFlow {
         // What the fixed pressures hold changed with the pores; the boundaries supplied it.
         self.boundary_mass += self.total_mass() - old_total;
         self.rebuilds += 1;
+        self.estimated = false;
         Ok(())
     }
 

@@ -17,6 +17,7 @@ pub mod flow;
 pub mod geometry;
 pub mod network;
 pub mod pressure_forces;
+pub mod stiffness;
 
 pub use coupling::{PoreFlowPlan, PoreSettings};
 pub use flow::{BoundaryKind, PoreBoundary, PoreFlow, PoreRegion};

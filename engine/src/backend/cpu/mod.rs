@@ -264,9 +264,9 @@ impl Backend for CpuBackend {
         });
         samples.into_iter().for_each(sample);
         if let Some(e) = self.pore_error.take() {
-            return Err(e);
+            return Err(m.pore_fluid_cause(e, true));
         }
-        check_state(m)?;
+        check_state(m).map_err(|e| m.pore_fluid_cause(e, false))?;
         m.check_conduction()?;
         m.check_moisture()
     }
