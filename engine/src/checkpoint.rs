@@ -19,7 +19,7 @@
 //! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
 //! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
 //! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
-//! network and fluid — from format 7. The engine
+//! network and fluid, moisture with its water lanes — from format 7. The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
@@ -28,11 +28,13 @@
 
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
+use crate::moisture::MoistureSettings;
 use crate::physics::rolling_resistance::RollingResistance;
 use crate::physics::Vec3;
 use crate::pores::coupling::PoreSettings;
 use crate::pores::flow::PoreFlow;
 use crate::provenance::Provenance;
+use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
@@ -128,6 +130,8 @@ enum Section {
     /// built (it is rebuilt only after a drift, so it cannot be derived from the positions)
     /// with its fluid.
     PoreFlow { settings: PoreSettings, flow: Option<Box<PoreFlow>> },
+    /// Moisture: the scene's settings (diffusivities, tables) and the water lanes.
+    Moisture { settings: MoistureSettings, lanes: MoistureLanes },
 }
 
 impl Section {
@@ -138,6 +142,10 @@ impl Section {
         }
         if m.settings.pores != PoreSettings::default() || m.pores.is_some() {
             out.push(Section::PoreFlow { settings: m.settings.pores.clone(), flow: m.pores.clone() });
+        }
+        if m.settings.moisture != MoistureSettings::default() || m.particles.moisture.allocated(m.len()) {
+            let (settings, lanes) = (m.settings.moisture.clone(), m.particles.moisture.clone());
+            out.push(Section::Moisture { settings, lanes });
         }
         out
     }
@@ -162,6 +170,13 @@ impl Section {
                 }
                 m.settings.pores = settings;
                 m.pores = flow;
+            }
+            Section::Moisture { settings, lanes } => {
+                if !lanes.consistent(m.len()) {
+                    return Err("water lanes do not match the particles".into());
+                }
+                m.settings.moisture = settings;
+                m.particles.moisture = lanes;
             }
         }
         Ok(())

@@ -82,6 +82,7 @@ impl MoistureLanes {
             && [&self.diffusivity, &self.transfer, &self.ambient, &self.conductance].iter().all(|l| l.len() == len)
             && self.mode.len() == len
             && (self.radius0.is_empty() || self.radius0.len() == len)
+            && self.mode.iter().all(|&k| k == FREE || k == FIXED || k == SEALED)
     }
 
     /// Bytes held.

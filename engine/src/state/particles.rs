@@ -52,7 +52,7 @@ pub struct Particles {
     #[serde(skip)]
     pub thermal: ThermalLanes,
     /// The `moisture` stage's lanes: water content, diffusivity, … (empty while moisture is
-    /// off). Saved at the end of a checkpoint (format 7), so that older checkpoints still read.
+    /// off). Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub moisture: MoistureLanes,
 }
