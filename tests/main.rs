@@ -17,6 +17,7 @@ mod fields_script;
 mod geometry_objects;
 mod guard;
 mod hardening;
+mod hydraulic_fracture_cli;
 mod material_provenance;
 mod model_surgery;
 mod packages;

@@ -1,0 +1,34 @@
+//! The hydraulic fracture example (examples/hydraulic_fracture) in quick mode through the CLI:
+//! a bonded sandstone block with fixed sides, pore fluid, the well at its centre raised in
+//! pressure stages and held. It writes its charts and pictures, finds a breakdown pressure,
+//! and the first bonds break at the well (the fluid, not the frame or the build, breaks them).
+
+use crate::common::*;
+
+#[test]
+fn hydraulic_fracture_quick_mode_breaks_bonds_at_the_well_and_writes_its_charts() {
+    let dir = temp_dir("hydraulic_fracture_quick");
+    let out = dir.join("out");
+    let (log, wall) = run_example_quick("hydraulic_fracture", &out);
+    eprintln!("hydraulic fracture quick mode: {wall:.1} s wall\n{log}");
+
+    for name in ["well_pressure", "orientation", "cracks", "pore_pressure"] {
+        for ext in ["svg", "png"] {
+            let f = out.join(format!("{name}.{ext}"));
+            let len = std::fs::metadata(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display())).len();
+            assert!(len > 1000, "{} is only {len} bytes", f.display());
+        }
+    }
+    for f in ["ramp.csv", "breakages.csv", "orientation.csv", "metrics.csv"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let m = metrics(&out);
+    let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
+    // A breakdown pressure: a stage of the ramp broke bonds, above the rock's tensile strength
+    // of 4 MPa (a pore's pressure pushes on part of a grain's section only) and finite.
+    let pb = get("breakdown_pressure");
+    assert!(pb > 4e6 && pb < 1e8, "breakdown pressure {pb}");
+    // The fracture starts at the well: the nearest broken bond is within two grains of it.
+    assert!(get("nearest_break") < 2.0, "{m:?}");
+    assert!(get("broken_bonds") >= 3.0 && get("crack_count") >= 1.0, "{m:?}");
+}
