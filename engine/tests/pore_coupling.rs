@@ -362,4 +362,15 @@ fn a_fluid_too_stiff_for_its_pores_is_named_with_the_bulk_modulus_that_runs() {
     let mut soft = scene(0.5 * k_f);
     soft.run(3000, &RunControl::default(), &mut |_| {}).unwrap();
     assert!(soft.model.particles.vel.iter().all(|v| v.norm().is_finite()));
+    // Softening the fluid of a model already stepped drops the stiff estimate with it.
+    let mut m = scene(1e13).model;
+    let mut sim = Simulation::new({
+        m.settings.gravity = Vec3::zeros();
+        m
+    });
+    sim.run(1, &RunControl::default(), &mut |_| {}).unwrap();
+    assert!(sim.model.pores.as_ref().unwrap().stiffest.is_some());
+    let fluid = Fluid { bulk_modulus: 0.5 * k_f, ..sim.model.settings.pores.fluid.clone() };
+    sim.model.set_pore_fluid(fluid).unwrap();
+    assert!(sim.model.pores.as_ref().unwrap().stiffest.is_none(), "a stale estimate would blame the new fluid");
 }

@@ -231,6 +231,7 @@ impl Model {
         if let Some(mut f) = self.pores.take() {
             // The masses stay; the pressures follow the new equation of state.
             f.fluid = fluid.clone();
+            f.forget_stiffness();
             f.network.refresh(self, &fluid);
             f.update_pressure();
             self.pores = Some(f);

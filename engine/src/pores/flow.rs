@@ -213,6 +213,12 @@ impl PoreFlow {
         added
     }
 
+    /// Drops the stiffness estimate (the fluid changed): the next step makes a new one.
+    pub fn forget_stiffness(&mut self) {
+        self.stiffest = None;
+        self.estimated = false;
+    }
+
     /// Whether the network and the fluid's lanes agree with each other and with `n` elements
     /// (see [`PoreNetwork::consistent`]).
     pub fn consistent(&self, n: usize) -> Result<(), String> {
