@@ -145,66 +145,71 @@ fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -
     Ok(())
 }
 
+/// A wall's map (`d.add_cone`, `d.add_strip`) as read by its builder: unknown keys refused
+/// with the nearest known one, missing keys and values of the wrong type named.
+struct WallMap<'a> {
+    map: &'a Map,
+    what: &'static str,
+}
+
+impl<'a> WallMap<'a> {
+    fn new(map: &'a Map, what: &'static str, kind: &'static str, keys: &[&str]) -> RhaiResult<Self> {
+        if let Some(k) = map.keys().find(|k| !keys.contains(&k.as_str())) {
+            let e = matdem_engine::Error::unknown(kind, k.as_str(), keys);
+            return Err(err(format!("{what}: {e}")));
+        }
+        Ok(WallMap { map, what })
+    }
+
+    fn need(&self, key: &str) -> RhaiResult<&'a Dynamic> {
+        self.map.get(key).ok_or_else(|| err(format!("{}: missing `{key}`", self.what)))
+    }
+
+    fn num(&self, key: &str) -> RhaiResult<f64> {
+        let v = self.need(key)?;
+        number(v).ok_or_else(|| err(format!("{}: `{key}` must be a number, got {}", self.what, v.type_name())))
+    }
+
+    /// A number that may be left out.
+    fn num_or(&self, key: &str, default: f64) -> RhaiResult<f64> {
+        if self.map.contains_key(key) {
+            self.num(key)
+        } else {
+            Ok(default)
+        }
+    }
+
+    fn name(&self) -> RhaiResult<String> {
+        let what = self.what;
+        self.need("name")?.clone().into_string().map_err(|t| err(format!("{what}: `name` must be a string, got {t}")))
+    }
+}
+
 /// The keys of `d.add_cone`'s map.
 const CONE_KEYS: [&str; 6] = ["name", "apex", "axis", "angle", "radius", "rod_length"];
 
-/// `d.add_cone`'s map as a wall, refusing unknown or missing keys and values of the wrong type;
-/// the engine checks the ranges.
+/// `d.add_cone`'s map as a wall; the engine checks the ranges.
 fn cone_from_map(map: &Map) -> RhaiResult<matdem_engine::Wall> {
-    let what = "add_cone";
-    for k in map.keys() {
-        if !CONE_KEYS.contains(&k.as_str()) {
-            let e = matdem_engine::Error::unknown("cone key", k.as_str(), &CONE_KEYS);
-            return Err(err(format!("{what}: {e}")));
-        }
-    }
-    let need = |key: &str| map.get(key).ok_or_else(|| err(format!("{what}: missing `{key}`")));
-    let num = |key: &str, v: &Dynamic| {
-        number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
-    };
-    let name =
-        need("name")?.clone().into_string().map_err(|t| err(format!("{what}: `name` must be a string, got {t}")))?;
-    let apex = vec3(need("apex")?, "cone apex")?;
+    let m = WallMap::new(map, "add_cone", "cone key", &CONE_KEYS)?;
+    let apex = vec3(m.need("apex")?, "cone apex")?;
     let axis = match map.get("axis") {
         Some(v) => vec3(v, "cone axis")?,
         None => Vec3::z(),
     };
-    let angle = match map.get("angle") {
-        Some(v) => num("angle", v)?,
-        None => 60.0,
-    };
-    let radius = num("radius", need("radius")?)?;
-    let rod_length = num("rod_length", need("rod_length")?)?;
-    matdem_engine::Wall::cone(&name, apex, axis, (0.5 * angle).to_radians(), radius, rod_length).map_err(raise)
+    let angle = m.num_or("angle", 60.0)?;
+    let (radius, rod_length) = (m.num("radius")?, m.num("rod_length")?);
+    matdem_engine::Wall::cone(&m.name()?, apex, axis, (0.5 * angle).to_radians(), radius, rod_length).map_err(raise)
 }
 
 /// The keys of `d.add_strip`'s map.
 const STRIP_KEYS: [&str; 7] = ["name", "point", "normal", "axis", "from", "to", "area"];
 
-/// `d.add_strip`'s map as a wall, refusing unknown or missing keys and values of the wrong
-/// type; the engine checks the geometry.
+/// `d.add_strip`'s map as a wall; the engine checks the geometry.
 fn strip_from_map(map: &Map) -> RhaiResult<matdem_engine::Wall> {
-    let what = "add_strip";
-    for k in map.keys() {
-        if !STRIP_KEYS.contains(&k.as_str()) {
-            let e = matdem_engine::Error::unknown("strip key", k.as_str(), &STRIP_KEYS);
-            return Err(err(format!("{what}: {e}")));
-        }
-    }
-    let need = |key: &str| map.get(key).ok_or_else(|| err(format!("{what}: missing `{key}`")));
-    let num = |key: &str, v: &Dynamic| {
-        number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
-    };
-    let name =
-        need("name")?.clone().into_string().map_err(|t| err(format!("{what}: `name` must be a string, got {t}")))?;
-    let point = vec3(need("point")?, "strip point")?;
-    let normal = vec3(need("normal")?, "strip normal")?;
-    let axis = vec3(need("axis")?, "strip axis")?;
-    let from = num("from", need("from")?)?;
-    let to = num("to", need("to")?)?;
-    let area = match map.get("area") {
-        Some(v) => num("area", v)?,
-        None => 0.0,
-    };
-    matdem_engine::Wall::strip(&name, point, normal, axis, from, to, area).map_err(raise)
+    let m = WallMap::new(map, "add_strip", "strip key", &STRIP_KEYS)?;
+    let point = vec3(m.need("point")?, "strip point")?;
+    let normal = vec3(m.need("normal")?, "strip normal")?;
+    let axis = vec3(m.need("axis")?, "strip axis")?;
+    let (from, to, area) = (m.num("from")?, m.num("to")?, m.num_or("area", 0.0)?);
+    matdem_engine::Wall::strip(&m.name()?, point, normal, axis, from, to, area).map_err(raise)
 }
