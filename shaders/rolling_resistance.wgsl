@@ -3,8 +3,9 @@
 // (engine/src/physics/rolling_resistance.rs, line for line, in f32): cdt, −μ_r·R_eff·Fn·ω̂_t
 // capped at I_eff·|ω_t|/dt; or, with ROLLING_SPRING (common.wgsl), epsd's rolling spring, kept
 // per row entry and per wall in this slab's lanes. Each pair is evaluated from both rows with
-// exactly opposite inputs, so no float atomics. Runs once per slab of rows, after wall_forces,
-// before integrate. CPU twin: engine/src/backend/cpu/rolling_resistance.rs.
+// exactly opposite inputs, so no float atomics. The torques' work −M·ω_rel·dt goes to the heat
+// ledger's friction lane: half of each pair's from each row, all of a wall contact's. Runs once
+// per slab of rows, after wall_forces, before integrate. CPU twin: engine/src/backend/cpu/rolling_resistance.rs.
 
 // The rolling resistance coefficient μ_r and epsd's viscous damping ratio η_r, set for this
 // pipeline only.
@@ -27,6 +28,7 @@ override ROLLING_DAMPING: f32 = 0.0;
 // epsd's springs in this slab: per row entry, and per particle and wall (placeholders for cdt).
 @group(0) @binding(13) var<storage, read_write> rolling: array<vec4<f32>>;
 @group(0) @binding(14) var<storage, read_write> wall_rolling: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read_write> heat: array<vec2<f32>>;
 
 // I_i·I_j/(I_i + I_j), symmetric in its arguments bit for bit (pair_inertia).
 fn pair_inertia(a: f32, b: f32) -> f32 {
@@ -86,6 +88,9 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     let mati = kind[i] & 0xffffu;
     let dt = params.dt;
     var t = vec3<f32>(0.0);
+    // The work the torques take: whole pairs, whole wall contacts.
+    var pair_heat = 0.0;
+    var wall_heat = 0.0;
     let start = local * params.cap;
     let end = start + row_len[i];
     for (var e = start; e < end; e++) {
@@ -108,14 +113,18 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
         let ij = 0.4 * body[j].x * rj * rj;
         let overlap = touch - dist;
         let fn_el = normal_force(p, r_eff, overlap);
+        let w_rel = wi - ang_vel[j].xyz;
+        var m: vec3<f32>;
         if ROLLING_SPRING {
             var s = rolling[e].xyz;
-            t += epsd_torque(d / dist, wi - ang_vel[j].xyz, r_eff, fn_el, pair_inertia(ii, ij),
-                             shear_stiffness(p, r_eff, overlap), &s, dt);
+            m = epsd_torque(d / dist, w_rel, r_eff, fn_el, pair_inertia(ii, ij), shear_stiffness(p, r_eff, overlap),
+                            &s, dt);
             rolling[e] = vec4<f32>(s, 0.0);
         } else {
-            t += cdt_torque(d / dist, wi - ang_vel[j].xyz, r_eff, fn_el, pair_inertia(ii, ij), dt);
+            m = cdt_torque(d / dist, w_rel, r_eff, fn_el, pair_inertia(ii, ij), dt);
         }
+        t += m;
+        pair_heat -= dot(m, w_rel) * dt;
     }
     for (var w = 0u; w < params.nw; w++) {
         let ng = wall_normal_and_gap(walls[w], oi, ui);
@@ -129,13 +138,21 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
         }
         let p = wall_pairs[w * params.nmat + mati];
         let fn_el = normal_force(p, ri, overlap);
+        var m: vec3<f32>;
         if ROLLING_SPRING {
             var s = wall_rolling[k].xyz;
-            t += epsd_torque(-ng.xyz, wi, ri, fn_el, ii, shear_stiffness(p, ri, overlap), &s, dt);
+            m = epsd_torque(-ng.xyz, wi, ri, fn_el, ii, shear_stiffness(p, ri, overlap), &s, dt);
             wall_rolling[k] = vec4<f32>(s, 0.0);
         } else {
-            t += cdt_torque(-ng.xyz, wi, ri, fn_el, ii, dt);
+            m = cdt_torque(-ng.xyz, wi, ri, fn_el, ii, dt);
         }
+        t += m;
+        wall_heat -= dot(m, wi) * dt;
     }
     torque[i] = vec4<f32>(torque[i].xyz + t, 0.0);
+    let h = 0.5 * pair_heat + wall_heat;
+    if HEAT_FRICTION != HEAT_OFF && h != 0.0 {
+        let k = i * HEAT_LANES + HEAT_FRICTION;
+        heat[k] = ledger_add(heat[k], h, params.one);
+    }
 }

@@ -197,7 +197,8 @@ impl StepPlan {
             HeatCauses {
                 damping: s.damping > 0.0 || s.local_damping > 0.0,
                 contact_damping: dashpot,
-                friction: shear_springs,
+                // Rolling resistance is friction too (its stage books its torques' work here).
+                friction: shear_springs || rolling.is_some(),
                 breakage: bonds || parallel_bond.is_some(),
                 // A fixed wall does no work.
                 wall_work: moving_walls + servo_walls > 0,

@@ -67,6 +67,9 @@ struct Stop {
     /// Mechanical energy lost (J) and the largest rise of it between samples (J).
     lost: f64,
     rise: f64,
+    /// Heat the ledger booked, and the largest departure of mechanical + heat from its start (J).
+    heat: f64,
+    drift: f64,
 }
 
 fn roll_to_rest(mut sim: Simulation, v0: f64, until: f64) -> Stop {
@@ -75,6 +78,7 @@ fn roll_to_rest(mut sim: Simulation, v0: f64, until: f64) -> Stop {
     let (mut time, mut last) = (None, (0.0, v0));
     let (mut fit, mut rise) = (Vec::new(), 0.0_f64);
     let e0 = sim.energies().mechanical();
+    let (total0, mut drift) = (sim.energies().total(), 0.0_f64);
     let mut e_last = e0;
     while sim.model.clock.time < until {
         run(&mut sim, 10);
@@ -89,6 +93,7 @@ fn roll_to_rest(mut sim: Simulation, v0: f64, until: f64) -> Stop {
         let e = sim.energies().mechanical();
         rise = rise.max(e - e_last);
         e_last = e;
+        drift = drift.max((sim.energies().total() - total0).abs());
     }
     // Least squares slope of v(t).
     let k = fit.len() as f64;
@@ -101,6 +106,8 @@ fn roll_to_rest(mut sim: Simulation, v0: f64, until: f64) -> Stop {
         deceleration: -num / den,
         lost: e0 - e_last,
         rise,
+        heat: sim.energies().heat(),
+        drift,
     }
 }
 
@@ -133,6 +140,10 @@ fn cdt_sphere_rolls_to_rest_at_five_sevenths_mu_r_g() {
     // never rises by more than the elastic exchange of the springs' round-off.
     assert!(rel(s.lost, lost) < 0.01, "energy lost");
     assert!(s.rise < 1e-6 * lost, "mechanical energy rose by {:e} J", s.rise);
+    // The ledger books what the torque took as friction heat: the account closes.
+    eprintln!("cdt roll: heat booked {:.6e} J, mechanical + heat drifted by at most {:.2e} J", s.heat, s.drift);
+    assert!(rel(s.heat, s.lost) < 1e-3, "heat booked {:e} J against {:e} J lost", s.heat, s.lost);
+    assert!(s.drift < 1e-3 * lost, "mechanical + heat drifted by {:e} J", s.drift);
 }
 
 // Without rolling resistance the sphere keeps rolling: the stage, not something else, stops it.
@@ -184,6 +195,21 @@ fn check_slope(slope_run: impl Fn(Model) -> Simulation + Copy) {
     let measured = 2.0 * (x2 - x1) / (t2 * t2 - t1 * t1);
     eprintln!("θ = 1.2·θc: a {measured:.5} m/s² (analytic {a:.5}), x {x2:.4e} m at {t2} s");
     assert!(rel(measured, a) < 0.01, "rolls away above θc");
+}
+
+// epsd rolling down a slope above θ_c: its spring slips at the cap and its dashpot works while
+// it loads; the ledger books the torque's work as friction heat, so mechanical + heat stays
+// put (to the rolling spring's stored energy, (μ_r·r·m·g)²/(2·k_r) ≈ 1e-9 J, at most).
+#[test]
+fn epsd_rolling_work_closes_the_energy_account() {
+    let mut sim = Simulation::new(ball(epsd(0.1, 0.3), 1.2 * 0.1_f64.atan(), 0.0));
+    let e0 = sim.energies();
+    let steps = (0.3 / sim.model.clock.dt) as u64;
+    run(&mut sim, steps);
+    let e = sim.energies();
+    let (lost, heat) = (e0.mechanical() - e.mechanical(), e.heat());
+    eprintln!("epsd slope: mechanical lost {lost:.6e} J, heat booked {heat:.6e} J");
+    assert!(heat > 0.0 && rel(heat, lost) < 1e-3, "heat booked {heat:e} J against {lost:e} J lost");
 }
 
 // Stage off: a plan whose μ_r is 0 has no stage and moves bit for bit as one without the
@@ -242,6 +268,9 @@ mod gpu {
         );
         assert!(rel(gpu.distance, cpu.distance) < 0.01 && rel(gpu.time, cpu.time) < 0.01);
         assert!(rel(gpu.distance, v0 * v0 / (2.0 * a)) < 0.01);
+        // The device books the torque's work into its ledger as the CPU does.
+        eprintln!("heat booked: cpu {:.6e} J, gpu {:.6e} J", cpu.heat, gpu.heat);
+        assert!(rel(gpu.heat, cpu.heat) < 0.01, "heat booked on the device");
     }
 
     /// A 3 × 3 × 2 block of touching spheres on the floor, spun and shoved, with `rolling`.

@@ -2,7 +2,8 @@
 //! with μ_r and η_r as pipeline constants of its own (the model is common.wgsl's
 //! `ROLLING_SPRING`), and one kernel per slab of rows bound to the particles' lanes and, for
 //! epsd, the slab's rolling springs (uploaded, carried through the device's row builds and
-//! downloaded with the pair states: `buffers.rs`, `rows.rs`). cdt has no lanes. Built only when
+//! downloaded with the pair states: `buffers.rs`, `rows.rs`), and the heat ledger (the torques'
+//! work is friction heat). cdt has no lanes. Built only when
 //! the plan has the stage. CPU twin: `backend/cpu/rolling_resistance.rs`.
 
 use super::buffers::DeviceLanes;
@@ -36,6 +37,7 @@ pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes
             &d.wall_pairs,
             &s.rolling,
             &s.wall_rolling,
+            &d.heat,
         ]
     })
 }
