@@ -12,6 +12,7 @@ mod cpt_cli;
 mod cutting;
 mod direct_shear;
 mod drying_crack_cli;
+mod energy_pile_cli;
 mod field_maths;
 mod fields_script;
 mod geometry_objects;

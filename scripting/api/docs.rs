@@ -105,7 +105,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("set_boundary_friction", "d.set_boundary_friction(name, mu)", "friction between a wall and the particles"),
     ("porosity_box", "d.porosity_box([x0, y0, z0], [x1, y1, z1]) -> f64", "porosity of a box window by volume fraction: 1 − (the volume the spheres share with the box, cut spheres by their part inside) / the box's volume"),
     ("porosity_cylinder", "d.porosity_cylinder(r, z0, z1) -> f64", "porosity of a vertical cylinder on the z axis between z0 and z1 by volume fraction (spheres cut by its wall, floor or lid count by their part inside)"),
-    ("show", "d.show(field, name) / d.show(field, name, slice_thickness)", "a particle picture coloured by a field (x, y, z, r, displacement, dz, speed, material, size_class, contact_load, temperature, water; or d.show(values, label, name) for any field), saved as name.svg and name.png (MatDEM d.show)"),
+    ("show", "d.show(field, name) / d.show(field, name, slice_thickness)", "a particle picture coloured by a field (x, y, z, r, displacement, dz, speed, material, size_class, contact_load, temperature, water; or d.show(values, label, name) / d.show(values, label, name, slice_thickness) for any field), saved as name.svg and name.png (MatDEM d.show)"),
     ("plot", "plot(table, x_column, y_column) / plot(x, y) -> Chart / r.plot(name, title, x_label, y_label)", "a line chart of two columns or fields; for a regression, its points and fitted curve saved as name.svg and name.png"),
     ("chart", "chart(title, x_label, y_label) -> Chart", "an empty chart to add series to"),
     ("series", "c.series(name, x, y) -> Chart", "adds a line to a chart"),

@@ -198,14 +198,34 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             save_figure(&h, name, |p| pic.save(p))
         })
     });
-    let h = host;
+    let h = host.clone();
     engine.register_fn("show", move |d: &mut ModelHandle, values: Field, label: &str, name: &str| {
-        if values.0.len() != d.data().sim.model.len() {
-            return Err(err(format!("show: {} values for {} particles", values.0.len(), d.data().sim.model.len())));
-        }
-        h.observe("show", || {
-            let pic = picture(d, values.0.to_vec(), label.to_string(), None);
-            save_figure(&h, name, |p| pic.save(p))
-        })
+        show_values(&h, d, values, label, name, None)
     });
+    let h = host;
+    engine.register_fn("show", move |d: &mut ModelHandle, values: Field, label: &str, name: &str, slice: FLOAT| {
+        show_values(&h, d, values, label, name, Some(slice))
+    });
+}
+
+/// `d.show(values, label, name[, slice])`: a picture of any per-element field, optionally a
+/// slice through the mid-plane (the inside of a 3-D block, e.g. a pile on its axis).
+fn show_values(
+    h: &Rc<Host>,
+    d: &mut ModelHandle,
+    values: Field,
+    label: &str,
+    name: &str,
+    slice: Option<FLOAT>,
+) -> RhaiResult<Dynamic> {
+    if values.0.len() != d.data().sim.model.len() {
+        return Err(err(format!("show: {} values for {} particles", values.0.len(), d.data().sim.model.len())));
+    }
+    if let Some(w) = slice.filter(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(err(format!("show: the slice half-width must be > 0 m, got {w}")));
+    }
+    h.observe("show", || {
+        let pic = picture(d, values.0.to_vec(), label.to_string(), slice);
+        save_figure(h, name, |p| pic.save(p))
+    })
 }
