@@ -13,9 +13,15 @@ fn energy_pile_quick_mode_raises_the_head_below_free_expansion_and_writes_its_ch
     let (log, wall) = run_example_quick("energy_pile", &out);
     eprintln!("energy_pile quick mode: {wall:.1} s wall\n{log}");
 
-    for name in
-        ["head_vs_temperature", "head_vs_time", "ring_stress", "ring_temperature", "temperature", "heave", "stress_change"]
-    {
+    for name in [
+        "head_vs_temperature",
+        "head_vs_time",
+        "ring_stress",
+        "ring_temperature",
+        "temperature",
+        "heave",
+        "stress_change",
+    ] {
         for ext in ["svg", "png"] {
             let f = out.join(format!("{name}.{ext}"));
             let len = std::fs::metadata(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display())).len();
@@ -25,7 +31,10 @@ fn energy_pile_quick_mode_raises_the_head_below_free_expansion_and_writes_its_ch
     for f in ["heating.csv", "hold.csv", "rings.csv", "metrics.csv"] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
-    assert!(log.contains("conduction(forward euler") && log.contains("thermal expansion"), "the plan lists the stage:\n{log}");
+    assert!(
+        log.contains("conduction(forward euler") && log.contains("thermal expansion"),
+        "the plan lists the stage:\n{log}"
+    );
 
     let m = metrics(&out);
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
