@@ -19,6 +19,7 @@ mod geometry_objects;
 mod guard;
 mod hardening;
 mod hydraulic_fracture_cli;
+mod land_subsidence_cli;
 mod material_provenance;
 mod model_surgery;
 mod packages;
