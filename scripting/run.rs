@@ -238,6 +238,12 @@ fn evaluate(
             host.params.insert(k.as_str().into(), v.clone());
         }
     }
+    host.self_run = own_binary().map(|exe| crate::api::runs::SelfRun {
+        source: cfg.script.clone(),
+        backend: if cfg.gpu.is_some() { "gpu" } else { "cpu" }.to_string(),
+        params: session.params.clone(),
+        exe,
+    });
     host.session = RefCell::new(session);
     host.resumable = !cfg.plan_only;
     let host = Rc::new(host);
@@ -250,6 +256,14 @@ fn evaluate(
     let result = compile_and_run(cfg, &engine, &host, &sources);
     let plans = host.plans.take();
     (result, plans)
+}
+
+/// The `matdem-rs` binary running this process, which `run_points` starts again for each
+/// point; `None` where a run is evaluated inside another program (a test binary), which
+/// must not be started with `run` arguments.
+fn own_binary() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    (exe.file_stem()? == "matdem-rs").then_some(exe)
 }
 
 fn compile_and_run(

@@ -15,6 +15,7 @@ pub mod metrics;
 pub mod model;
 pub mod plot;
 pub mod reference;
+pub mod runs;
 pub mod snapshots;
 pub mod statistics;
 pub mod table;
@@ -75,6 +76,8 @@ pub struct Host {
     pub warnings: RefCell<Vec<(String, String)>>,
     /// Each model's plan as of its first run or balance, by model name, for the run's page.
     pub plans: RefCell<Vec<(String, String)>>,
+    /// How to start runs of this run's own source (`run_points`); `matdem-rs run` only.
+    pub self_run: Option<runs::SelfRun>,
 }
 
 impl Host {
@@ -94,6 +97,7 @@ impl Host {
             gpu: None,
             warnings: RefCell::new(Vec::new()),
             plans: RefCell::new(Vec::new()),
+            self_run: None,
         }
     }
 
@@ -221,5 +225,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     files::register(engine, host.clone());
     zones::register(engine, host.clone());
     calibration::register(engine, host.clone());
+    runs::register(engine, host.clone());
     plot::register(engine, host);
 }
