@@ -11,6 +11,7 @@ mod cli;
 mod cpt_cli;
 mod cutting;
 mod direct_shear;
+mod direct_shear_calibration_cli;
 mod drying_crack_cli;
 mod energy_pile_cli;
 mod field_maths;
