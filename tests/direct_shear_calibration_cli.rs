@@ -19,7 +19,9 @@ fn calibration_quick_mode_runs_the_design_in_parallel_and_confirms_the_inversion
             assert!(len > 1000, "{} is only {len} bytes", f.display());
         }
     }
-    for f in ["design.csv", "rows.csv", "anova_tau.csv", "anova_c.csv", "anova_phi.csv", "confirm.csv", "regressions.csv"] {
+    for f in
+        ["design.csv", "rows.csv", "anova_tau.csv", "anova_c.csv", "anova_phi.csv", "confirm.csv", "regressions.csv"]
+    {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     // The reduced design: nine rows, each a run of its own with its three shears.

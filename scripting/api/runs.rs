@@ -77,9 +77,9 @@ fn run_points(host: &Host, runs: &Array, opts: &Map) -> RhaiResult<Array> {
     let dir = host.out_path(&folder)?;
     let mut sets = Vec::with_capacity(runs.len());
     for (k, run) in runs.iter().enumerate() {
-        let map = run
-            .read_lock::<Map>()
-            .ok_or_else(|| err(format!("run_points: point {} must be a map of parameters, got {}", k + 1, run.type_name())))?;
+        let map = run.read_lock::<Map>().ok_or_else(|| {
+            err(format!("run_points: point {} must be a map of parameters, got {}", k + 1, run.type_name()))
+        })?;
         let set: Vec<(String, String)> = map.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect();
         if let Some((n, v)) = set.iter().find(|(_, v)| v.contains(['\n', '\r']) || v.is_empty()) {
             return Err(err(format!("run_points: point {}: parameter `{n}` has no one-line value ({v:?})", k + 1)));
