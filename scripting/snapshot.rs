@@ -45,6 +45,8 @@ pub fn vtp(m: &Model) -> String {
     array(&mut s, "Float64", "force", 3, vec3(n, |i| p.force[i]), "");
     array(&mut s, "Int64", "group", 1, group.iter().map(|g| g.to_string()), "");
     array(&mut s, "Int64", "material", 1, p.material.iter().map(|k| k.to_string()), "");
+    // 1 for an element `d.kill` removed: ParaView's Threshold filter hides them.
+    array(&mut s, "Int64", "killed", 1, (0..n).map(|i| u8::from(m.is_killed(i)).to_string()), "");
     if m.settings.heat.enabled && p.thermal.temperature.len() == n {
         array(&mut s, "Float64", "temperature", 1, p.thermal.temperature.iter().map(|&t| num(t)), "");
     }
@@ -118,8 +120,9 @@ fn xml_text(t: &str) -> String {
 }
 
 /// The elements as a CSV table (`d.export_elements`): id, centre, radius, velocity, displacement since
-/// the model was built, material name and the groups holding the element (`;`-separated, by
-/// name), one row per element; numbers in the shortest form that reads back to the same f64.
+/// the model was built, material name, the groups holding the element (`;`-separated, by
+/// name) and 1 for an element `d.kill` removed (0 otherwise), one row per element; numbers in
+/// the shortest form that reads back to the same f64.
 pub fn elements_csv(m: &Model) -> String {
     let p = &m.particles;
     let n = p.len();
@@ -134,7 +137,7 @@ pub fn elements_csv(m: &Model) -> String {
         }
     }
     let mut w = csv::Writer::from_writer(Vec::new());
-    let header = ["id", "x", "y", "z", "r", "vx", "vy", "vz", "dx", "dy", "dz", "material", "groups"];
+    let header = ["id", "x", "y", "z", "r", "vx", "vy", "vz", "dx", "dy", "dz", "material", "groups", "killed"];
     w.write_record(header).expect("a CSV record written to memory cannot fail");
     for i in 0..n {
         let (x, v, o) = (p.pos[i], p.vel[i], p.origin[i]);
@@ -144,6 +147,7 @@ pub fn elements_csv(m: &Model) -> String {
         row.extend(nums.iter().map(|v| format!("{v:?}")));
         row.push(material.to_string());
         row.push(groups[i].clone());
+        row.push(u8::from(m.is_killed(i)).to_string());
         w.write_record(&row).expect("a CSV record written to memory cannot fail");
     }
     String::from_utf8(w.into_inner().expect("flushing a CSV writer into memory cannot fail"))

@@ -77,6 +77,7 @@ fn export_writes_every_element_to_the_output_folder_and_reads_back_bit_for_bit()
         r#"{BLOCK}
         d.add_group("left", d.x < 1e-3);
         d.move_group("left", 0.0, 0.0, 1e-4);
+        d.kill([5]);
         print(d.export_elements("block"));
         d.export_elements("block.vtp");
         "#
@@ -86,7 +87,7 @@ fn export_writes_every_element_to_the_output_folder_and_reads_back_bit_for_bit()
     let out_dir = dir.join("out");
     let csv = std::fs::read_to_string(out_dir.join("block.csv")).unwrap_or_else(|e| panic!("{e}: {}", stderr(&o)));
     let mut lines = csv.lines();
-    assert_eq!(lines.next().unwrap(), "id,x,y,z,r,vx,vy,vz,dx,dy,dz,material,groups");
+    assert_eq!(lines.next().unwrap(), "id,x,y,z,r,vx,vy,vz,dx,dy,dz,material,groups,killed");
     let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_string).collect()).collect();
     assert_eq!(rows.len(), 6);
     // make_lattice("sc", 3, 2, 1, 2 mm): x = 2 mm·i, y = 2 mm·j; the left column raised 0.1 mm.
@@ -99,9 +100,11 @@ fn export_writes_every_element_to_the_output_folder_and_reads_back_bit_for_bit()
         assert_eq!(row[12], if left { "block;left" } else { "block" }, "{row:?}");
         assert_eq!(f(10), if left { 1e-4 } else { 0.0 }, "{row:?}");
         assert_eq!(f(3), if left { 1e-4 } else { 0.0 }, "{row:?}");
+        assert_eq!(row[13], if k == 5 { "1" } else { "0" }, "{row:?}");
     }
     let vtp = std::fs::read_to_string(out_dir.join("block.vtp")).unwrap();
     assert!(vtp.contains("NumberOfPoints=\"6\""), "{vtp}");
+    assert!(vtp.contains("Name=\"killed\" NumberOfComponents=\"1\" format=\"ascii\">0 0 0 0 0 1<"), "{vtp}");
     assert!(stdout(&o).contains("block.csv"), "{}", stdout(&o));
 }
 

@@ -141,7 +141,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("to_string", "to_string(x) / `${x}`", "a short summary of a field, mask, table, box, material or test sample"),
     ("to_debug", "to_debug(x)", "the same summary, for debug printing"),
     ("load_model", "load_model(\"name\") -> Model", "a model saved with d.save(name): from the run's output folder, else the script's folder"),
-    ("export_elements", "d.export_elements(\"name\") / d.export_elements(\"name.csv\") / d.export_elements(\"name.vtp\") -> path", "MatDEM-style export (`export` is a reserved word in Rhai): writes the elements to the run's output folder: a CSV table (id, x, y, z, r, vx, vy, vz, dx, dy, dz, material, groups joined by ;) or, for .vtp, a ParaView file as d.snapshot"),
+    ("export_elements", "d.export_elements(\"name\") / d.export_elements(\"name.csv\") / d.export_elements(\"name.vtp\") -> path", "MatDEM-style export (`export` is a reserved word in Rhai): writes the elements to the run's output folder: a CSV table (id, x, y, z, r, vx, vy, vz, dx, dy, dz, material, groups joined by ;, killed 0/1) or, for .vtp, a ParaView file as d.snapshot"),
     ("snapshot", "d.snapshot(\"name\")", "writes a ParaView snapshot (OUT/name.vtp) of the model now"),
     ("snapshot_every", "d.snapshot_every(steps) / d.snapshot_every(steps, \"name\")", "a ParaView snapshot every `steps` steps while the model runs (0: off)"),
     ("train", "train(targets, options) -> map", "MatDEM's material training: micro parameters whose numerical E, ν, Tu, Cu, μi meet the targets (paper 003)"),
