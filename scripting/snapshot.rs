@@ -45,8 +45,11 @@ pub fn vtp(m: &Model) -> String {
     array(&mut s, "Float64", "force", 3, vec3(n, |i| p.force[i]), "");
     array(&mut s, "Int64", "group", 1, group.iter().map(|g| g.to_string()), "");
     array(&mut s, "Int64", "material", 1, p.material.iter().map(|k| k.to_string()), "");
-    // 1 for an element `d.kill` removed: ParaView's Threshold filter hides them.
-    array(&mut s, "Int64", "killed", 1, (0..n).map(|i| u8::from(m.is_killed(i)).to_string()), "");
+    // 1 for an element `d.kill` removed (ParaView's Threshold filter hides them); only in a
+    // model that has some.
+    if (0..n).any(|i| m.is_killed(i)) {
+        array(&mut s, "Int64", "killed", 1, (0..n).map(|i| u8::from(m.is_killed(i)).to_string()), "");
+    }
     if m.settings.heat.enabled && p.thermal.temperature.len() == n {
         array(&mut s, "Float64", "temperature", 1, p.thermal.temperature.iter().map(|&t| num(t)), "");
     }
