@@ -112,10 +112,11 @@ pub fn run_point(
         if name == "backend" {
             backend = value.clone();
         } else if !resume {
-            cmd.arg("--set").arg(format!("{name}={value}"));
+            // One token: a value can never be read as an option of its own.
+            cmd.arg(format!("--set={name}={value}"));
         }
     }
-    cmd.arg("--backend").arg(&backend);
+    cmd.arg(format!("--backend={backend}"));
     if let Some(n) = threads {
         cmd.env("RAYON_NUM_THREADS", n.to_string());
     }
