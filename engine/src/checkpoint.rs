@@ -19,7 +19,8 @@
 //! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
 //! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
 //! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
-//! network and fluid, moisture with its water lanes — from format 7. The engine
+//! network and fluid, moisture with its water lanes, the pore fluid's heat (its temperatures,
+//! thermal properties, permeability factors, region temperatures and totals) — from format 7. The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
@@ -32,12 +33,14 @@ use crate::moisture::MoistureSettings;
 use crate::physics::rolling_resistance::RollingResistance;
 use crate::physics::Vec3;
 use crate::pores::coupling::PoreSettings;
-use crate::pores::flow::PoreFlow;
+use crate::pores::flow::{PoreBoundary, PoreFlow};
+use crate::pores::{Fluid, FluidHeat};
 use crate::provenance::Provenance;
 use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// The first bytes of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
@@ -132,6 +135,52 @@ enum Section {
     PoreFlow { settings: PoreSettings, flow: Option<Box<PoreFlow>> },
     /// Moisture: the scene's settings (diffusivities, tables) and the water lanes.
     Moisture { settings: MoistureSettings, lanes: MoistureLanes },
+    /// What pore flow gained after its first section (written after it, whenever it is):
+    /// the fluid's thermal properties and per-material permeability factors, the boundary
+    /// regions' temperatures (the scene's list), and while pore flow is on the pores'
+    /// temperatures and each region's booked mass and heat. A file without it loads with
+    /// water's thermal properties, no factors, no region temperatures and zero totals.
+    PoreHeat { settings: PoreHeatSettings, flow: Option<PoreHeatState> },
+}
+
+/// The pore fluid's settings that [`Section::PoreHeat`] carries.
+#[derive(Serialize, Deserialize)]
+struct PoreHeatSettings {
+    heat: FluidHeat,
+    permeability: BTreeMap<String, f64>,
+    temperatures: Vec<Option<f64>>,
+}
+
+impl PoreHeatSettings {
+    fn of(fluid: &Fluid, boundaries: &[PoreBoundary]) -> Self {
+        PoreHeatSettings {
+            heat: fluid.heat,
+            permeability: fluid.permeability.clone(),
+            temperatures: boundaries.iter().map(|b| b.temperature).collect(),
+        }
+    }
+
+    fn apply(self, fluid: &mut Fluid, boundaries: &mut [PoreBoundary]) -> Result<(), String> {
+        if self.temperatures.len() != boundaries.len() {
+            return Err("pore boundary temperatures do not match the boundary regions".into());
+        }
+        fluid.heat = self.heat;
+        fluid.permeability = self.permeability;
+        for (b, t) in boundaries.iter_mut().zip(self.temperatures) {
+            b.temperature = t;
+        }
+        Ok(())
+    }
+}
+
+/// The pore fluid's state that [`Section::PoreHeat`] carries.
+#[derive(Serialize, Deserialize)]
+struct PoreHeatState {
+    settings: PoreHeatSettings,
+    temperature: Vec<f64>,
+    reference: f64,
+    region_mass: Vec<f64>,
+    region_heat: Vec<f64>,
 }
 
 impl Section {
@@ -142,6 +191,15 @@ impl Section {
         }
         if m.settings.pores != PoreSettings::default() || m.pores.is_some() {
             out.push(Section::PoreFlow { settings: m.settings.pores.clone(), flow: m.pores.clone() });
+            let s = &m.settings.pores;
+            let flow = m.pores.as_ref().map(|f| PoreHeatState {
+                settings: PoreHeatSettings::of(&f.fluid, &f.boundaries),
+                temperature: f.temperature.clone(),
+                reference: f.reference,
+                region_mass: f.region_mass.clone(),
+                region_heat: f.region_heat.clone(),
+            });
+            out.push(Section::PoreHeat { settings: PoreHeatSettings::of(&s.fluid, &s.boundaries), flow });
         }
         if m.settings.moisture != MoistureSettings::default() || m.particles.moisture.allocated(m.len()) {
             let (settings, lanes) = (m.settings.moisture.clone(), m.particles.moisture.clone());
@@ -164,8 +222,11 @@ impl Section {
                 m.contacts.rolling = rows;
                 m.wall_rolling = walls;
             }
-            Section::PoreFlow { settings, flow } => {
-                if let Some(f) = &flow {
+            Section::PoreFlow { settings, mut flow } => {
+                if let Some(f) = &mut flow {
+                    // Totals a file before the pore heat section lacks start at zero.
+                    f.region_mass.resize(f.boundaries.len(), 0.0);
+                    f.region_heat.resize(f.boundaries.len(), 0.0);
                     f.consistent(m.len())?;
                 }
                 m.settings.pores = settings;
@@ -177,6 +238,28 @@ impl Section {
                 }
                 m.settings.moisture = settings;
                 m.particles.moisture = lanes;
+            }
+            Section::PoreHeat { settings, flow } => {
+                let s = &mut m.settings.pores;
+                settings.apply(&mut s.fluid, &mut s.boundaries)?;
+                match (flow, m.pores.as_mut()) {
+                    (Some(state), Some(f)) => {
+                        state.settings.apply(&mut f.fluid, &mut f.boundaries)?;
+                        let pores = f.network.pore_count();
+                        if !(state.temperature.is_empty() || state.temperature.len() == pores)
+                            || state.region_mass.len() != f.boundaries.len()
+                            || state.region_heat.len() != f.boundaries.len()
+                        {
+                            return Err("pore temperatures do not match the pore network".into());
+                        }
+                        f.temperature = state.temperature;
+                        f.reference = state.reference;
+                        f.region_mass = state.region_mass;
+                        f.region_heat = state.region_heat;
+                    }
+                    (None, None) => {}
+                    _ => return Err("the pore heat section does not match the pore flow section".into()),
+                }
             }
         }
         Ok(())
@@ -243,6 +326,12 @@ pub const WRITER: &str = env!("CARGO_PKG_VERSION");
 
 /// Encodes `model` and the host's `annex` as checkpoint bytes.
 pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
+    encode_sections(model, annex, |_| true)
+}
+
+/// [`encode`] with only the sections `keep` keeps (a file as an older build wrote it, for
+/// tests).
+fn encode_sections(model: &Model, annex: &[u8], keep: impl Fn(&Section) -> bool) -> Vec<u8> {
     let fields =
         FieldsOut { heat: &model.settings.heat, water: &model.settings.water, thermal: &model.particles.thermal };
     let provenance = model.materials.iter().map(|m| &m.provenance).collect();
@@ -258,7 +347,7 @@ pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
         fields,
         provenance,
         weakened,
-        sections: Section::of(model),
+        sections: Section::of(model).into_iter().filter(|s| keep(s)).collect(),
     };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
@@ -384,4 +473,41 @@ fn check_consistent(m: &Model) -> Result<(), String> {
         return Err("parallel bond rows do not match the particles".into());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pores::{BoundaryKind, PoreRegion};
+    use crate::Material;
+
+    // A format-7 file written before the pore heat section existed (its pore flow section
+    // only) still loads: water's thermal properties, no permeability factors, no region
+    // temperatures, the regions' totals at zero, and the pores take temperatures when heat is
+    // switched on.
+    #[test]
+    fn a_pore_flow_file_without_the_pore_heat_section_loads_with_its_defaults() {
+        let mut m = Model::new();
+        let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4e-3).unwrap());
+        let mat = mat.unwrap();
+        for i in 0..27 {
+            let x = Vec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * 1e-3;
+            m.add_particle(x, 0.4e-3, mat).unwrap();
+        }
+        m.enable_pore_flow().unwrap();
+        let region = PoreRegion::Point(Vec3::repeat(1e-3));
+        m.add_pore_boundary_at(region, BoundaryKind::Pressure(1e3), Some(350.0)).unwrap();
+        let old = encode_sections(&m, b"", |s| !matches!(s, Section::PoreHeat { .. }));
+        let loaded = decode(&old).unwrap().model;
+        let f = loaded.pores.as_ref().unwrap();
+        assert_eq!(loaded.settings.pores.boundaries[0].temperature, None);
+        assert_eq!(f.fluid.heat, FluidHeat::default());
+        assert!(f.fluid.permeability.is_empty() && f.temperature.is_empty());
+        assert_eq!(f.region_mass, vec![0.0]);
+        assert_eq!(f.mass, m.pores.as_ref().unwrap().mass);
+        // And the full file carries them.
+        let loaded = decode(&encode(&m, b"")).unwrap().model;
+        assert_eq!(loaded.settings.pores.boundaries[0].temperature, Some(350.0));
+        assert_eq!(loaded.pores.as_ref().unwrap().region_mass, m.pores.as_ref().unwrap().region_mass);
+    }
 }

@@ -476,9 +476,9 @@ impl fmt::Display for StepPlan {
             stages.push(body.join(" + "));
         }
         if let Some(p) = &self.pore_flow {
-            stages.push(format!(
+            let mut w = format!(
                 "pore_flow({} pores, {} throats; K_f = {:.3e} Pa, ρ0 = {} kg/m³, μ = {:.3e} Pa·s; {} fixed-pressure and {} \
-                 flux region(s), the rest sealed; sub-stepped under V/(K_f·Σg), at most {} per step)",
+                 flux region(s), the rest sealed; sub-stepped under V/(K_f·Σg), at most {} per step",
                 p.pores,
                 p.throats,
                 p.bulk_modulus,
@@ -487,7 +487,17 @@ impl fmt::Display for StepPlan {
                 p.fixed_pressure_regions,
                 p.flux_regions,
                 p.max_substeps
-            ));
+            );
+            if p.thermal {
+                let h = &p.heat;
+                w.push_str(&format!(
+                    "; fluid temperature: in the equation of state (β_f = {:.3e} /K), advected upwind (c_f = {} \
+                     J/(kg·K)), exchanged with the grains (Nu = {}, k_f = {} W/(m·K))",
+                    h.expansion, h.specific_heat, h.nusselt, h.conductivity
+                ));
+            }
+            w.push(')');
+            stages.push(w);
         }
         stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
         if let Some(b) = &self.buoyancy {

@@ -22,6 +22,7 @@ mod parallel_bond;
 mod pore_coupling;
 mod pore_flow;
 mod pore_flow_parity;
+mod pore_heat;
 mod pore_network;
 mod rolling_resistance;
 mod run_loop;

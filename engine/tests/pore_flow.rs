@@ -183,3 +183,41 @@ fn flow_beyond_its_stable_step_is_stopped_by_the_guard_naming_the_pore() {
     f.advance(&m, 1e3 * crit).unwrap();
     assert_eq!(f.substeps, (1e3 / matdem_engine::pores::flow::FLOW_SAFETY).ceil() as u32);
 }
+
+/// A per-material permeability factor scales the throats its elements bound: every element of
+/// one material with factor 0.01 gives exactly 0.01 of the Darcy flux; a layer of it across
+/// the column (its throats the harmonic mean of their corners' factors) cuts the flux further
+/// than the same material's share alone would suggest, and never below the whole column's.
+#[test]
+fn a_materials_permeability_factor_scales_the_conductance_of_its_throats() {
+    let nz = 8;
+    let flux = |f: &PoreFlow| {
+        let mut s = f.clone();
+        s.solve_steady(1e-13).unwrap();
+        s.boundary_flow[0]
+    };
+    let (mut m, f) = darcy(nz, 1000.0);
+    let q1 = flux(&f);
+    let mut tight = f.fluid.clone();
+    tight.permeability.insert("grain".into(), 0.01);
+    let mut g = f.clone();
+    g.fluid = tight.clone();
+    g.network.refresh(&m, &tight);
+    let q_all = flux(&g);
+    assert!((q_all / q1 / 0.01 - 1.0).abs() < 1e-9, "all tight: {q_all:e} vs 0.01 × {q1:e}");
+    // The middle layers (z = 3a, 4a) of another material, "clay", tight.
+    let clay = m.add_material(Material::from_micro("clay", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4 * A).unwrap()).unwrap();
+    for (i, x) in m.particles.pos.iter().enumerate() {
+        if (x.z / A - 3.5).abs() < 0.6 {
+            m.particles.material[i] = clay;
+        }
+    }
+    let mut layered = f.fluid.clone();
+    layered.permeability.insert("clay".into(), 0.01);
+    let mut l = f.clone();
+    l.fluid = layered.clone();
+    l.network.refresh(&m, &layered);
+    let q_layer = flux(&l);
+    println!("Darcy flux: open {q1:.4e}, all at 0.01 {q_all:.4e}, a tight layer of two {q_layer:.4e} m³/s");
+    assert!(q_layer < 0.2 * q1 && q_layer > q_all, "a tight layer: {q_layer:e} (open {q1:e}, all tight {q_all:e})");
+}

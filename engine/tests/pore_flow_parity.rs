@@ -45,7 +45,11 @@ fn flow_update_matches_the_cpu() {
     cpu.set_boundaries(vec![
         PoreBoundary::boxed(Vec3::repeat(-big), Vec3::new(big, big, 0.5 * A), BoundaryKind::Pressure(800.0)),
         PoreBoundary::boxed(Vec3::new(-big, -big, 6.5 * A), Vec3::repeat(big), BoundaryKind::Pressure(0.0)),
-        PoreBoundary { region: PoreRegion::Point(Vec3::new(1.5, 1.5, 3.5) * A), kind: BoundaryKind::Flux(1e-9) },
+        PoreBoundary {
+            region: PoreRegion::Point(Vec3::new(1.5, 1.5, 3.5) * A),
+            kind: BoundaryKind::Flux(1e-9),
+            temperature: None,
+        },
     ])
     .unwrap();
     let mut gpu_f = cpu.clone();

@@ -39,6 +39,11 @@ pub struct PoreFlowPlan {
     pub max_substeps: u32,
     pub fixed_pressure_regions: usize,
     pub flux_regions: usize,
+    /// The heat field is on too: each pore's fluid has a temperature (in the equation of
+    /// state, carried by the flow, exchanged with the grains; [`super::heat`]).
+    pub thermal: bool,
+    /// The fluid's thermal properties (used when `thermal`).
+    pub heat: super::FluidHeat,
 }
 
 impl PoreFlowPlan {
@@ -56,6 +61,8 @@ impl PoreFlowPlan {
             max_substeps: s.fluid.max_substeps,
             fixed_pressure_regions: count(|k| matches!(k, BoundaryKind::Pressure(_))),
             flux_regions: count(|k| matches!(k, BoundaryKind::Flux(_))),
+            thermal: m.settings.heat.enabled,
+            heat: s.fluid.heat,
         })
     }
 
@@ -63,7 +70,11 @@ impl PoreFlowPlan {
     /// throat (conductance, opening, flow, the two pores), per element (its row of corners).
     pub fn lanes(&self) -> Vec<&'static str> {
         vec![
-            "pore: mass, pressure, volume, centre, region, source",
+            if self.thermal {
+                "pore: mass, pressure, volume, centre, region, source, temperature"
+            } else {
+                "pore: mass, pressure, volume, centre, region, source"
+            },
             "throat: a, b, conductance, opening, flow",
             "element: corners",
         ]
@@ -71,7 +82,8 @@ impl PoreFlowPlan {
 
     /// Bytes of the network and fluid the stage holds (f64 values, u32 indices), about.
     pub fn bytes(&self) -> usize {
-        self.pores * (8 * 4 + 24 + 4 + 8) + self.throats * (4 * 4 + 8 * 3 + 1 + 1)
+        let temperature = if self.thermal { 8 } else { 0 };
+        self.pores * (8 * 4 + 24 + 4 + 8 + temperature) + self.throats * (4 * 4 + 8 * 3 + 1 + 1)
     }
 }
 
@@ -141,8 +153,8 @@ impl PoreFlow {
         let mut f = self.clone();
         f.boundaries.clear();
         f.set_boundaries(vec![
-            PoreBoundary { region: inlet, kind: BoundaryKind::Pressure(1.0) },
-            PoreBoundary { region: outlet, kind: BoundaryKind::Pressure(0.0) },
+            PoreBoundary { region: inlet, kind: BoundaryKind::Pressure(1.0), temperature: None },
+            PoreBoundary { region: outlet, kind: BoundaryKind::Pressure(0.0), temperature: None },
         ])?;
         f.solve_steady(1e-12)?;
         let mean = |b: u32| {
@@ -242,11 +254,23 @@ impl Model {
 
     /// Adds a boundary region (after the others, so it wins where they overlap).
     pub fn add_pore_boundary(&mut self, region: PoreRegion, kind: BoundaryKind) -> Result<()> {
+        self.add_pore_boundary_at(region, kind, None)
+    }
+
+    /// Adds a boundary region whose fluid comes at `temperature` (K; with the heat field on:
+    /// a fixed-pressure region holds its pores at it, a flux region injects at it; `None`:
+    /// at the pore's own temperature).
+    pub fn add_pore_boundary_at(
+        &mut self,
+        region: PoreRegion,
+        kind: BoundaryKind,
+        temperature: Option<f64>,
+    ) -> Result<()> {
         if let PoreRegion::Elements(ids) = &region {
             self.check_ids(ids)?;
         }
         let mut all = self.settings.pores.boundaries.clone();
-        all.push(PoreBoundary { region, kind });
+        all.push(PoreBoundary { region, kind, temperature });
         if let Some(f) = self.pores.as_mut() {
             f.set_boundaries(all.clone())?;
         }

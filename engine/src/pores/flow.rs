@@ -1,5 +1,5 @@
-//! The pore fluid: mass per pore, density ρ = m / V_p, pressure p = K_f·(ρ/ρ0 − 1), and its
-//! explicit update.
+//! The pore fluid: mass per pore, density ρ = m / V_p, pressure p = K_f·(ρ/ρ0 − 1) — with the
+//! heat field on, p = K_f·(ρ/ρ0 − 1 + β_f·(T − T0)) ([`super::heat`]) — and its explicit update.
 //!
 //! A throat carries the volumetric flow q = g·(p_a − p_b) (Poiseuille-type conductance g,
 //! [`super::geometry::poiseuille`]) and so the mass ρ0·q from a to b; each pore sums its own
@@ -50,17 +50,29 @@ pub enum PoreRegion {
 pub struct PoreBoundary {
     pub region: PoreRegion,
     pub kind: BoundaryKind,
+    /// With the heat field on: the temperature (K) of the fluid the region supplies — a
+    /// fixed-pressure region's pores are held at it (a reservoir), a flux region injects at
+    /// it. `None`: fluid enters at the pore's own temperature (a drain). Not in the
+    /// boundary's own encoding: checkpoints carry it in the pore heat section, so files
+    /// written before it existed still load.
+    #[serde(skip)]
+    pub temperature: Option<f64>,
 }
 
 impl PoreBoundary {
     /// The pores whose centres lie in the box `lo`..`hi`.
     pub fn boxed(lo: Vec3, hi: Vec3, kind: BoundaryKind) -> Self {
-        PoreBoundary { region: PoreRegion::Box { lo, hi }, kind }
+        PoreBoundary { region: PoreRegion::Box { lo, hi }, kind, temperature: None }
+    }
+
+    /// The same region and kind, supplying fluid at `temperature` (K).
+    pub fn at_temperature(self, temperature: f64) -> Self {
+        PoreBoundary { temperature: Some(temperature), ..self }
     }
 }
 
 /// No boundary region holds this pore.
-const FREE: u32 = u32::MAX;
+pub(crate) const FREE: u32 = u32::MAX;
 
 /// Safety factor under the critical flow step.
 pub const FLOW_SAFETY: f64 = 0.9;
@@ -97,6 +109,25 @@ pub struct PoreFlow {
     /// Whether `stiffest` has seen the network as last built.
     #[serde(skip)]
     estimated: bool,
+    // What pore flow gained after checkpoint format 7's first pore section: kept out of this
+    // struct's encoding and carried by a section of their own (`checkpoint::Section::PoreHeat`),
+    // so that files written before them still load.
+    /// Temperature of each pore's fluid (K); empty while the heat field is off.
+    #[serde(skip)]
+    pub temperature: Vec<f64>,
+    /// Reference temperature T0 of the equation of state (the heat field's, K).
+    #[serde(skip)]
+    pub reference: f64,
+    /// Mass each boundary region has added since the start (kg; negative where it drained).
+    #[serde(skip)]
+    pub region_mass: Vec<f64>,
+    /// Heat each boundary region has added since the start (J): c_f·Δm·(T − T0) of the fluid
+    /// it supplied or took, and the heat that holds its pores at its temperature.
+    #[serde(skip)]
+    pub region_heat: Vec<f64>,
+    /// Sub-steps of the fluid–grain heat exchange in the last mechanical step.
+    #[serde(skip)]
+    pub exchange_substeps: u32,
 }
 
 impl PoreFlow {
@@ -123,6 +154,11 @@ impl PoreFlow {
             rebuilds: 0,
             stiffest: None,
             estimated: false,
+            temperature: Vec::new(),
+            reference: 0.0,
+            region_mass: Vec::new(),
+            region_heat: Vec::new(),
+            exchange_substeps: 0,
         };
         f.update_pressure();
         Ok(f)
@@ -145,7 +181,15 @@ impl PoreFlow {
                     return Err(Error::param("pore boundary value", p, "must be a finite number"));
                 }
             }
+            if let Some(t) = b.temperature {
+                if !t.is_finite() {
+                    return Err(Error::param("pore boundary temperature", t, "must be a finite number (K)"));
+                }
+            }
         }
+        // Regions kept (a region added after the others) keep their totals.
+        self.region_mass.resize(boundaries.len(), 0.0);
+        self.region_heat.resize(boundaries.len(), 0.0);
         self.boundaries = boundaries;
         self.boundary_mass += self.resolve_boundaries();
         Ok(())
@@ -209,6 +253,7 @@ impl PoreFlow {
         }
         self.boundary_flow = vec![0.0; self.boundaries.len()];
         let added = self.hold_pressures();
+        self.hold_temperatures();
         self.update_pressure();
         added
     }
@@ -225,6 +270,9 @@ impl PoreFlow {
         self.network.consistent(n)?;
         let pores = self.network.pore_count();
         let lanes = [self.mass.len(), self.pressure.len(), self.region.len(), self.source.len()];
+        let heat_ok = (self.temperature.is_empty() || self.temperature.len() == pores)
+            && self.region_mass.len() == self.boundaries.len()
+            && self.region_heat.len() == self.boundaries.len();
         let regions = self.boundaries.len();
         let ids_ok = self.boundaries.iter().all(|b| match &b.region {
             PoreRegion::Elements(ids) => ids.iter().all(|&i| (i as usize) < n),
@@ -235,6 +283,7 @@ impl PoreFlow {
             || self.boundary_flow.len() != regions
             || self.region.iter().any(|&r| r != FREE && r as usize >= regions)
             || !ids_ok
+            || !heat_ok
         {
             return Err("pore fluid lanes do not match the pore network".into());
         }
@@ -252,27 +301,91 @@ impl PoreFlow {
         }
     }
 
-    /// Sets each fixed-pressure pore's mass to its pressure and volume; returns the mass added.
-    fn hold_pressures(&mut self) -> f64 {
+    /// The temperature pore `p` is held at, when a fixed-pressure region with a temperature
+    /// holds it (and the heat field is on).
+    pub fn fixed_temperature(&self, p: usize) -> Option<f64> {
+        match self.region[p] {
+            FREE => None,
+            _ if self.temperature.is_empty() => None,
+            b => match self.boundaries[b as usize] {
+                PoreBoundary { kind: BoundaryKind::Pressure(_), temperature, .. } => temperature,
+                _ => None,
+            },
+        }
+    }
+
+    /// T − T0 of pore `p`'s fluid (0 with the heat field off).
+    #[inline]
+    pub fn excess_temperature(&self, p: usize) -> f64 {
+        self.temperature.get(p).map_or(0.0, |t| t - self.reference)
+    }
+
+    /// The mass pore `p` holds at (gauge) pressure `pressure`, its volume and temperature:
+    /// m = ρ0·V·(1 + p/K_f − β_f·(T − T0)), the equation of state solved for the mass.
+    fn mass_at(&self, p: usize, pressure: f64) -> f64 {
         let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
+        if self.temperature.is_empty() {
+            rho0 * self.network.volume[p] * (1.0 + pressure / k)
+        } else {
+            let beta = self.fluid.heat.expansion;
+            rho0 * self.network.volume[p] * (1.0 + pressure / k - beta * self.excess_temperature(p))
+        }
+    }
+
+    /// Sets each fixed-pressure pore's mass to its pressure, volume (and temperature); returns
+    /// the mass added, booked to its region with its heat c_f·Δm·(T − T0).
+    fn hold_pressures(&mut self) -> f64 {
+        let c_f = self.fluid.heat.specific_heat;
         let mut added = 0.0;
         for p in 0..self.mass.len() {
             if let Some(v) = self.fixed_pressure(p) {
-                let m = rho0 * self.network.volume[p] * (1.0 + v / k);
-                added += m - self.mass[p];
+                let m = self.mass_at(p, v);
+                let dm = m - self.mass[p];
+                added += dm;
+                let b = self.region[p] as usize;
+                self.region_mass[b] += dm;
+                if !self.temperature.is_empty() {
+                    self.region_heat[b] += c_f * dm * self.excess_temperature(p);
+                }
                 self.mass[p] = m;
             }
         }
         added
     }
 
-    /// p = K_f·(m / (ρ0 V) − 1) in every pore.
+    /// Sets each pore a region holds at a temperature to it, booking the heat to the region.
+    pub(crate) fn hold_temperatures(&mut self) {
+        if self.temperature.is_empty() {
+            return;
+        }
+        let c_f = self.fluid.heat.specific_heat;
+        for p in 0..self.mass.len() {
+            if let Some(t) = self.fixed_temperature(p) {
+                let b = self.region[p] as usize;
+                self.region_heat[b] += c_f * self.mass[p] * (t - self.temperature[p]);
+                self.temperature[p] = t;
+            }
+        }
+    }
+
+    /// p = K_f·(m / (ρ0 V) − 1) in every pore; with the heat field on,
+    /// p = K_f·(m / (ρ0 V) − 1 + β_f·(T − T0)).
     pub fn update_pressure(&mut self) {
         let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
         let vol = &self.network.volume;
-        self.pressure.par_iter_mut().zip(self.mass.par_iter()).zip(vol.par_iter()).for_each(|((p, m), v)| {
-            *p = k * (m / (rho0 * v) - 1.0);
-        });
+        if self.temperature.is_empty() {
+            self.pressure.par_iter_mut().zip(self.mass.par_iter()).zip(vol.par_iter()).for_each(|((p, m), v)| {
+                *p = k * (m / (rho0 * v) - 1.0);
+            });
+        } else {
+            let (beta, t0) = (self.fluid.heat.expansion, self.reference);
+            let t = &self.temperature;
+            self.pressure.par_iter_mut().zip(self.mass.par_iter()).zip(vol.par_iter()).enumerate().for_each(
+                |(i, ((p, m), v))| {
+                    *p = k * (m / (rho0 * v) - 1.0 + beta * (t[i] - t0));
+                },
+            );
+        }
     }
 
     /// Density of each pore's fluid (kg/m³).
@@ -356,6 +469,7 @@ impl PoreFlow {
     pub fn substep(&mut self, h: f64) {
         let rho0 = self.fluid.density;
         self.boundary_mass += self.hold_pressures();
+        self.hold_temperatures();
         self.update_pressure();
         let net = &self.network;
         let pressure = &self.pressure;
@@ -367,33 +481,75 @@ impl PoreFlow {
         let flow = &self.flow;
         let source = &self.source;
         // Net volumetric inflow of each pore through its own row of throats.
-        let inflow: Vec<f64> = (0..net.pore_count())
-            .into_par_iter()
-            .map(|p| {
-                net.throats_of(p)
-                    .iter()
-                    .map(|&t| {
-                        let th = &net.throats[t as usize];
-                        if th.a as usize == p {
-                            -flow[t as usize]
-                        } else {
-                            flow[t as usize]
-                        }
-                    })
-                    .sum::<f64>()
-            })
-            .collect();
+        let row_sum = |per_throat: &[f64]| -> Vec<f64> {
+            (0..net.pore_count())
+                .into_par_iter()
+                .map(|p| {
+                    net.throats_of(p)
+                        .iter()
+                        .map(|&t| {
+                            let th = &net.throats[t as usize];
+                            if th.a as usize == p {
+                                -per_throat[t as usize]
+                            } else {
+                                per_throat[t as usize]
+                            }
+                        })
+                        .sum::<f64>()
+                })
+                .collect()
+        };
+        let inflow = row_sum(flow);
         for b in self.boundary_flow.iter_mut() {
             *b = 0.0;
         }
-        for p in 0..self.mass.len() {
-            self.mass[p] += rho0 * h * (inflow[p] + source[p]);
-            self.boundary_mass += rho0 * h * source[p];
-            if self.region[p] != FREE {
-                self.boundary_flow[self.region[p] as usize] += source[p] - inflow[p];
+        if self.temperature.is_empty() {
+            for p in 0..self.mass.len() {
+                self.mass[p] += rho0 * h * (inflow[p] + source[p]);
+                self.boundary_mass += rho0 * h * source[p];
+                if self.region[p] != FREE {
+                    let b = self.region[p] as usize;
+                    self.boundary_flow[b] += source[p] - inflow[p];
+                    self.region_mass[b] += rho0 * h * source[p];
+                }
+            }
+        } else {
+            // Heat carried by the flow, upwind: a throat's flow carries the temperature of
+            // the pore it leaves. One value per throat, read by both of its pores' rows, so
+            // what one pore loses the other gains (Σ m·(T − T0) conserved to round-off).
+            let excess: Vec<f64> = (0..self.mass.len()).map(|p| self.excess_temperature(p)).collect();
+            let carried: Vec<f64> = (self.flow.par_iter().zip(net.throats.par_iter()))
+                .map(|(q, th)| q * if *q > 0.0 { excess[th.a as usize] } else { excess[th.b as usize] })
+                .collect();
+            let heat_in = row_sum(&carried);
+            let c_f = self.fluid.heat.specific_heat;
+            for p in 0..self.mass.len() {
+                let m0 = self.mass[p];
+                // An injection brings its region's temperature; a draw takes the pore's own.
+                let supplied = match self.region[p] {
+                    FREE => excess[p],
+                    b => match self.boundaries[b as usize].temperature {
+                        Some(t) if source[p] > 0.0 => t - self.reference,
+                        _ => excess[p],
+                    },
+                };
+                let m1 = m0 + rho0 * h * (inflow[p] + source[p]);
+                let e1 = m0 * excess[p] + rho0 * h * (heat_in[p] + source[p] * supplied);
+                self.mass[p] = m1;
+                if m1 > 0.0 {
+                    self.temperature[p] = self.reference + e1 / m1;
+                }
+                self.boundary_mass += rho0 * h * source[p];
+                if self.region[p] != FREE {
+                    let b = self.region[p] as usize;
+                    self.boundary_flow[b] += source[p] - inflow[p];
+                    self.region_mass[b] += rho0 * h * source[p];
+                    self.region_heat[b] += c_f * rho0 * h * source[p] * supplied;
+                }
             }
         }
         self.boundary_mass += self.hold_pressures();
+        self.hold_temperatures();
         self.update_pressure();
     }
 
@@ -406,28 +562,36 @@ impl PoreFlow {
         let old_total = self.total_mass();
         let old_free_mass: f64 =
             (0..self.mass.len()).filter(|&p| self.fixed_pressure(p).is_none()).map(|p| self.mass[p]).sum();
+        let thermal = !self.temperature.is_empty();
+        let old_free_heat = self.free_heat();
+        let old_held = self.held_by_region();
         let mut net = PoreNetwork::build(m)?;
         net.refresh(m, &self.fluid);
-        let mass: Vec<f64> = net
+        let nearest: Vec<usize> = net
             .centre
             .par_iter()
-            .zip(net.volume.par_iter())
-            .map(|(c, v)| {
-                let nearest = old_centre
+            .map(|c| {
+                old_centre
                     .iter()
                     .enumerate()
                     .map(|(i, o)| ((o - c).norm_squared(), i))
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
                     .map(|(_, i)| i)
-                    .unwrap_or(0);
-                old_density[nearest] * v
+                    .unwrap_or(0)
             })
             .collect();
+        let mass: Vec<f64> = nearest.iter().zip(&net.volume).map(|(&o, v)| old_density[o] * v).collect();
+        if thermal {
+            self.temperature = nearest.iter().map(|&o| self.temperature[o]).collect();
+        }
         self.flow = vec![0.0; net.throats.len()];
         self.pressure = vec![0.0; mass.len()];
         self.network = net;
         self.mass = mass;
+        // The regions' totals are booked below, from what their pores held before and after.
+        let (region_mass, region_heat) = (self.region_mass.clone(), self.region_heat.clone());
         self.resolve_boundaries();
+        (self.region_mass, self.region_heat) = (region_mass, region_heat);
         let free: Vec<usize> = (0..self.mass.len()).filter(|&p| self.fixed_pressure(p).is_none()).collect();
         let new_free_mass: f64 = free.iter().map(|&p| self.mass[p]).sum();
         if new_free_mass > 0.0 {
@@ -435,13 +599,50 @@ impl PoreFlow {
             for &p in &free {
                 self.mass[p] *= s;
             }
+            if thermal {
+                // The free fluid's heat is carried over too: its temperatures shift by one
+                // amount so that Σ m·(T − T0) over the free pores is unchanged.
+                let shift = (old_free_heat - self.free_heat()) / old_free_mass.max(f64::MIN_POSITIVE);
+                for &p in &free {
+                    if self.fixed_temperature(p).is_none() {
+                        self.temperature[p] += shift;
+                    }
+                }
+            }
         }
         self.update_pressure();
         // What the fixed pressures hold changed with the pores; the boundaries supplied it.
         self.boundary_mass += self.total_mass() - old_total;
+        let new_held = self.held_by_region();
+        for (b, (old, new)) in old_held.iter().zip(&new_held).enumerate() {
+            self.region_mass[b] += new.0 - old.0;
+            self.region_heat[b] += new.1 - old.1;
+        }
         self.rebuilds += 1;
         self.estimated = false;
         Ok(())
+    }
+
+    /// Σ m·(T − T0) over the pores not held at a pressure (kg·K; 0 with the heat field off).
+    fn free_heat(&self) -> f64 {
+        (0..self.mass.len())
+            .filter(|&p| self.fixed_pressure(p).is_none())
+            .map(|p| self.mass[p] * self.excess_temperature(p))
+            .sum()
+    }
+
+    /// The mass and heat c_f·m·(T − T0) the fixed-pressure pores of each region hold.
+    fn held_by_region(&self) -> Vec<(f64, f64)> {
+        let c_f = self.fluid.heat.specific_heat;
+        let mut out = vec![(0.0, 0.0); self.boundaries.len()];
+        for p in 0..self.mass.len() {
+            if self.fixed_pressure(p).is_some() {
+                let o = &mut out[self.region[p] as usize];
+                o.0 += self.mass[p];
+                o.1 += c_f * self.mass[p] * self.excess_temperature(p);
+            }
+        }
+        out
     }
 
     /// Sets the fluid to the steady state of the current network: the pressures for which
@@ -534,11 +735,10 @@ impl PoreFlow {
             }
             iters += 1;
         }
-        let (k, rho0) = (self.fluid.bulk_modulus, self.fluid.density);
         let before = self.total_mass();
         for p in 0..np {
             let v = fixed[p].unwrap_or(x[p]);
-            self.mass[p] = rho0 * self.network.volume[p] * (1.0 + v / k);
+            self.mass[p] = self.mass_at(p, v);
         }
         self.boundary_mass += self.total_mass() - before;
         self.update_pressure();

@@ -10,20 +10,26 @@
 //! - [`pressure_forces`]: pore pressure on the elements bounding each pore.
 //! - [`coupling`]: the `pore_flow` stage's settings and the model-level calls that switch it
 //!   on, set its boundaries and read its state (the pass is `backend/cpu/pore_flow.rs`).
+//! - [`heat`]: with the heat field on, each pore's fluid has a temperature: it enters the
+//!   equation of state (thermal expansion of the fluid), is carried by the flow (upwind
+//!   advection) and exchanged with the elements at the pore's corners.
 
 pub mod coupling;
 pub mod delaunay;
 pub mod flow;
 pub mod geometry;
+pub mod heat;
 pub mod network;
 pub mod pressure_forces;
 pub mod stiffness;
 
 pub use coupling::{PoreFlowPlan, PoreSettings};
 pub use flow::{BoundaryKind, PoreBoundary, PoreFlow, PoreRegion};
+pub use heat::FluidHeat;
 pub use network::PoreNetwork;
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// The pore fluid and how the network treats it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -45,6 +51,17 @@ pub struct Fluid {
     /// The network is rebuilt (fluid carried over) once an element has moved this fraction
     /// of the mean radius since the last build.
     pub rebuild_drift: f64,
+    /// Thermal properties of the fluid (used when the heat field is on). Not in the fluid's
+    /// own encoding: checkpoints carry it in a section of its own, so that files written
+    /// before it existed still load (with water's values).
+    #[serde(skip)]
+    pub heat: FluidHeat,
+    /// Factor on the conductance of the throats of each material's elements, by material name
+    /// (a throat takes the harmonic mean of its face's three corners' factors; a material not
+    /// named has 1): a finer or more cemented layer without finer grains. Carried by
+    /// checkpoints beside `heat`.
+    #[serde(skip)]
+    pub permeability: BTreeMap<String, f64>,
 }
 
 impl Default for Fluid {
@@ -57,6 +74,8 @@ impl Default for Fluid {
             crack_aperture: 0.01,
             max_substeps: 1000,
             rebuild_drift: 0.5,
+            heat: FluidHeat::default(),
+            permeability: BTreeMap::new(),
         }
     }
 }
@@ -71,6 +90,15 @@ impl Fluid {
         check_positive("fluid cement_factor", self.cement_factor, true)?;
         check_positive("fluid crack_aperture", self.crack_aperture, true)?;
         check_positive("fluid rebuild_drift", self.rebuild_drift, false)?;
+        self.heat.check()?;
+        for (name, &f) in &self.permeability {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(crate::Error::InvalidScene(format!(
+                    "the permeability factor of material `{name}` is {f}: it must be a finite number > 0 (1 leaves \
+                     its throats as the grains make them; 0.01 makes them a hundred times tighter)"
+                )));
+            }
+        }
         if self.max_substeps == 0 {
             return Err(crate::Error::InvalidParameter {
                 name: "fluid max_substeps",

@@ -7,6 +7,7 @@
 use super::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
 use super::geometry::{cubic_law, opening, poiseuille_within, pore_volume, sectors_volume, tet_volume};
 use super::Fluid;
+use crate::element_values::base_name;
 use crate::error::Result;
 use crate::model::Model;
 use crate::physics::Vec3;
@@ -297,6 +298,16 @@ impl PoreNetwork {
         }
         let centre = &self.centre;
         let volume = &self.volume;
+        // Per-material permeability factors (1 when the fluid names none): each material's,
+        // or a per-element clone's (`rock~3`) base material's.
+        let factors: Option<Vec<f64>> = (!fluid.permeability.is_empty()).then(|| {
+            let named = |n: &str| fluid.permeability.get(n).copied();
+            m.materials
+                .iter()
+                .map(|mat| named(&mat.name).or_else(|| named(base_name(&mat.name))).unwrap_or(1.0))
+                .collect()
+        });
+        let material = &m.particles.material;
         let out: Vec<(f64, f64, bool)> = self
             .throats
             .par_iter()
@@ -325,7 +336,13 @@ impl PoreNetwork {
                     }
                 }
                 let cemented = bits != 0 && !cracked;
-                let factor = if cemented { fluid.cement_factor } else { 1.0 };
+                let mut factor = if cemented { fluid.cement_factor } else { 1.0 };
+                if let Some(k) = &factors {
+                    // The harmonic mean of the face's corners: a passage is as tight as its
+                    // tightest walls make it, in series.
+                    let inv: f64 = f.iter().map(|&i| 1.0 / k[material[i as usize] as usize]).sum();
+                    factor *= 3.0 / inv;
+                }
                 // The pores' thickness across the face, the height 3V/A of a tetrahedron of
                 // the smaller pore's fluid volume on it: a sliver's (the convex hull's flat
                 // tetrahedra) is tiny, and so is the passage through it.

@@ -219,7 +219,8 @@ impl CpuBackend {
     /// The pore_flow stage; its guard error is kept for the end of the step.
     fn pore_flow(&mut self, m: &mut Model) {
         if self.pore_error.is_none() {
-            if let Err(e) = pore_flow::pore_flow(m) {
+            let plan = self.plan.pore_flow.as_ref().expect("the plan has the pore_flow stage");
+            if let Err(e) = pore_flow::pore_flow(m, plan) {
                 self.pore_error = Some(e);
             }
         }

@@ -4,21 +4,32 @@
 //! advances by dt in explicit sub-steps under its stable flow step (the guard's error, naming
 //! the pore, when that needs more than the fluid's `max_substeps`; the state is then left as
 //! it was, never NaN), and each element adds the pressure of the pores at its corners to its
-//! own force ([`crate::pores::pressure_forces`]: a per-element gather, no atomics). GPU twin
-//! of the flow update: `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl).
+//! own force ([`crate::pores::pressure_forces`]: a per-element gather, no atomics). With the
+//! heat field on (the plan's `thermal`), each pore's fluid has a temperature, carried by the
+//! flow and exchanged with the elements at its corners after the flow's sub-steps
+//! ([`crate::pores::heat`]). GPU twin of the (isothermal) flow update:
+//! `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl).
 
 use crate::error::Result;
 use crate::model::Model;
+use crate::pores::PoreFlowPlan;
 
 /// Runs the stage on the model's pore network (a no-op when it has none).
-pub fn pore_flow(m: &mut Model) -> Result<()> {
+pub fn pore_flow(m: &mut Model, plan: &PoreFlowPlan) -> Result<()> {
     let Some(mut f) = m.pores.take() else { return Ok(()) };
     let mut result = Ok(());
+    if plan.thermal {
+        m.fit_thermal();
+        f.fit_temperature(m);
+    }
     if f.network.tri.points.len() != m.len() {
         result = f.rebuild(m);
     }
     if result.is_ok() {
         result = f.advance(m, m.clock.dt);
+    }
+    if result.is_ok() && plan.thermal {
+        result = f.exchange_heat(m, m.clock.dt);
     }
     if result.is_ok() {
         f.add_forces(&m.particles.pos, &mut m.particles.force);
