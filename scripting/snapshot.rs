@@ -68,6 +68,56 @@ pub fn vtp(m: &Model) -> String {
     s
 }
 
+/// The pore network of `m` as a VTK PolyData XML file (ASCII), `None` when pore flow is off:
+/// one point per pore at its centre (pressure, density, volume, region, and temperature with
+/// heat on) and one line per throat between its two pores (conductance, flow from its first
+/// pore to its second, opening, cracked). No vertex cells, so the cell data are the throats'
+/// alone; show the pores with ParaView's Points or Point Gaussian representation.
+pub fn pores_vtp(m: &Model) -> Option<String> {
+    let f = m.pores.as_ref()?;
+    let net = &f.network;
+    let (np, nt) = (net.pore_count(), net.throats.len());
+    let mut s = String::with_capacity(120 * np + 100 * nt + 1024);
+    s.push_str("<?xml version=\"1.0\"?>\n");
+    let _ = writeln!(
+        s,
+        "<!-- matdem-rs pore network at step {}: pores as points, throats as lines; region = the index of the \
+         boundary region holding the pore (in the order they were set), -1 for none -->",
+        m.clock.step
+    );
+    s.push_str("<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n");
+    s.push_str("  <PolyData>\n    <FieldData>\n");
+    array(&mut s, "Float64", "TimeValue", 1, [m.clock.time].into_iter().map(num), " NumberOfTuples=\"1\"");
+    s.push_str("    </FieldData>\n");
+    let _ = writeln!(
+        s,
+        "    <Piece NumberOfPoints=\"{np}\" NumberOfVerts=\"0\" NumberOfLines=\"{nt}\" NumberOfStrips=\"0\" \
+         NumberOfPolys=\"0\">"
+    );
+    s.push_str("      <PointData Scalars=\"pressure\">\n");
+    array(&mut s, "Float64", "pressure", 1, f.pressure.iter().map(|&p| num(p)), "");
+    array(&mut s, "Float64", "density", 1, f.density().into_iter().map(num), "");
+    array(&mut s, "Float64", "volume", 1, net.volume.iter().map(|&v| num(v)), "");
+    array(&mut s, "Float64", "mass", 1, f.mass.iter().map(|&v| num(v)), "");
+    if !f.temperature.is_empty() {
+        array(&mut s, "Float64", "temperature", 1, f.temperature.iter().map(|&t| num(t)), "");
+    }
+    let region = |p: usize| if f.region[p] == u32::MAX { "-1".to_string() } else { f.region[p].to_string() };
+    array(&mut s, "Int64", "region", 1, (0..np).map(region), "");
+    s.push_str("      </PointData>\n      <CellData Scalars=\"conductance\">\n");
+    array(&mut s, "Float64", "conductance", 1, net.conductance.iter().map(|&g| num(g)), "");
+    array(&mut s, "Float64", "flux", 1, f.flow.iter().map(|&q| num(q)), "");
+    array(&mut s, "Float64", "opening", 1, net.opening.iter().map(|&a| num(a)), "");
+    array(&mut s, "Int64", "cracked", 1, net.cracked.iter().map(|&c| u8::from(c).to_string()), "");
+    s.push_str("      </CellData>\n      <Points>\n");
+    array(&mut s, "Float64", "position", 3, vec3(np, |p| net.centre[p]), "");
+    s.push_str("      </Points>\n      <Lines>\n");
+    array(&mut s, "Int64", "connectivity", 1, net.throats.iter().flat_map(|t| [t.a.to_string(), t.b.to_string()]), "");
+    array(&mut s, "Int64", "offsets", 1, (1..=nt).map(|k| (2 * k).to_string()), "");
+    s.push_str("      </Lines>\n    </Piece>\n  </PolyData>\n</VTKFile>\n");
+    Some(s)
+}
+
 /// The components of a vector per particle, as text.
 fn vec3(n: usize, f: impl Fn(usize) -> matdem_engine::Vec3) -> impl Iterator<Item = String> {
     (0..n).flat_map(move |i| {

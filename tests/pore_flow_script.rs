@@ -121,3 +121,71 @@ fn bad_pore_flow_input_is_refused_with_what_to_do() {
     );
     assert!(e.contains("pore ") && e.contains("max_substeps") && e.contains("bulk_modulus"), "{e}");
 }
+
+// Heat with pore flow from a script: hot fluid injected at a temperature warms the pores and
+// the grains, the regions book the heat and mass, the fluid's thermal keys read back, a
+// material's permeability factor is taken, and `d.export_pores` writes the network as a
+// ParaView file in the output folder (pores as points, throats as lines).
+#[test]
+fn pore_fluid_heat_and_the_pore_network_file_from_a_script() {
+    let dir = crate::common::temp_dir("pore_heat_script");
+    let script = format!(
+        r#"{SMALL_BOX}
+        d.enable("heat");
+        d.thermal("m", #{{ conductivity: 3.0, specific_heat: 800.0 }});
+        d.fluid = #{{ bulk_modulus: 1e5, viscosity: 1.0, specific_heat: 4186.0, expansion: 3e-4, nusselt: 2.0,
+                      permeability: #{{ m: 0.5 }} }};
+        d.enable("pore_flow");
+        let t0 = d.reference_temperature;
+        d.inject([0.002, 0.002, 0.0015], 1e-7, t0 + 60.0);
+        d.run(200);
+        let net = d.pore_network;
+        let path = d.export_pores("network");
+        #{{ plan: d.plan(), tmax: field(d.pore_temperatures).max(), tp: d.pore_temperature.max(), t0: t0,
+            grains: d.temperature.max(), injected: net.region_heat[0], mass: net.region_mass[0],
+            dt: d.dt, fluid: d.fluid, path: path, pores: net.pores, throats: net.throats }}"#
+    );
+    let out: rhai::Map = matdem_rs::new_engine(Rc::new(Host::new(dir.clone())))
+        .eval(&script)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let f = |k: &str| out[k].as_float().unwrap();
+    let plan = out["plan"].clone().into_string().unwrap();
+    assert!(plan.contains("fluid temperature: in the equation of state"), "{plan}");
+    let t0 = f("t0");
+    assert!(f("tmax") > t0 + 1.0 && f("tmax") <= t0 + 60.0 + 1e-9, "hottest pore {}", f("tmax"));
+    assert!(f("tp") > t0 && f("grains") > t0, "the injection warmed no element: {} {}", f("tp"), f("grains"));
+    let want = 1000.0 * 1e-7 * 200.0 * f("dt");
+    assert!((f("mass") / want - 1.0).abs() < 1e-10, "injected mass {} vs ρ0·q·t {want}", f("mass"));
+    assert!((f("injected") / (4186.0 * want * 60.0) - 1.0).abs() < 1e-10, "injected heat {}", f("injected"));
+    let fluid = out["fluid"].clone().cast::<rhai::Map>();
+    assert_eq!(fluid["expansion"].as_float().unwrap(), 3e-4);
+    let perm = fluid["permeability"].clone().cast::<rhai::Map>();
+    assert_eq!(perm["m"].as_float().unwrap(), 0.5);
+    // The file: in the output folder, a PolyData with a point per pore and a line per throat.
+    let path = std::path::PathBuf::from(out["path"].clone().into_string().unwrap());
+    assert_eq!(path, dir.join("network.vtp"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (np, nt) = (out["pores"].as_int().unwrap(), out["throats"].as_int().unwrap());
+    assert!(text.contains(&format!("NumberOfPoints=\"{np}\"")) && text.contains(&format!("NumberOfLines=\"{nt}\"")));
+    for name in ["pressure", "density", "temperature", "volume", "conductance", "flux"] {
+        assert!(text.contains(&format!("Name=\"{name}\"")), "no {name} array");
+    }
+    let values = |name: &str| -> usize {
+        let start = text.find(&format!("Name=\"{name}\"")).unwrap();
+        let body = &text[start..];
+        let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
+        body.split_whitespace().count()
+    };
+    assert_eq!(values("temperature") as i64, np);
+    assert_eq!(values("flux") as i64, nt);
+    assert_eq!(values("connectivity") as i64, 2 * nt);
+    // Only into the output folder, and only with pore flow on.
+    let e = refusal("pores_out", &format!("{SMALL_BOX} d.enable(\"pore_flow\"); d.export_pores(\"../x\");"));
+    assert!(e.contains("..") || e.contains("output"), "{e}");
+    let e = refusal("pores_off", &format!("{SMALL_BOX} d.export_pores(\"x\");"));
+    assert!(e.contains("d.enable(\"pore_flow\")"), "{e}");
+    let e = refusal("pores_ext", &format!("{SMALL_BOX} d.enable(\"pore_flow\"); d.export_pores(\"x.csv\");"));
+    assert!(e.contains(".vtp"), "{e}");
+    let e = refusal("perm_bad", &format!("{SMALL_BOX} d.fluid = #{{ permeability: #{{ m: -1.0 }} }};"));
+    assert!(e.contains("permeability factor") && e.contains("nothing was changed"), "{e}");
+}

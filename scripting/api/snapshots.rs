@@ -1,11 +1,12 @@
 //! ParaView snapshots as scripts see them: `d.snapshot("name")` writes `name.vtp` now;
 //! `d.snapshot_every(n)` writes `snapshots/<model>_<step>.vtp` every n steps of every run and
 //! balance, listed by time in `<model>.pvd` (see [`crate::snapshot`]); `d.export_elements("name")` writes
-//! the elements as a CSV table (or a `.vtp`).
+//! the elements as a CSV table (or a `.vtp`); `d.export_pores("name")` writes the pore network
+//! (pores as points, throats as lines) as `name.vtp`.
 
 use super::model::{ModelData, ModelHandle};
 use super::{err, Host, RhaiResult};
-use crate::snapshot::{elements_csv, pvd, vtp};
+use crate::snapshot::{elements_csv, pores_vtp, pvd, vtp};
 use matdem_engine::simulation::Observer;
 use matdem_engine::Model;
 use rhai::{Dynamic, Engine, INT};
@@ -115,6 +116,29 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                     elements_csv(&data.sim.model)
                 }
             };
+            crate::atomic::write(&path, text.as_bytes())
+                .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+            h.note_written([path.clone()]);
+            Ok(Dynamic::from(path.display().to_string()))
+        })
+    });
+    let h = host.clone();
+    engine.register_fn("export_pores", move |d: &mut ModelHandle, name: &str| -> RhaiResult<Dynamic> {
+        let ext = std::path::Path::new(name).extension().map(|e| e.to_string_lossy().to_lowercase());
+        let file = match ext.as_deref() {
+            None => format!("{name}.vtp"),
+            Some("vtp") => name.to_string(),
+            Some(other) => {
+                return Err(err(format!(
+                    "export_pores: `{name}`: the pore network is written as a .vtp ParaView file (a name without an \
+                     extension gets .vtp), not .{other}"
+                )))
+            }
+        };
+        h.observe("export_pores", || {
+            let text = pores_vtp(&d.data().sim.model)
+                .ok_or_else(|| err("export_pores: pore flow is off; call d.enable(\"pore_flow\") first"))?;
+            let path = h.out_path(&file)?;
             crate::atomic::write(&path, text.as_bytes())
                 .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);

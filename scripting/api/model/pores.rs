@@ -4,14 +4,30 @@
 //! `d.fix_pore_pressure(group or box, p)`, `d.inject(point, rate)`,
 //! `d.fix_pore_pressure_at(point, p)` and `d.seal_pores()` set the boundaries (everything
 //! else is impermeable); `d.pore_pressure` (per element), `d.pore_pressures` (per pore),
-//! `d.permeability` and `d.pore_network` read the state. Each name is documented in
-//! scripting/api/docs.rs; the physics in docs/pore-flow.md.
+//! `d.permeability` and `d.pore_network` read the state. With heat on, each pore's fluid has a
+//! temperature: `d.fluid`'s `specific_heat`, `expansion`, `thermal_conductivity` and `nusselt`,
+//! a temperature as the last argument of `d.inject` and `d.fix_pore_pressure[_at]` (the
+//! fluid the region supplies), `d.pore_temperature` (per element) and `d.pore_temperatures`
+//! (per pore). `d.fluid = #{ permeability: #{ clay: 0.01 } }` tightens a material's throats.
+//! Each name is documented in scripting/api/docs.rs; the physics in docs/pore-flow.md.
 
 use super::*;
 use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
 
-const FLUID_KEYS: &[&str] =
-    &["bulk_modulus", "density", "viscosity", "max_substeps", "rebuild_drift", "cement_factor", "crack_aperture"];
+const FLUID_KEYS: &[&str] = &[
+    "bulk_modulus",
+    "density",
+    "viscosity",
+    "max_substeps",
+    "rebuild_drift",
+    "cement_factor",
+    "crack_aperture",
+    "specific_heat",
+    "expansion",
+    "thermal_conductivity",
+    "nusselt",
+    "permeability",
+];
 
 fn fluid_map(f: &Fluid) -> Map {
     let mut m = Map::new();
@@ -22,6 +38,12 @@ fn fluid_map(f: &Fluid) -> Map {
     m.insert("rebuild_drift".into(), Dynamic::from_float(f.rebuild_drift));
     m.insert("cement_factor".into(), Dynamic::from_float(f.cement_factor));
     m.insert("crack_aperture".into(), Dynamic::from_float(f.crack_aperture));
+    m.insert("specific_heat".into(), Dynamic::from_float(f.heat.specific_heat));
+    m.insert("expansion".into(), Dynamic::from_float(f.heat.expansion));
+    m.insert("thermal_conductivity".into(), Dynamic::from_float(f.heat.conductivity));
+    m.insert("nusselt".into(), Dynamic::from_float(f.heat.nusselt));
+    let factors: Map = f.permeability.iter().map(|(k, v)| (k.as_str().into(), Dynamic::from_float(*v))).collect();
+    m.insert("permeability".into(), Dynamic::from_map(factors));
     m
 }
 
@@ -29,6 +51,23 @@ fn fluid_map(f: &Fluid) -> Map {
 fn fluid_update(base: &Fluid, props: &Map) -> RhaiResult<Fluid> {
     let mut f = base.clone();
     for (k, v) in props {
+        if k.as_str() == "permeability" {
+            // Factors by material name; a map replaces the earlier factors of the names it holds.
+            let map = v.clone().try_cast::<Map>().ok_or_else(|| {
+                err(format!(
+                    "d.fluid = #{{…}}: `permeability` must be a map of factors by material name, e.g. #{{ clay: 0.01 \
+                     }}, got {}",
+                    v.type_name()
+                ))
+            })?;
+            for (name, x) in map {
+                let x = number(&x).ok_or_else(|| {
+                    err(format!("d.fluid = #{{…}}: the permeability factor of `{name}` must be a number"))
+                })?;
+                f.permeability.insert(name.to_string(), x);
+            }
+            continue;
+        }
         let x =
             number(v).ok_or_else(|| err(format!("d.fluid = #{{…}}: `{k}` must be a number, got {}", v.type_name())))?;
         match k.as_str() {
@@ -44,13 +83,18 @@ fn fluid_update(base: &Fluid, props: &Map) -> RhaiResult<Fluid> {
             "rebuild_drift" => f.rebuild_drift = x,
             "cement_factor" => f.cement_factor = x,
             "crack_aperture" => f.crack_aperture = x,
+            "specific_heat" | "c_f" => f.heat.specific_heat = x,
+            "expansion" | "beta_f" => f.heat.expansion = x,
+            "thermal_conductivity" | "k_f" => f.heat.conductivity = x,
+            "nusselt" => f.heat.nusselt = x,
             other => return Err(raise(matdem_engine::Error::unknown("fluid property", other, FLUID_KEYS))),
         }
     }
     f.check().map_err(|e| {
         err(format!(
             "d.fluid = #{{…}}: {e}; nothing was changed (water: bulk_modulus 2.2e9 Pa, density 1000 kg/m³, viscosity \
-             1e-3 Pa·s; a softer fluid or a more viscous one gives a longer stable flow step)"
+             1e-3 Pa·s, specific_heat 4186 J/(kg·K), expansion 2.1e-4 /K, thermal_conductivity 0.6 W/(m·K); a \
+             softer fluid or a more viscous one gives a longer stable flow step)"
         ))
     })?;
     Ok(f)
@@ -119,6 +163,33 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let r = region(&m, &sel, "d.inject(group or box, rate)")?;
             m.add_pore_boundary(r, BoundaryKind::Flux(q)).map_err(raise)
         })
+        .register_fn("fix_pore_pressure", |d: &mut ModelHandle, sel: Dynamic, p: FLOAT, t: FLOAT| -> RhaiResult<()> {
+            let call = "d.fix_pore_pressure(group or box, p, T)";
+            let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
+            let t = finite("the reservoir's temperature (K)", t)?;
+            let mut m = d.model();
+            let r = region(&m, &sel, call)?;
+            m.add_pore_boundary_at(r, BoundaryKind::Pressure(p), Some(t)).map_err(raise)
+        })
+        .register_fn("fix_pore_pressure_at", |d: &mut ModelHandle, point: Array, p: FLOAT, t: FLOAT| -> RhaiResult<()> {
+            let x = vec3(&Dynamic::from_array(point), "d.fix_pore_pressure_at(point, p, T): point")?;
+            let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
+            let t = finite("the reservoir's temperature (K)", t)?;
+            d.model().add_pore_boundary_at(PoreRegion::Point(x), BoundaryKind::Pressure(p), Some(t)).map_err(raise)
+        })
+        .register_fn("inject", |d: &mut ModelHandle, point: Array, rate: FLOAT, t: FLOAT| -> RhaiResult<()> {
+            let x = vec3(&Dynamic::from_array(point), "d.inject(point, rate, T): point")?;
+            let q = finite("the injection rate (m³/s at ρ0; negative draws fluid out)", rate)?;
+            let t = finite("the injected fluid's temperature (K)", t)?;
+            d.model().add_pore_boundary_at(PoreRegion::Point(x), BoundaryKind::Flux(q), Some(t)).map_err(raise)
+        })
+        .register_fn("inject", |d: &mut ModelHandle, sel: Dynamic, rate: FLOAT, t: FLOAT| -> RhaiResult<()> {
+            let q = finite("the injection rate (m³/s at ρ0; negative draws fluid out)", rate)?;
+            let t = finite("the injected fluid's temperature (K)", t)?;
+            let mut m = d.model();
+            let r = region(&m, &sel, "d.inject(group or box, rate, T)")?;
+            m.add_pore_boundary_at(r, BoundaryKind::Flux(q), Some(t)).map_err(raise)
+        })
         .register_fn("seal_pores", |d: &mut ModelHandle| d.model().clear_pore_boundaries().map_err(raise))
         .register_get(
             "pore_pressure",
@@ -136,6 +207,30 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 let m = d.model();
                 let f = m.pores.as_ref().ok_or_else(|| err(format!("d.pore_pressures: {OFF}")))?;
                 f.pressure.iter().map(|&p| Dynamic::from_float(p)).collect::<Array>()
+            }),
+        )
+        .register_get(
+            "pore_temperature",
+            observed!(host, "pore_temperature", |d| {
+                let m = d.model();
+                let f = m.pores.as_ref().ok_or_else(|| err(format!("d.pore_temperature: {OFF}")))?;
+                if f.temperature.is_empty() {
+                    return Err(err(
+                        "d.pore_temperature: the pore fluid has no temperature while heat is off; call \
+                         d.enable(\"heat\") (the pores take their temperatures at the next step)",
+                    ));
+                }
+                let mut t = f.element_temperature(&m.particles.pos);
+                t.resize(m.len(), f.reference);
+                Field::new(t)
+            }),
+        )
+        .register_get(
+            "pore_temperatures",
+            observed!(host, "pore_temperatures", |d| {
+                let m = d.model();
+                let f = m.pores.as_ref().ok_or_else(|| err(format!("d.pore_temperatures: {OFF}")))?;
+                f.temperature.iter().map(|&t| Dynamic::from_float(t)).collect::<Array>()
             }),
         )
         .register_get(
@@ -172,6 +267,11 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 out.insert("critical_pore".into(), int(pore));
                 let max = f.pressure.iter().cloned().fold(f64::MIN, f64::max);
                 out.insert("max_pressure".into(), Dynamic::from_float(max));
+                let floats = |v: &[f64]| v.iter().map(|&x| Dynamic::from_float(x)).collect::<Array>();
+                out.insert("region_mass".into(), Dynamic::from_array(floats(&f.region_mass)));
+                out.insert("region_heat".into(), Dynamic::from_array(floats(&f.region_heat)));
+                out.insert("fluid_heat".into(), Dynamic::from_float(f.fluid_heat()));
+                out.insert("exchange_substeps".into(), int(f.exchange_substeps as usize));
                 out
             }),
         );
