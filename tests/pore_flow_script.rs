@@ -145,9 +145,8 @@ fn pore_fluid_heat_and_the_pore_network_file_from_a_script() {
             grains: d.temperature.max(), injected: net.region_heat[0], mass: net.region_mass[0],
             dt: d.dt, fluid: d.fluid, path: path, pores: net.pores, throats: net.throats }}"#
     );
-    let out: rhai::Map = matdem_rs::new_engine(Rc::new(Host::new(dir.clone())))
-        .eval(&script)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let out: rhai::Map =
+        matdem_rs::new_engine(Rc::new(Host::new(dir.clone()))).eval(&script).unwrap_or_else(|e| panic!("{e}"));
     let f = |k: &str| out[k].as_float().unwrap();
     let plan = out["plan"].clone().into_string().unwrap();
     assert!(plan.contains("fluid temperature: in the equation of state"), "{plan}");

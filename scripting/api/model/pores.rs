@@ -171,12 +171,15 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let r = region(&m, &sel, call)?;
             m.add_pore_boundary_at(r, BoundaryKind::Pressure(p), Some(t)).map_err(raise)
         })
-        .register_fn("fix_pore_pressure_at", |d: &mut ModelHandle, point: Array, p: FLOAT, t: FLOAT| -> RhaiResult<()> {
-            let x = vec3(&Dynamic::from_array(point), "d.fix_pore_pressure_at(point, p, T): point")?;
-            let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
-            let t = finite("the reservoir's temperature (K)", t)?;
-            d.model().add_pore_boundary_at(PoreRegion::Point(x), BoundaryKind::Pressure(p), Some(t)).map_err(raise)
-        })
+        .register_fn(
+            "fix_pore_pressure_at",
+            |d: &mut ModelHandle, point: Array, p: FLOAT, t: FLOAT| -> RhaiResult<()> {
+                let x = vec3(&Dynamic::from_array(point), "d.fix_pore_pressure_at(point, p, T): point")?;
+                let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
+                let t = finite("the reservoir's temperature (K)", t)?;
+                d.model().add_pore_boundary_at(PoreRegion::Point(x), BoundaryKind::Pressure(p), Some(t)).map_err(raise)
+            },
+        )
         .register_fn("inject", |d: &mut ModelHandle, point: Array, rate: FLOAT, t: FLOAT| -> RhaiResult<()> {
             let x = vec3(&Dynamic::from_array(point), "d.inject(point, rate, T): point")?;
             let q = finite("the injection rate (m³/s at ρ0; negative draws fluid out)", rate)?;
@@ -215,10 +218,8 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 let m = d.model();
                 let f = m.pores.as_ref().ok_or_else(|| err(format!("d.pore_temperature: {OFF}")))?;
                 if f.temperature.is_empty() {
-                    return Err(err(
-                        "d.pore_temperature: the pore fluid has no temperature while heat is off; call \
-                         d.enable(\"heat\") (the pores take their temperatures at the next step)",
-                    ));
+                    return Err(err("d.pore_temperature: the pore fluid has no temperature while heat is off; call \
+                         d.enable(\"heat\") (the pores take their temperatures at the next step)"));
                 }
                 let mut t = f.element_temperature(&m.particles.pos);
                 t.resize(m.len(), f.reference);
