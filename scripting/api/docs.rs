@@ -108,7 +108,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("show", "d.show(field, name) / d.show(field, name, slice_thickness)", "a particle picture coloured by a field (x, y, z, r, displacement, dz, speed, material, size_class, contact_load, temperature, water; or d.show(values, label, name) / d.show(values, label, name, slice_thickness) for any field), saved as name.svg and name.png (MatDEM d.show)"),
     ("plot", "plot(table, x_column, y_column) / plot(x, y) -> Chart / r.plot(name, title, x_label, y_label)", "a line chart of two columns or fields; for a regression, its points and fitted curve saved as name.svg and name.png"),
     ("chart", "chart(title, x_label, y_label) -> Chart", "an empty chart to add series to"),
-    ("series", "c.series(name, x, y) -> Chart", "adds a line to a chart"),
+    ("series", "c.series(name, x, y) / c.series(name, x, y, #{ x_err, y_err }) -> Chart", "adds a line to a chart; with x_err and/or y_err (one half-length per point, e.g. a standard deviation), error bars at its points"),
     ("save", "t.save(\"name.csv\") / c.save(\"name\") / design.save(\"d.csv\") / anova.save(\"a.csv\")", "writes a table, design or ANOVA as CSV or a chart as SVG and PNG, inside the run's output folder"),
     ("new_table", "new_table() -> Table", "an empty table of named columns"),
     ("add_row", "t.add_row(#{ name: value })", "appends a row"),

@@ -157,6 +157,40 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             c.0.borrow_mut().add_series(name, x, y);
             Ok(c.clone())
         })
+        .register_fn(
+            "series",
+            |c: &mut Chart, name: &str, x: Dynamic, y: Dynamic, bars: rhai::Map| -> RhaiResult<Chart> {
+                let (x, y) = (to_numbers(&x, "series x")?, to_numbers(&y, "series y")?);
+                if x.len() != y.len() {
+                    return Err(err(format!("series `{name}`: x has {} values but y has {}", x.len(), y.len())));
+                }
+                let mut errs = [Vec::new(), Vec::new()];
+                for (key, v) in &bars {
+                    let k = match key.as_str() {
+                        "x_err" => 0,
+                        "y_err" => 1,
+                        other => {
+                            return Err(err(format!(
+                                "series `{name}`: unknown key `{other}`: error bars are given as #{{ x_err: [...], \
+                                 y_err: [...] }} (half-lengths, one per point)"
+                            )))
+                        }
+                    };
+                    let e = to_numbers(v, key.as_str())?;
+                    if e.len() != x.len() {
+                        return Err(err(format!(
+                            "series `{name}`: {key} has {} values but the series has {} points",
+                            e.len(),
+                            x.len()
+                        )));
+                    }
+                    errs[k] = e;
+                }
+                let [x_err, y_err] = errs;
+                c.0.borrow_mut().add_series_with_errors(name, x, y, x_err, y_err);
+                Ok(c.clone())
+            },
+        )
         .register_fn("plot", |t: Table, x: &str, y: &str| -> RhaiResult<Chart> {
             let data = t.0.borrow();
             let mut c = LineChart::new(format!("{y} vs {x}"), x, y);

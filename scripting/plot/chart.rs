@@ -11,12 +11,16 @@ use super::{draw_err, PlotError};
 /// Size of a rendered chart in pixels.
 pub const CHART_SIZE: (u32, u32) = (800, 500);
 
-/// One named curve: `y[i]` against `x[i]`.
+/// One named curve: `y[i]` against `x[i]`, with optional error bars.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
     pub name: String,
     pub x: Vec<f64>,
     pub y: Vec<f64>,
+    /// Half-lengths of the horizontal and vertical error bars at each point (a standard
+    /// deviation, say), or empty for none; a non-finite or negative value draws no bar.
+    pub x_err: Vec<f64>,
+    pub y_err: Vec<f64>,
 }
 
 /// A chart of one or more series drawn as lines with point markers.
@@ -45,10 +49,11 @@ pub struct Gap {
     pub y: f64,
 }
 
-/// A series ready to draw: unbroken runs of finite points.
+/// A series ready to draw: unbroken runs of finite points, and the error bars as segments.
 struct Prepared<'a> {
     name: &'a str,
     runs: Vec<Vec<(f64, f64)>>,
+    bars: Vec<[(f64, f64); 2]>,
 }
 
 impl LineChart {
@@ -58,7 +63,23 @@ impl LineChart {
 
     /// Appends a series. Lengths are checked when the chart is rendered.
     pub fn add_series(&mut self, name: impl Into<String>, x: impl Into<Vec<f64>>, y: impl Into<Vec<f64>>) -> &mut Self {
-        self.series.push(Series { name: name.into(), x: x.into(), y: y.into() });
+        self.series.push(Series { name: name.into(), x: x.into(), y: y.into(), x_err: Vec::new(), y_err: Vec::new() });
+        self
+    }
+
+    /// Appends a series with error bars: `x_err[i]` and `y_err[i]` are the half-lengths of
+    /// the bars at point i (either may be empty for none). Lengths are checked when the
+    /// chart is rendered.
+    pub fn add_series_with_errors(
+        &mut self,
+        name: impl Into<String>,
+        x: impl Into<Vec<f64>>,
+        y: impl Into<Vec<f64>>,
+        x_err: impl Into<Vec<f64>>,
+        y_err: impl Into<Vec<f64>>,
+    ) -> &mut Self {
+        let (x, y, x_err, y_err) = (x.into(), y.into(), x_err.into(), y_err.into());
+        self.series.push(Series { name: name.into(), x, y, x_err, y_err });
         self
     }
 
@@ -123,6 +144,31 @@ impl LineChart {
                         detail: format!("x has {} values, y has {}", s.x.len(), s.y.len()),
                     });
                 }
+                for (what, err) in [("x_err", &s.x_err), ("y_err", &s.y_err)] {
+                    if !err.is_empty() && err.len() != s.x.len() {
+                        return Err(PlotError::LengthMismatch {
+                            series: s.name.clone(),
+                            detail: format!("{what} has {} values, the points {}", err.len(), s.x.len()),
+                        });
+                    }
+                }
+                let mut bars = Vec::new();
+                for (i, (&x, &y)) in s.x.iter().zip(&s.y).enumerate() {
+                    let usable = |e: Option<&f64>| e.copied().filter(|e| e.is_finite() && *e > 0.0);
+                    if !(style::plottable(x) && style::plottable(y)) {
+                        continue;
+                    }
+                    if let Some(e) =
+                        usable(s.x_err.get(i)).filter(|e| style::plottable(x - e) && style::plottable(x + e))
+                    {
+                        bars.push([(x - e, y), (x + e, y)]);
+                    }
+                    if let Some(e) =
+                        usable(s.y_err.get(i)).filter(|e| style::plottable(y - e) && style::plottable(y + e))
+                    {
+                        bars.push([(x, y - e), (x, y + e)]);
+                    }
+                }
                 let mut runs: Vec<Vec<(f64, f64)>> = Vec::new();
                 let mut current = Vec::new();
                 for (&x, &y) in s.x.iter().zip(&s.y) {
@@ -138,7 +184,7 @@ impl LineChart {
                 if runs.is_empty() {
                     return Err(PlotError::EmptySeries { series: s.name.clone() });
                 }
-                Ok(Prepared { name: &s.name, runs })
+                Ok(Prepared { name: &s.name, runs, bars })
             })
             .collect()
     }
@@ -148,7 +194,8 @@ impl LineChart {
         let prepared = self.prepare()?;
 
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &(x, y) in prepared.iter().flat_map(|p| p.runs.iter().flatten()) {
+        let bar_ends = prepared.iter().flat_map(|p| p.bars.iter().flatten());
+        for &(x, y) in prepared.iter().flat_map(|p| p.runs.iter().flatten()).chain(bar_ends) {
             x0 = x0.min(x);
             x1 = x1.max(x);
             y0 = y0.min(y);
@@ -196,6 +243,24 @@ impl LineChart {
         let mut labelled = 0;
         for (i, p) in prepared.iter().enumerate() {
             let colour = style::categorical(i);
+            // Error bars first, so the markers sit on top; a short cap at each end.
+            for bar in &p.bars {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(bar.to_vec(), colour.stroke_width(1))))
+                    .map_err(draw_err)?;
+                let vertical = bar[0].0 == bar[1].0;
+                for end in bar {
+                    let (px, py) = chart.backend_coord(end);
+                    let cap = if vertical { [(px - 4, py), (px + 4, py)] } else { [(px, py - 4), (px, py + 4)] };
+                    let area = chart.plotting_area().strip_coord_spec();
+                    let (bx, by) = area.get_base_pixel();
+                    area.draw(&PathElement::new(
+                        cap.iter().map(|&(x, y)| (x - bx, y - by)).collect::<Vec<_>>(),
+                        colour.stroke_width(1),
+                    ))
+                    .map_err(draw_err)?;
+                }
+            }
             for (k, run) in p.runs.iter().enumerate() {
                 let drawn = chart
                     .draw_series(LineSeries::new(run.iter().copied(), colour.stroke_width(2)))
@@ -399,6 +464,23 @@ mod tests {
         assert!(svg.contains("gappy"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
         chart.render_png().unwrap();
+    }
+
+    #[test]
+    fn error_bars_widen_the_range_and_render_and_bad_lengths_are_named() {
+        let mut chart = LineChart::new("study", "wall time [s]", "residual");
+        chart.add_series_with_errors("B", vec![10.0], vec![0.1], vec![2.0], vec![0.05]);
+        chart.add_series_with_errors("C", vec![12.0, 14.0], vec![0.2, 0.3], Vec::new(), vec![0.1, f64::NAN]);
+        let prepared = chart.prepare().unwrap();
+        assert_eq!(prepared[0].bars, vec![[(8.0, 0.1), (12.0, 0.1)], [(10.0, 0.05), (10.0, 0.15000000000000002)]]);
+        assert_eq!(prepared[1].bars.len(), 1, "a NaN error draws no bar");
+        let svg = chart.render_svg().unwrap();
+        assert!(svg.contains("study") && svg.contains("C"));
+        assert_eq!(png_size(&chart.render_png().unwrap()), CHART_SIZE);
+        let mut bad = LineChart::new("t", "x", "y");
+        bad.add_series_with_errors("short", vec![1.0, 2.0], vec![1.0, 2.0], Vec::new(), vec![0.1]);
+        let err = bad.render_svg().unwrap_err();
+        assert!(err.to_string().contains("short") && err.to_string().contains("y_err"), "{err}");
     }
 
     #[test]
