@@ -25,6 +25,51 @@ pub struct BenchConfig {
     pub profile: bool,
     /// Bench this GPU instead of the CPU backend.
     pub gpu: Option<Arc<GpuContext>>,
+    /// Field stages switched on in the scene, so that a run shows what each costs a step.
+    pub fields: Vec<BenchField>,
+}
+
+/// A field stage `bench --field` switches on in the standard scene, every step (a field step
+/// of one mechanical step: its most expensive setting).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchField {
+    /// Heat conduction (k = 1 W/(m·K), c = 800 J/(kg·K), no expansion).
+    Heat,
+    /// Moisture diffusion (α_w = 1e-3 kg/(m²·s), ω = 0.2, no tables).
+    Moisture,
+    /// A water table at half the lattice's height (buoyancy, ρ_f = 1000 kg/m³).
+    Water,
+}
+
+impl BenchField {
+    fn name(self) -> &'static str {
+        match self {
+            BenchField::Heat => "heat (k 1 W/(m·K), c 800 J/(kg·K), every step)",
+            BenchField::Moisture => "moisture (α_w 1e-3 kg/(m²·s), ω 0.2, every step)",
+            BenchField::Water => "water table at half height (ρ_f 1000 kg/m³)",
+        }
+    }
+
+    /// Switches the field on in the bench scene's model.
+    fn apply(self, m: &mut matdem_engine::Model, s: &LatticeScene) -> matdem_engine::Result<()> {
+        match self {
+            BenchField::Heat => {
+                m.enable_heat();
+                let props =
+                    matdem_engine::fields::ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 0.0 };
+                m.set_thermal_material("bench", props)
+            }
+            BenchField::Moisture => {
+                m.settings.moisture.initial = 0.2;
+                m.enable_moisture();
+                m.set_moisture_material("bench", 1e-3)
+            }
+            BenchField::Water => {
+                m.settings.water.level = Some(0.5 * s.nz as f64 * s.spacing);
+                Ok(())
+            }
+        }
+    }
 }
 
 /// Builds and times the scene; returns what to print on stdout.
@@ -40,7 +85,10 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     if cfg.profile && cfg.gpu.is_some() {
         return Err("error: --profile times the CPU backend's stages; run it with --backend cpu".into());
     }
-    let model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
+    let mut model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
+    for f in &cfg.fields {
+        f.apply(&mut model, &scene).map_err(|e| format!("error: switching on {}: {e}", f.name()))?;
+    }
     let profile = if cfg.profile {
         Some(profile(&model, cfg.warmup, cfg.steps).map_err(|e| format!("error: the profiled run failed: {e}"))?)
     } else {
@@ -56,7 +104,11 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
         None => cpu_model(),
     };
     let backend = Backend { name: if cfg.gpu.is_some() { "gpu" } else { "cpu" }, device };
-    let mut out = if cfg.json { json(&scene, &report, &backend) } else { text(&scene, &report, &backend) };
+    let mut out = if cfg.json {
+        json(&scene, &report, &backend, &cfg.fields)
+    } else {
+        text(&scene, &report, &backend, &cfg.fields)
+    };
     if let (Some(p), false) = (&profile, cfg.json) {
         out.push_str(&profile_text(p));
     }
@@ -119,9 +171,13 @@ fn scene_line(s: &LatticeScene) -> String {
     )
 }
 
-fn text(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
+fn text(s: &LatticeScene, r: &BenchReport, b: &Backend, fields: &[BenchField]) -> String {
     let mut o = String::new();
     let _ = writeln!(o, "scene: {}", scene_line(s));
+    if !fields.is_empty() {
+        let names: Vec<&str> = fields.iter().map(|f| f.name()).collect();
+        let _ = writeln!(o, "fields: {}", names.join(", "));
+    }
     if b.name == "gpu" {
         let _ = writeln!(o, "backend: gpu (f32) on {}", b.device);
     } else {
@@ -184,12 +240,14 @@ fn json_str(s: &str) -> String {
     o
 }
 
-fn json(s: &LatticeScene, r: &BenchReport, b: &Backend) -> String {
+fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField]) -> String {
+    let on: Vec<String> = on.iter().map(|f| json_str(&format!("{f:?}").to_lowercase())).collect();
     let fields: Vec<(&str, String)> = vec![
         ("backend", json_str(b.name)),
         ("device", json_str(&b.device)),
         ("threads", r.threads.to_string()),
         ("scene", json_str("lattice")),
+        ("fields", format!("[{}]", on.join(","))),
         ("nx", s.nx.to_string()),
         ("ny", s.ny.to_string()),
         ("nz", s.nz.to_string()),

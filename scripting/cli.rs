@@ -114,6 +114,9 @@ pub enum Command {
         /// per stage, and each stage's share of them printed.
         #[arg(long)]
         profile: bool,
+        /// Switch a field stage on in the scene (repeat for several): what it costs a step.
+        #[arg(long = "field", value_enum)]
+        fields: Vec<matdem_rs::bench::BenchField>,
     },
     /// Print the script reference (Markdown): every function, property and stdlib procedure
     /// scripts can use, from what this binary registers.

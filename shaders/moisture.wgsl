@@ -4,7 +4,8 @@
 // radius √(R*·δ), at least the bond's neck for a bonded pair), plus its evaporation
 // E = χ·π·r² towards the ambient water content, and writes only its own next water content
 // and ΣG; `settle` makes the next contents current; `shrink` sets r = r0·f_r(ω) in origin.w
-// (which every stage reads as the radius); `strengthen` sets each bond's share of its
+// (which every stage reads as the radius), `shrink_expand` the same times the thermal
+// expansion's factor when heat expands the elements too; `strengthen` sets each bond's share of its
 // strength s(ω̄) in state.w, ω̄ the pair's mean, quantised as the CPU's u16 share is.
 // No atomics. CPU twin: backend/cpu/moisture.rs (physics/moisture.rs for the laws).
 
@@ -18,6 +19,11 @@ struct Moisture {
     // Points of the radius table (then the strength table's) in `tables`.
     radius_points: u32,
     strength_points: u32,
+    // T0 of thermal expansion, when the radius is the product of both factors.
+    reference: f32,
+    pad0: f32,
+    pad1: f32,
+    pad2: f32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -39,6 +45,10 @@ struct Moisture {
 @group(0) @binding(13) var<storage, read> radius0: array<f32>;
 // (ω, value) points: the radius table's, then the strength table's.
 @group(0) @binding(14) var<storage, read> tables: array<vec2<f32>>;
+// With thermal expansion too (`shrink_expand` only): the conduction stage's lanes, x the
+// temperature of (T, C, k, P), and (α, r0) whose r0 this stage keeps at r0·f(ω).
+@group(0) @binding(15) var<storage, read> thermal: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read_write> expansion: array<vec2<f32>>;
 
 fn field_value(j: u32) -> f32 {
     return water[j].x;
@@ -115,6 +125,20 @@ fn shrink(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     origin[i].w = radius0[i] * table_at(0u, field.radius_points, water[i].x);
+}
+
+// With thermal expansion too: r = r0·f(ω)·(1 + α·(T − T0)); the expansion's r0 becomes
+// r0·f(ω), which conduction's `expand` multiplies by its factor until the next field step.
+@compute @workgroup_size(64)
+fn shrink_expand(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n {
+        return;
+    }
+    let base = radius0[i] * table_at(0u, field.radius_points, water[i].x);
+    let e = expansion[i];
+    expansion[i] = vec2<f32>(e.x, base);
+    origin[i].w = base * (1.0 + e.x * (thermal[i].x - field.reference));
 }
 
 @compute @workgroup_size(64)

@@ -22,6 +22,32 @@ fn bench_json_reports_positive_figures() {
     assert!((4.5..=6.0).contains(&c), "contacts per particle {c}");
 }
 
+// `--field` switches field stages on in the same scene: the JSON names them, the plan's
+// bytes per particle grow by their lanes (moisture 41 B, heat 41 B) and the model's bytes
+// with them.
+#[test]
+fn bench_with_fields_on_names_them_and_counts_their_lanes() {
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let o = bin()
+            .args(["bench", "--particles", "500", "--steps", "5", "--warmup", "1", "--json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+        let out = stdout(&o);
+        serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"))
+    };
+    let off = run(&[]);
+    let on = run(&["--field", "moisture", "--field", "heat"]);
+    assert_eq!(off["fields"], serde_json::json!([]));
+    assert_eq!(on["fields"], serde_json::json!(["moisture", "heat"]));
+    let plan = |v: &serde_json::Value| v["plan_bytes_per_particle"].as_u64().unwrap();
+    assert_eq!(plan(&on), plan(&off) + 41 + 41, "{on} against {off}");
+    let bytes = |v: &serde_json::Value| v["bytes_per_particle"].as_f64().unwrap();
+    assert!(bytes(&on) >= bytes(&off) + 82.0, "{on} against {off}");
+    assert!(on["particle_steps_per_s"].as_f64().unwrap() > 0.0);
+}
+
 #[test]
 fn bench_on_gpu_without_an_adapter_is_refused_with_exit_code_2() {
     let o =

@@ -270,6 +270,8 @@ pub fn model_bytes(m: &Model) -> usize {
         bytes += cap(&r.ang_vel) + cap(&r.torque);
     }
     bytes += p.heat.lanes().iter().map(|l| cap(l)).sum::<usize>();
+    // The field stages' lanes (empty unless `bench --field` switched them on).
+    bytes += p.thermal.bytes() + p.moisture.bytes();
     let c = &m.contacts;
     bytes += cap(&c.row_start) + cap(&c.other) + cap(&c.state) + cap(&c.built_at);
     bytes += cap(&c.pair) + cap(&c.pair_start) + cap(&c.wall_near);

@@ -63,6 +63,11 @@ pub struct MoisturePlan {
     pub radius_table: Option<Table>,
     /// Bond strengths follow the water content.
     pub strength_table: Option<Table>,
+    /// With a radius table and thermal expansion both on, the reference temperature T0: the
+    /// radius is the product r0·f(ω)·(1 + α·(T − T0)), and this stage keeps the expansion's
+    /// r0 (the radius at T0) at r0·f(ω), so that the conduction stage's r0·(1 + α·(T − T0))
+    /// is the same product without knowing the table.
+    pub expansion: Option<f64>,
 }
 
 impl MoisturePlan {
@@ -75,6 +80,12 @@ impl MoisturePlan {
             bond_radius: s.bond_radius,
             radius_table: s.radius_table.clone(),
             strength_table: s.strength_table.clone(),
+            expansion: s
+                .radius_table
+                .as_ref()
+                .and(crate::fields::ConductionPlan::of(m))
+                .filter(|c| c.expansion)
+                .map(|c| c.reference),
         })
     }
 
@@ -178,7 +189,11 @@ impl Model {
             }
         }
         if shrink && self.particles.moisture.radius0.len() != n {
-            self.particles.moisture.radius0 = self.particles.radius.clone();
+            // With thermal expansion on, the table's r0 is the expansion's: the radius at the
+            // reference temperature (so the two factors multiply one r0, not each other's).
+            let th = &self.particles.thermal.radius0;
+            let r0 = if th.len() == n { th } else { &self.particles.radius };
+            self.particles.moisture.radius0 = r0.clone();
         }
     }
 
@@ -318,9 +333,7 @@ impl Model {
         w.iter().zip(&self.particles.mass).map(|(w, m)| w * m).sum()
     }
 
-    /// The moisture stage's checks before and during a run: thermal expansion and drying
-    /// shrinkage both set the radius (refused together for now), every free element has mass,
-    /// and the forward-Euler sub-step is below m_i/ΣG_i at every element (rows must be built;
+    /// The moisture stage's checks before and during a run: every free element has mass, and the forward-Euler sub-step is below m_i/ΣG_i at every element (rows must be built;
     /// without rows nothing more is checked). The error names the element, its limit and the fix.
     pub fn check_moisture(&self) -> Result<()> {
         let Some(plan) = MoisturePlan::of(self) else { return Ok(()) };
@@ -328,13 +341,6 @@ impl Model {
         let n = self.len();
         if w.water.len() != n {
             return Ok(());
-        }
-        if plan.radius_table.is_some() && crate::fields::ConductionPlan::of(self).is_some_and(|c| c.expansion) {
-            return Err(Error::InvalidScene(
-                "thermal expansion and drying shrinkage both set the radius, which is not supported yet: remove the \
-                 radius table (d.water_radius_table = ()) or the expansion coefficients"
-                    .into(),
-            ));
         }
         let c = &self.contacts;
         if c.row_start.len() != n + 1 || c.stale {

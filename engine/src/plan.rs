@@ -521,6 +521,9 @@ impl fmt::Display for StepPlan {
             if w.radius_table.is_some() {
                 s.push_str(", drying shrinkage");
             }
+            if w.expansion.is_some() {
+                s.push_str(" × thermal expansion");
+            }
             if w.strength_table.is_some() {
                 s.push_str(", bond strength by water content");
             }

@@ -321,19 +321,85 @@ fn a_drying_model_continues_bitwise_after_a_checkpoint() {
     assert!(encode(&straight.model, b"") == encode(&resumed.model, b""));
 }
 
-// Expansion and shrinkage both set the radius: refused together, with what to remove.
+// Thermal expansion and drying shrinkage together: r = r0·f(ω)·(1 + α·(T − T0)). A free
+// element with the table [(0, 0.9), (0.3, 1.0)] at ω = 0.15 (f = 0.95) heated by 100 K
+// (α = 1e-5) has 0.95·1.001·r0 within round-off (1e-15 of r0), whichever field stepped last
+// (heat every 3 steps, water every 2); cooled to +50 K it has 0.95·1.0005·r0, dried to ω = 0
+// 0.9·1.0005·r0; the mass is kept; the plan names both.
 #[test]
-fn expansion_and_shrinkage_together_are_refused() {
-    let (mut m, _) = chain(1.0, 0.01);
+fn a_free_element_with_expansion_and_shrinkage_changes_radius_by_the_product() {
+    let mut m = Model::new();
+    let k = m.add_material(material("soil", 2000.0, 1.0, 1.0, 0.0)).unwrap();
+    let r0 = 0.01;
+    m.add_particle(Vec3::zeros(), r0, k).unwrap();
+    m.settings.moisture.initial = 0.15;
+    m.settings.moisture.every = 2;
+    m.enable_moisture();
     m.set_radius_table(Some(vec![(0.0, 0.9), (0.3, 1.0)])).unwrap();
+    m.settings.heat.reference = 20.0;
+    m.settings.heat.every = 3;
     m.enable_heat();
-    m.set_thermal_material(
-        "soil",
-        matdem_engine::fields::ThermalProps { conductivity: 1.0, specific_heat: 1.0, expansion: 1e-5 },
-    )
-    .unwrap();
-    let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(e.contains("shrinkage") && e.contains("expansion"), "{e}");
+    let props = matdem_engine::fields::ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 1e-5 };
+    m.set_thermal_material("soil", props).unwrap();
+    m.set_temperatures(&[120.0]).unwrap();
+    let mass = m.particles.mass[0];
+    m.clock.dt = 1e-3;
+    let mut sim = Simulation::new(m);
+    let radius = |sim: &Simulation| sim.model.particles.radius[0];
+    for steps in 1..=12 {
+        sim.run(1, &RunControl::default(), &mut |_| {}).unwrap();
+        // Once both fields have stepped (steps 2 and 3), the radius is the product.
+        if steps >= 3 {
+            let want = r0 * 0.95 * (1.0 + 1e-5 * 100.0);
+            assert!((radius(&sim) - want).abs() < 1e-15 * r0, "step {steps}: {} against {want}", radius(&sim));
+        }
+    }
+    sim.model.set_temperatures(&[70.0]).unwrap();
+    sim.run(3, &RunControl::default(), &mut |_| {}).unwrap();
+    let want = r0 * 0.95 * (1.0 + 1e-5 * 50.0);
+    assert!((radius(&sim) - want).abs() < 1e-15 * r0, "cooled: {} against {want}", radius(&sim));
+    sim.model.set_water(&[0.0]).unwrap();
+    sim.run(2, &RunControl::default(), &mut |_| {}).unwrap();
+    let want = r0 * 0.9 * (1.0 + 1e-5 * 50.0);
+    assert!((radius(&sim) - want).abs() < 1e-15 * r0, "dried: {} against {want}", radius(&sim));
+    assert_eq!(sim.model.particles.mass[0], mass);
+    let plan = sim.plan().to_string();
+    assert!(plan.contains("drying shrinkage × thermal expansion") && plan.contains("thermal expansion)"), "{plan}");
+}
+
+// A free bonded bar of 10 touching elements at ω = 0.15 with the table [(0, 0.98), (0.3, 1)]
+// (f = 0.99) heated uniformly by ΔT = 100 K (α = 1.2e-5): its bonds pull and push the changed
+// elements until they touch again, so its length (centre to centre plus the end radii) changes
+// by 0.99·(1 + 1.2e-3) − 1 = −8.81e-3 of itself, within 1 % of that change.
+#[test]
+fn a_bonded_bars_length_changes_by_the_product_of_both_factors() {
+    let (r, n) = (1e-3, 10usize);
+    let mut m = Model::new();
+    let mut steel = material("steel", 7800.0, 1e5, 1e7, 0.3);
+    (steel.xb, steel.fs0) = (1e-3, 1e3);
+    let k = m.add_material(steel).unwrap();
+    for i in 0..n {
+        m.add_particle(Vec3::new(2.0 * r * i as f64, 0.0, 0.0), r, k).unwrap();
+    }
+    m.connect(None, 1e-9).unwrap();
+    let length =
+        |m: &Model| m.particles.pos[n - 1].x - m.particles.pos[0].x + m.particles.radius[0] + m.particles.radius[n - 1];
+    let l0 = length(&m);
+    m.settings.moisture.initial = 0.15;
+    m.enable_moisture();
+    m.set_radius_table(Some(vec![(0.0, 0.98), (0.3, 1.0)])).unwrap();
+    m.settings.heat.reference = 20.0;
+    m.enable_heat();
+    let props = matdem_engine::fields::ThermalProps { conductivity: 50.0, specific_heat: 500.0, expansion: 1.2e-5 };
+    m.set_thermal_material("steel", props).unwrap();
+    m.set_temperatures(&vec![120.0; n]).unwrap();
+    m.settings.damping = 0.3;
+    m.set_standard_dt().unwrap();
+    let m = run(m, 20_000);
+    let want = 0.99 * (1.0 + 1.2e-3) - 1.0;
+    let strain = (length(&m) - l0) / l0;
+    assert!(((strain - want) / want).abs() < 0.01, "strain {strain} against {want}");
+    assert!(m.breakages.is_empty(), "no bond broke: {:?}", m.breakages);
 }
 
 #[cfg(feature = "gpu")]
@@ -355,6 +421,49 @@ mod gpu {
         m.set_radius_table(Some(vec![(0.0, 0.98), (1.0, 1.0)])).unwrap();
         m.set_strength_table(Some(vec![(0.0, 1.0), (1.0, 0.5)])).unwrap();
         m
+    }
+
+    // Both fields set the radius (heat every 2 steps, water every 3, so either may step
+    // last): radii and the expansion's r0 after 50 steps agree to 1e-6 of themselves, and are
+    // the product of the two factors.
+    #[test]
+    fn expansion_with_shrinkage_on_the_gpu_matches_the_cpu() {
+        let Some(ctx) = gpu("moisture_expansion_chain") else { return };
+        let scene = || {
+            let mut m = scene(3, 1);
+            m.settings.heat.every = 2;
+            m.enable_heat();
+            let props = matdem_engine::fields::ThermalProps { conductivity: 0.5, specific_heat: 1.0, expansion: 1e-3 };
+            m.set_thermal_material("soil", props).unwrap();
+            let t0 = m.settings.heat.reference;
+            let t: Vec<f64> = (0..=N).map(|i| t0 + 10.0 * i as f64).collect();
+            m.set_temperatures(&t).unwrap();
+            m
+        };
+        let mut cpu = Simulation::new(scene());
+        let mut gpu = Simulation::with_gpu(scene(), ctx);
+        cpu.run(50, &RunControl::default(), &mut |_| {}).unwrap();
+        gpu.run(50, &RunControl::default(), &mut |_| {}).unwrap();
+        assert!(gpu.plan().to_string().contains("drying shrinkage × thermal expansion"), "{}", gpu.plan());
+        let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+        let t0 = cpu.model.settings.heat.reference;
+        let table = cpu.model.settings.moisture.radius_table.clone().unwrap();
+        for i in 0..=N {
+            assert!(
+                ((a.radius[i] - b.radius[i]) / a.radius[i]).abs() < 1e-6,
+                "radius {i}: {} against {}",
+                b.radius[i],
+                a.radius[i]
+            );
+            let (ra, rb) = (a.thermal.radius0[i], b.thermal.radius0[i]);
+            assert!(((ra - rb) / ra).abs() < 1e-6, "expansion's r0 {i}: {rb} against {ra}");
+            // The CPU's radius is the product, to round-off: the water last stepped at step 48,
+            // the heat at step 50, each with the other's factor.
+            let product =
+                a.moisture.radius0[i] * table.at(a.moisture.water[i]) * (1.0 + 1e-3 * (a.thermal.temperature[i] - t0));
+            assert!(((a.radius[i] - product) / product).abs() < 1e-12, "radius {i}: {} against {product}", a.radius[i]);
+        }
+        assert!(a.radius[N] > a.radius[1], "the hot end is larger: {:?}", a.radius);
     }
 
     // Water contents after 5 s agree to 2e-6 (f32 over 50 forward-Euler steps), radii to

@@ -2,7 +2,7 @@
 
 use super::{open_backend, Failure, Outcome};
 use crate::cli::Backend;
-use matdem_rs::bench::{run_bench, BenchConfig};
+use matdem_rs::bench::{run_bench, BenchConfig, BenchField};
 use std::process::ExitCode;
 
 pub fn bench(
@@ -12,9 +12,10 @@ pub fn bench(
     warmup: u64,
     json: bool,
     profile: bool,
+    fields: Vec<BenchField>,
 ) -> Outcome {
     let gpu = open_backend(backend)?;
-    let cfg = BenchConfig { particles, warmup, steps, json, profile, gpu };
+    let cfg = BenchConfig { particles, warmup, steps, json, profile, gpu, fields };
     let out = run_bench(&cfg).map_err(|msg| Failure::said(2, msg))?;
     print!("{out}");
     Ok(ExitCode::SUCCESS)

@@ -49,8 +49,8 @@ pub fn dispatch(command: Command) -> Outcome {
         Command::Doc => run::doc(),
         Command::Info { package } => package::info(&package),
         Command::Pack { package, output } => package::pack(&package, output),
-        Command::Bench { backend, particles, steps, warmup, json, profile } => {
-            bench::bench(backend, particles, steps, warmup, json, profile)
+        Command::Bench { backend, particles, steps, warmup, json, profile, fields } => {
+            bench::bench(backend, particles, steps, warmup, json, profile, fields)
         }
         Command::Study { script, vary, metric, set, reference, out, backend, jobs } => {
             study::study(study::StudyArgs { script, vary, metric, fixed: set, reference, out, backend, jobs })

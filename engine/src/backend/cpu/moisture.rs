@@ -1,7 +1,8 @@
 //! The `moisture` stage on the CPU: one field step of moisture diffusion after every
 //! `every`-th mechanical step, in `substeps` forward-Euler sub-steps of the diffusion core that
 //! heat shares (`crate::diffusion`, water's terms in `crate::moisture::WaterExchange`), then the
-//! coupling: radii from the shrinkage table, bond shares from the strength table.
+//! coupling: radii from the shrinkage table (times the thermal expansion's factor when heat
+//! expands the elements too), bond shares from the strength table.
 //!
 //! Each element sums its own row and writes only its own next water content and ΣG: no
 //! atomics, the same bits on any thread count. Both rows of a pair see the same G, so with
@@ -29,10 +30,26 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
         std::mem::swap(&mut m.particles.moisture.water, next);
     }
     if let Some(t) = &plan.radius_table {
-        let p = &mut m.particles;
-        let w = &p.moisture;
-        for (i, r) in p.radius.iter_mut().enumerate() {
-            *r = w.radius0[i] * t.at(w.water[i]);
+        match plan.expansion {
+            None => {
+                let p = &mut m.particles;
+                let w = &p.moisture;
+                for (i, r) in p.radius.iter_mut().enumerate() {
+                    *r = w.radius0[i] * t.at(w.water[i]);
+                }
+            }
+            // With thermal expansion: r = r0·f(ω)·(1 + α·(T − T0)), and the expansion's r0
+            // becomes r0·f(ω), which the conduction stage expands until the next field step.
+            Some(t0) => {
+                m.fit_thermal();
+                let p = &mut m.particles;
+                let (w, th) = (&p.moisture, &mut p.thermal);
+                for (i, r) in p.radius.iter_mut().enumerate() {
+                    let base = w.radius0[i] * t.at(w.water[i]);
+                    th.radius0[i] = base;
+                    *r = base * (1.0 + th.expansion[i] * (th.temperature[i] - t0));
+                }
+            }
         }
     }
     if let Some(t) = &plan.strength_table {

@@ -104,6 +104,17 @@ impl Lanes {
         }
     }
 
+    /// The (T, C, k, P) lane, which the moisture stage reads when both set the radius.
+    pub fn thermal(&self) -> &wgpu::Buffer {
+        &self.thermal
+    }
+
+    /// The (α, r0) lane (a placeholder without expansion), whose r0 the moisture stage keeps
+    /// at r0·f(ω) when both set the radius.
+    pub fn expansion(&self) -> &wgpu::Buffer {
+        &self.expansion
+    }
+
     /// Brings the temperatures and conductances back (and the radii, with expansion).
     pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &ConductionPlan) -> Result<()> {
         let n = d.n;

@@ -393,7 +393,7 @@ impl GpuBackend {
                 .as_ref()
                 .zip(moist.as_ref())
                 .zip(self.plan.moisture.as_ref())
-                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan)),
+                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan, thermal.as_ref())),
         };
         self.device_bytes = lanes.bytes
             + bonds.as_ref().map_or(0, |b| b.bytes)
@@ -506,7 +506,7 @@ impl GpuBackend {
             t.download(&self.ctx, &s.lanes, m, plan)?;
         }
         if let (Some(w), Some(plan)) = (&s.water, &self.plan.moisture) {
-            w.download(&self.ctx, &s.lanes, m, plan)?;
+            w.download(&self.ctx, &s.lanes, m, plan, s.thermal.as_ref())?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;

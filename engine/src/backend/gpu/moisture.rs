@@ -1,7 +1,8 @@
 //! The `moisture` stage on the GPU (shaders/diffusion.wgsl + shaders/moisture.wgsl): its
 //! lanes, pipelines and the dispatch of one field step (per sub-step: `exchange` once per slab
-//! of rows, then `settle`; then `shrink` with a radius table and `strengthen`, per slab, with a
-//! strength table). Built only when the plan has the stage; its buffers are made at upload and
+//! of rows, then `settle`; then `shrink` with a radius table — `shrink_expand`, bound to the
+//! conduction stage's temperatures and expansion lanes, when heat expands the elements too —
+//! and `strengthen`, per slab, with a strength table). Built only when the plan has the stage; its buffers are made at upload and
 //! the water contents and conductances (and radii, bond shares) come back at each download.
 //! CPU twin: `backend/cpu/moisture.rs`.
 
@@ -23,6 +24,8 @@ struct FieldParams {
     bond_radius: f32,
     radius_points: u32,
     strength_points: u32,
+    reference: f32,
+    pad: [f32; 3],
 }
 
 /// The stage's pipelines.
@@ -38,7 +41,10 @@ pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &Moistu
     Pipelines {
         exchange: make("exchange"),
         settle: make("settle"),
-        shrink: plan.radius_table.is_some().then(|| make("shrink")),
+        shrink: plan
+            .radius_table
+            .is_some()
+            .then(|| make(if plan.expansion.is_some() { "shrink_expand" } else { "shrink" })),
         strengthen: plan.strength_table.is_some().then(|| make("strengthen")),
     }
 }
@@ -95,6 +101,8 @@ impl Lanes {
             bond_radius: plan.bond_radius as f32,
             radius_points: rp.len() as u32,
             strength_points: sp.len() as u32,
+            reference: plan.expansion.unwrap_or(0.0) as f32,
+            pad: [0.0; 3],
         };
         let tables: Vec<[f32; 2]> = rp.into_iter().chain(sp).collect();
         Lanes {
@@ -114,9 +122,17 @@ impl Lanes {
         }
     }
 
-    /// Brings the water contents and conductances back (and the radii, with a radius table;
-    /// the bond shares come back with the pair states).
-    pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &MoisturePlan) -> Result<()> {
+    /// Brings the water contents and conductances back (and the radii, with a radius table,
+    /// and the expansion's r0 when this stage keeps it; the bond shares come back with the
+    /// pair states).
+    pub fn download(
+        &self,
+        ctx: &GpuContext,
+        d: &DeviceLanes,
+        m: &mut Model,
+        plan: &MoisturePlan,
+        thermal: Option<&super::conduction::Lanes>,
+    ) -> Result<()> {
         let n = d.n;
         let water: Vec<[f32; 4]> = super::buffers::read(ctx, &self.water, n)?;
         let g: Vec<f32> = super::buffers::read(ctx, &self.conductance, n)?;
@@ -129,6 +145,12 @@ impl Lanes {
             let origin: Vec<[f32; 4]> = super::buffers::read(ctx, &d.origin, n)?;
             for (r, o) in m.particles.radius.iter_mut().zip(&origin) {
                 *r = f64::from(o[3]);
+            }
+        }
+        if let (Some(_), Some(t)) = (plan.expansion, thermal) {
+            let e: Vec<[f32; 2]> = super::buffers::read(ctx, t.expansion(), n)?;
+            for (r0, e) in m.particles.thermal.radius0.iter_mut().zip(&e) {
+                *r0 = f64::from(e[1]);
             }
         }
         Ok(())
@@ -144,7 +166,16 @@ pub struct Kernels {
     substeps: u32,
 }
 
-pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes, plan: &MoisturePlan) -> Kernels {
+/// `thermal`: the conduction stage's lanes, which `shrink_expand` reads (temperatures) and
+/// writes (the expansion's r0) when the plan has thermal expansion too.
+pub fn kernels(
+    device: &wgpu::Device,
+    p: &Pipelines,
+    d: &DeviceLanes,
+    f: &Lanes,
+    plan: &MoisturePlan,
+    thermal: Option<&super::conduction::Lanes>,
+) -> Kernels {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
     let exchange = d.per_slab(device, &p.exchange, |s| {
         vec![
@@ -165,12 +196,12 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes,
     });
     let settle = Kernel::bind_at(device, &p.settle, &[(0, &d.params), (8, &f.water), (9, &f.next)], groups_for(d.n));
     let shrink = p.shrink.as_ref().map(|k| {
-        Kernel::bind_at(
-            device,
-            k,
-            &[(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.water), (13, &f.radius0), (14, &f.tables)],
-            groups_for(d.n),
-        )
+        let mut b =
+            vec![(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.water), (13, &f.radius0), (14, &f.tables)];
+        if let (Some(_), Some(t)) = (plan.expansion, thermal) {
+            b.extend([(15, t.thermal()), (16, t.expansion())]);
+        }
+        Kernel::bind_at(device, k, &b, groups_for(d.n))
     });
     let strengthen = p.strengthen.as_ref().map_or_else(Vec::new, |k| {
         d.slabs
