@@ -444,21 +444,7 @@ impl ZoneSpec {
 /// between the coarse ones of the next zone while they grow, and a region filled denser
 /// than its neighbours spreads into them. The ring holds the outer zone.
 fn keep_in_regions(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[ZoneRegion]) {
-    let r_chamber = regions.iter().map(|r| r.r_out).fold(0.0, f64::max);
-    let p = &mut m.particles;
-    for (i, &(g, _, _)) in grains.iter().enumerate() {
-        let reg = &regions[g];
-        let hi = if reg.r_out >= r_chamber { f64::INFINITY } else { reg.r_out };
-        let x = p.pos[i];
-        let rho = (x.x * x.x + x.y * x.y).sqrt();
-        let target = rho.clamp(reg.r_in, hi);
-        if target != rho {
-            let dir = if rho > 0.0 { Vec3::new(x.x / rho, x.y / rho, 0.0) } else { Vec3::x() };
-            p.pos[i] = Vec3::new(dir.x * target, dir.y * target, x.z);
-            let v = p.vel[i];
-            p.vel[i] = v - dir * v.dot(&dir);
-        }
-    }
+    put_back(m, grains, regions, 0.0);
 }
 
 /// Brings every grain whose centre has strayed more than its own radius outside its annulus
@@ -471,6 +457,12 @@ fn keep_in_regions(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[Zon
 /// back ~15 mm at once into the packed layer, the deep overlaps fired them at 20–40 m/s until
 /// one went through the ring.
 fn keep_near_regions(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[ZoneRegion]) {
+    put_back(m, grains, regions, 1.0);
+}
+
+/// Moves every grain whose centre lies more than `slack` of its radii outside its annulus
+/// radially back to that distance, and stops its radial motion.
+fn put_back(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[ZoneRegion], slack: f64) {
     let r_chamber = regions.iter().map(|r| r.r_out).fold(0.0, f64::max);
     let p = &mut m.particles;
     for (i, &(g, _, _)) in grains.iter().enumerate() {
@@ -478,15 +470,14 @@ fn keep_near_regions(m: &mut Model, grains: &[(usize, usize, f64)], regions: &[Z
         let hi = if reg.r_out >= r_chamber { f64::INFINITY } else { reg.r_out };
         let x = p.pos[i];
         let rho = (x.x * x.x + x.y * x.y).sqrt();
-        let r = p.radius[i];
-        if rho >= reg.r_in - r && rho <= hi + r {
-            continue;
+        let allowed = slack * p.radius[i];
+        let target = rho.clamp(reg.r_in - allowed, hi + allowed);
+        if target != rho {
+            let dir = if rho > 0.0 { Vec3::new(x.x / rho, x.y / rho, 0.0) } else { Vec3::x() };
+            p.pos[i] = Vec3::new(dir.x * target, dir.y * target, x.z);
+            let v = p.vel[i];
+            p.vel[i] = v - dir * v.dot(&dir);
         }
-        let target = rho.clamp(reg.r_in - r, hi + r);
-        let dir = if rho > 0.0 { Vec3::new(x.x / rho, x.y / rho, 0.0) } else { Vec3::x() };
-        p.pos[i] = Vec3::new(dir.x * target, dir.y * target, x.z);
-        let v = p.vel[i];
-        p.vel[i] = v - dir * v.dot(&dir);
     }
 }
 
