@@ -117,23 +117,7 @@ impl PoreFlow {
     /// weighted by its pore's volume share (its tetrahedron's volume); 0 for an element at no
     /// corner (fewer than four elements, or a duplicate position).
     pub fn element_pressure(&self, pos: &[Vec3]) -> Vec<f64> {
-        let net = &self.network;
-        (0..net.elem_start.len().saturating_sub(1))
-            .map(|i| {
-                let (mut pw, mut w) = (0.0, 0.0);
-                for &e in &net.elem_corners[net.elem_start[i] as usize..net.elem_start[i + 1] as usize] {
-                    let t = (e / 4) as usize;
-                    let v = super::geometry::tet_volume(net.tri.tets[t].v.map(|j| pos[j as usize])).abs();
-                    pw += v * self.pressure[net.tet_pore[t] as usize];
-                    w += v;
-                }
-                if w > 0.0 {
-                    pw / w
-                } else {
-                    0.0
-                }
-            })
-            .collect()
+        self.network.element_mean(pos, &self.pressure, 0.0)
     }
 
     /// The network's porosity: Σ pore volume / Σ tetrahedron volume (the convex hull of the

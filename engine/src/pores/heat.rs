@@ -254,22 +254,6 @@ impl PoreFlow {
         if self.temperature.is_empty() {
             return Vec::new();
         }
-        let net = &self.network;
-        (0..net.elem_start.len().saturating_sub(1))
-            .map(|i| {
-                let (mut tw, mut w) = (0.0, 0.0);
-                for &e in &net.elem_corners[net.elem_start[i] as usize..net.elem_start[i + 1] as usize] {
-                    let t = (e / 4) as usize;
-                    let v = super::geometry::tet_volume(net.tri.tets[t].v.map(|j| pos[j as usize])).abs();
-                    tw += v * self.temperature[net.tet_pore[t] as usize];
-                    w += v;
-                }
-                if w > 0.0 {
-                    tw / w
-                } else {
-                    self.reference
-                }
-            })
-            .collect()
+        self.network.element_mean(pos, &self.temperature, self.reference)
     }
 }

@@ -89,6 +89,28 @@ fn bonded(m: &Model, i: u32, j: u32) -> bool {
 }
 
 impl PoreNetwork {
+    /// Each element's mean of a per-pore value over the tetrahedra it is a corner of, each
+    /// weighted by its volume (its pore's share there); `none` for an element at no corner
+    /// (fewer than four elements, or a duplicate position).
+    pub fn element_mean(&self, pos: &[Vec3], per_pore: &[f64], none: f64) -> Vec<f64> {
+        (0..self.elem_start.len().saturating_sub(1))
+            .map(|i| {
+                let (mut sum, mut w) = (0.0, 0.0);
+                for &e in &self.elem_corners[self.elem_start[i] as usize..self.elem_start[i + 1] as usize] {
+                    let t = (e / 4) as usize;
+                    let v = tet_volume(self.tri.tets[t].v.map(|j| pos[j as usize])).abs();
+                    sum += v * per_pore[self.tet_pore[t] as usize];
+                    w += v;
+                }
+                if w > 0.0 {
+                    sum / w
+                } else {
+                    none
+                }
+            })
+            .collect()
+    }
+
     /// Whether every index in the network lies in range for `n` elements (a checkpoint is
     /// checked before it is stepped: a well-formed but inconsistent one would otherwise index
     /// out of bounds).
