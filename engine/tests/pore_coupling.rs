@@ -3,13 +3,13 @@
 //! the grains move (and the network is rebuilt), the permeability of a random packing against
 //! Kozeny–Carman, the plan's words, and the guard's refusal of an unstable flow.
 
+use crate::common::confine_column;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::{Stage, StepPlan};
 use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
-use matdem_engine::state::particles::dof;
-use matdem_engine::{Error, Material, Model, Simulation, Wall, WallMotion};
+use matdem_engine::{Error, Material, Model, Simulation, WallMotion};
 use std::f64::consts::PI;
 
 const A: f64 = 1e-3;
@@ -41,18 +41,7 @@ fn column(nx: usize, nz: usize) -> Model {
             }
         }
     }
-    let bottom: Vec<u32> = (0..(nx * nx) as u32).collect();
-    let all: Vec<u32> = (0..m.len() as u32).collect();
-    m.fix(&all, dof::X | dof::Y, true).unwrap();
-    m.fix(&bottom, dof::ALL, true).unwrap();
-    m.connect(None, 1e-3 * A).unwrap();
-    let w = (nx - 1) as f64 * A;
-    let h = (nz - 1) as f64 * A;
-    let mut top = Wall::plane("top", Vec3::new(0.0, 0.0, h + 0.5 * A), -Vec3::z(), w * w).unwrap();
-    top.friction = Some(0.0);
-    m.add_wall(top).unwrap();
-    m.settings.damping = 0.3;
-    m.set_standard_dt().unwrap();
+    confine_column(&mut m, nx, nz, A);
     m
 }
 

@@ -4,13 +4,14 @@
 //! when hot fluid is injected and drained; thermal pressurisation of a sealed rigid sample,
 //! Δp = K_f·β_f·ΔT; a temperature front carried through a column at the seepage velocity.
 
+use crate::common::confine_column;
 use matdem_engine::backend::RunControl;
 use matdem_engine::fields::{ThermalMode, ThermalProps};
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::StepPlan;
 use matdem_engine::pores::{BoundaryKind, Fluid, FluidHeat, PoreBoundary, PoreFlow, PoreRegion};
 use matdem_engine::state::particles::dof;
-use matdem_engine::{Material, Model, Simulation, Wall, WallMotion};
+use matdem_engine::{Material, Model, Simulation, WallMotion};
 
 const A: f64 = 1e-3;
 const T0: f64 = 293.15;
@@ -40,18 +41,7 @@ fn bonded_column(nx: usize, nz: usize) -> Model {
             }
         }
     }
-    let bottom: Vec<u32> = (0..(nx * nx) as u32).collect();
-    let all: Vec<u32> = (0..m.len() as u32).collect();
-    m.fix(&all, dof::X | dof::Y, true).unwrap();
-    m.fix(&bottom, dof::ALL, true).unwrap();
-    m.connect(None, 1e-3 * A).unwrap();
-    let w = (nx - 1) as f64 * A;
-    let h = (nz - 1) as f64 * A;
-    let mut top = Wall::plane("top", Vec3::new(0.0, 0.0, h + 0.5 * A), -Vec3::z(), w * w).unwrap();
-    top.friction = Some(0.0);
-    m.add_wall(top).unwrap();
-    m.settings.damping = 0.3;
-    m.set_standard_dt().unwrap();
+    confine_column(&mut m, nx, nz, A);
     m.enable_heat();
     m.set_thermal_material("grain", ThermalProps { conductivity: 3.0, specific_heat: 0.8, expansion: 0.0 }).unwrap();
     m

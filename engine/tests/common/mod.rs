@@ -254,3 +254,23 @@ pub fn gpu(test: &str) -> Option<std::sync::Arc<matdem_engine::backend::gpu::dev
     eprintln!("{test}: skipped: no GPU adapter ({why})");
     None
 }
+
+/// Makes a simple-cubic column of nx × nx × nz touching spheres at spacing `a` (bottom layer
+/// first) a one-dimensional sample: bonds every touching pair, holds the bottom layer, confines
+/// the rest laterally, and closes it with a frictionless top wall over the centres'
+/// cross-section, with light viscous damping and the standard step.
+pub fn confine_column(m: &mut Model, nx: usize, nz: usize, a: f64) {
+    use matdem_engine::state::particles::dof;
+    let bottom: Vec<u32> = (0..(nx * nx) as u32).collect();
+    let all: Vec<u32> = (0..m.len() as u32).collect();
+    m.fix(&all, dof::X | dof::Y, true).unwrap();
+    m.fix(&bottom, dof::ALL, true).unwrap();
+    m.connect(None, 1e-3 * a).unwrap();
+    let w = (nx - 1) as f64 * a;
+    let h = (nz - 1) as f64 * a;
+    let mut top = Wall::plane("top", Vec3::new(0.0, 0.0, h + 0.5 * a), -Vec3::z(), w * w).unwrap();
+    top.friction = Some(0.0);
+    m.add_wall(top).unwrap();
+    m.settings.damping = 0.3;
+    m.set_standard_dt().unwrap();
+}
