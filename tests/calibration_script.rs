@@ -109,6 +109,49 @@ fn regressions_and_the_inversion_recover_known_answers() {
 }
 
 #[test]
+fn a_refinement_from_a_script_meets_targets_the_plain_inversion_misses() {
+    // The "runs" differ from the synthetic material the surface holds by products of factors
+    // (which a surface without interactions cannot fit): propose, run, confirm until within.
+    let dir = crate::common::temp_dir("calibration_refinement");
+    let e = engine(&dir);
+    let script = format!(
+        r#"{DESIGN}
+        fn run(p) {{
+            let r = synthetic(p);
+            #{{ tau: r.tau + 12.0 * p.lambda * p.mu, phi: r.phi + 3.0 * p.mu * p.lambda, C: r.C + 4e-5 * p.lambda * p.sigma_c }}
+        }}
+        let s = response_surface(d, #{{ tau: tau, phi: phi, C: C }});
+        let truth = #{{ lambda: 1.1, mu: 0.55, sigma_c: 7.3e5, c_bar: 3e5, phi_bar: 30.0, E: 3e8 }};
+        let t = run(truth);
+        let r = s.refinement(#{{ tau: t.tau, phi: t.phi, C: t.C }}, #{{ c_bar: 3e5, phi_bar: 30.0, E: 3e8 }});
+        let worst = [];
+        let last = #{{}};
+        for round in 1..=8 {{
+            let inv = r.propose();
+            let errs = r.confirm(inv.point, run(inv.point));
+            worst.push(errs.values().reduce(|a, e| max(a, e.abs()), 0.0));
+            last = inv.point;
+            if r.within(1e-9) {{ break; }}
+        }}
+        let refused = "";
+        try {{ r.confirm(last, #{{ tau: 1.0 }}); }} catch (err) {{ refused = `${{err}}`; }}
+        #{{ worst: worst, last: last, met: r.within(1e-9), text: `${{r}}`, refused: refused }}"#
+    );
+    let out: rhai::Map = e.eval(&script).unwrap_or_else(|err| panic!("{err}"));
+    let worst: Vec<f64> = out["worst"].clone().into_array().unwrap().iter().map(|v| v.as_float().unwrap()).collect();
+    assert!(worst[0] > 0.01, "the plain inversion meets the targets already: {worst:?}");
+    assert!(out["met"].as_bool().unwrap() && worst.len() <= 8, "{worst:?}");
+    let last = out["last"].clone().cast::<rhai::Map>();
+    for (k, want) in [("lambda", 1.1), ("mu", 0.55), ("sigma_c", 7.3e5)] {
+        let got = last[k].as_float().unwrap();
+        assert!((got - want).abs() < 1e-6 * want, "{k}: {got} vs {want} ({worst:?})");
+    }
+    assert!(out["text"].to_string().contains("by ") && out["text"].to_string().contains("confirmation run(s)"));
+    let refused = out["refused"].to_string();
+    assert!(refused.contains("`C` is missing") && refused.contains("C, phi, tau"), "{refused}");
+}
+
+#[test]
 fn bad_calibration_input_is_refused_with_what_to_do() {
     let dir = crate::common::temp_dir("calibration_bad");
     let e = engine(&dir);

@@ -12,16 +12,24 @@ fn calibration_quick_mode_runs_the_design_in_parallel_and_confirms_the_inversion
     let (log, wall) = run_example_quick("direct_shear_calibration", &out);
     eprintln!("direct_shear_calibration quick mode: {wall:.1} s wall\n{log}");
 
-    for name in ["effects_tau", "effects_c", "effects_phi", "f_tau", "f_c", "f_phi"] {
+    for name in ["effects_tau", "effects_c", "effects_phi", "f_tau", "f_c", "f_phi", "confirm_errors"] {
         for ext in ["svg", "png"] {
             let f = out.join(format!("{name}.{ext}"));
             let len = std::fs::metadata(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display())).len();
             assert!(len > 1000, "{} is only {len} bytes", f.display());
         }
     }
-    for f in
-        ["design.csv", "rows.csv", "anova_tau.csv", "anova_c.csv", "anova_phi.csv", "confirm.csv", "regressions.csv"]
-    {
+    for f in [
+        "design.csv",
+        "rows.csv",
+        "anova_tau.csv",
+        "anova_c.csv",
+        "anova_phi.csv",
+        "confirm.csv",
+        "confirm_seeds.csv",
+        "noise.csv",
+        "regressions.csv",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     // The reduced design: nine rows, each a run of its own with its three shears.
@@ -40,6 +48,26 @@ fn calibration_quick_mode_runs_the_design_in_parallel_and_confirms_the_inversion
     let m = metrics(&out);
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
     assert_eq!(get("rows"), 9.0);
+    // The noise floor: the reference row on quick mode's two packings.
+    assert_eq!(get("seeds"), 2.0);
+    assert_eq!(std::fs::read_to_string(out.join("noise.csv")).unwrap().lines().count(), 1 + 2);
+    for k in ["noise_tau_sd", "noise_c_sd", "noise_phi_sd"] {
+        assert!(get(k).is_finite() && get(k) >= 0.0, "{m:?}");
+    }
+    // Confirmation rounds: one row per round in confirm.csv, one per packing and round in
+    // confirm_seeds.csv; the loop stops when the goal is met or at quick mode's cap of 2.
+    let rounds = get("rounds");
+    assert!((1.0..=2.0).contains(&rounds), "{m:?}");
+    assert_eq!(csv_column(&out.join("confirm.csv"), "round").len(), rounds as usize);
+    assert_eq!(csv_column(&out.join("confirm_seeds.csv"), "seed").len(), 2 * rounds as usize);
+    let errs = ["err_tau_pct", "err_c_pct", "err_phi_pct"].map(|k| get(k).abs());
+    assert_eq!(get("goal_met") == 1.0, errs.iter().all(|e| *e <= 10.0), "{m:?}");
+    assert!(get("goal_met") == 1.0 || rounds == 2.0, "stopped before the cap without meeting the goal: {m:?}");
+    // The servo held the normal stress: each row's mean within 1 % of its target in every
+    // shear of every confirmation run (single checks, every 2 steps, scatter by a few %).
+    for e in csv_column(&out.join("confirm_seeds.csv"), "sigma_err_pct") {
+        assert!(e < 1.0, "a row mean of the normal stress {e} % off its target");
+    }
     // Strengths of a bonded loess sample: positive and finite; the errors are measured.
     assert!(get("tau_kpa") > 0.0 && get("tau_kpa") < 1000.0, "{m:?}");
     assert!(get("phi_deg") > 0.0 && get("phi_deg") < 70.0, "{m:?}");

@@ -10,8 +10,9 @@ use super::{err, write_atomic, Host, RhaiResult};
 use crate::calibration::anova::{self, Anova, Pooling};
 use crate::calibration::levenberg_marquardt::{minimise, Options};
 use crate::calibration::orthogonal::OrthogonalArray;
+use crate::calibration::refine::Refinement;
 use crate::calibration::regression::{self, Fit, Form};
-use crate::calibration::response_surface::Surface;
+use crate::calibration::response_surface::{Inversion, Surface};
 use crate::calibration::{mohr_coulomb, CalibrationError};
 use crate::plot::{BarChart, LineChart};
 use rhai::{Array, Dynamic, Engine, FnPtr, Map, NativeCallContext, FLOAT, INT};
@@ -84,6 +85,40 @@ pub struct Regression {
 
 #[derive(Debug, Clone)]
 pub struct ResponseSurface(pub Rc<Surface>);
+
+/// An inversion refined by confirmation runs (`s.refinement(targets, held)`); shared, so a
+/// copy of the variable refines the same loop.
+#[derive(Debug, Clone)]
+pub struct ScriptRefinement(pub Rc<RefCell<Refinement>>);
+
+fn inversion_map(s: &Surface, targets: &[String], inv: &Inversion) -> Map {
+    let mut m = Map::new();
+    let point: Map =
+        s.factors.iter().zip(&inv.point).map(|(n, v)| (n.as_str().into(), Dynamic::from_float(*v))).collect();
+    let predicted: Map =
+        s.responses.iter().zip(&inv.predicted).map(|(n, v)| (n.as_str().into(), Dynamic::from_float(*v))).collect();
+    let errors: Map =
+        targets.iter().zip(&inv.relative_errors).map(|(n, e)| (n.as_str().into(), Dynamic::from_float(*e))).collect();
+    m.insert("point".into(), point.into());
+    m.insert("predicted".into(), predicted.into());
+    m.insert("errors".into(), errors.into());
+    m.insert("converged".into(), inv.converged.into());
+    m
+}
+
+/// The values of `names` from a map, in that order; `what` names the call in errors.
+fn values_of(m: &Map, names: &[String], what: &str) -> RhaiResult<Vec<f64>> {
+    names
+        .iter()
+        .map(|n| {
+            let v = m.get(n.as_str()).ok_or_else(|| {
+                err(format!("{what}: `{n}` is missing; give a number for each of: {}", names.join(", ")))
+            })?;
+            super::field::number(v)
+                .ok_or_else(|| err(format!("{what}: `{n}` is a {}, expected a number", v.type_name())))
+        })
+        .collect()
+}
 
 fn cal(what: &str) -> impl Fn(CalibrationError) -> Box<rhai::EvalAltResult> + '_ {
     move |e| err(format!("{what}: {e}"))
@@ -237,6 +272,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<AnovaResult>("Anova");
     engine.register_type_with_name::<Regression>("Regression");
     engine.register_type_with_name::<ResponseSurface>("Surface");
+    engine.register_type_with_name::<ScriptRefinement>("Refinement");
 
     // Designs.
     engine
@@ -444,25 +480,35 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             let t = map_numbers(&targets, "invert: targets")?;
             let h = map_numbers(&held, "invert: held factors")?;
             let inv = s.0.invert(&t, &h).map_err(cal("invert"))?;
-            let mut m = Map::new();
-            let point: Map =
-                s.0.factors.iter().zip(&inv.point).map(|(n, v)| (n.as_str().into(), Dynamic::from_float(*v))).collect();
-            let predicted: Map =
-                s.0.responses
-                    .iter()
-                    .zip(&inv.predicted)
-                    .map(|(n, v)| (n.as_str().into(), Dynamic::from_float(*v)))
-                    .collect();
-            let errors: Map = t
-                .iter()
-                .zip(&inv.relative_errors)
-                .map(|((n, _), e)| (n.as_str().into(), Dynamic::from_float(*e)))
-                .collect();
-            m.insert("point".into(), point.into());
-            m.insert("predicted".into(), predicted.into());
-            m.insert("errors".into(), errors.into());
-            m.insert("converged".into(), inv.converged.into());
-            Ok(m)
+            let names: Vec<String> = t.into_iter().map(|(n, _)| n).collect();
+            Ok(inversion_map(&s.0, &names, &inv))
+        })
+        .register_fn(
+            "refinement",
+            |s: &mut ResponseSurface, targets: Map, held: Map| -> RhaiResult<ScriptRefinement> {
+                let t = map_numbers(&targets, "refinement: targets")?;
+                let h = map_numbers(&held, "refinement: held factors")?;
+                let r = Refinement::new(&s.0, &t, &h).map_err(cal("refinement"))?;
+                Ok(ScriptRefinement(Rc::new(RefCell::new(r))))
+            },
+        );
+    engine
+        .register_fn("propose", |r: &mut ScriptRefinement| -> RhaiResult<Map> {
+            let mut r = r.0.borrow_mut();
+            let inv = r.propose().map_err(cal("propose"))?;
+            Ok(inversion_map(r.surface(), &r.target_names, &inv))
+        })
+        .register_fn("confirm", |r: &mut ScriptRefinement, point: Map, measured: Map| -> RhaiResult<Map> {
+            let mut r = r.0.borrow_mut();
+            let p = values_of(&point, &r.surface().factors, "confirm: the point")?;
+            let y = values_of(&measured, &r.target_names, "confirm: the measured responses")?;
+            let e = r.confirm(&p, &y).map_err(cal("confirm"))?;
+            Ok(r.target_names.iter().zip(e).map(|(n, e)| (n.as_str().into(), Dynamic::from_float(e))).collect())
+        })
+        .register_fn("within", |r: &mut ScriptRefinement, tolerance: FLOAT| r.0.borrow().within(tolerance))
+        .register_fn("to_string", |r: &mut ScriptRefinement| {
+            let r = r.0.borrow();
+            format!("refinement of {} by {} confirmation run(s)", r.target_names.join(", "), r.rounds.len())
         });
 
     // Generic Levenberg–Marquardt on a script function: f(params array) -> residuals array.

@@ -10,6 +10,8 @@
 //! - [`levenberg_marquardt`]: bounded non-linear least squares;
 //! - [`response_surface`]: a quadratic surface fitted over a design and its multi-factor
 //!   inversion from target responses (paper 002 §3.1);
+//! - [`refine`]: the inversion iterated with confirmation runs (output space mapping with a
+//!   Broyden-updated correction);
 //! - [`mohr_coulomb`]: cohesion and friction angle from peak strengths.
 //!
 //! Pure numerics: no Rhai, no files. The script API is `api::calibration`, the charts are
@@ -20,6 +22,7 @@ pub mod galois;
 pub mod levenberg_marquardt;
 pub mod mohr_coulomb;
 pub mod orthogonal;
+pub mod refine;
 pub mod regression;
 pub mod response_surface;
 

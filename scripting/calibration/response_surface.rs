@@ -28,7 +28,8 @@ pub struct Surface {
 pub struct Inversion {
     /// Every factor's value: solved, or held.
     pub point: Vec<f64>,
-    /// The surface's responses at `point`.
+    /// The surface's responses at `point` (for a refinement, the targets' responses with
+    /// the confirmation runs' correction added).
     pub predicted: Vec<f64>,
     /// (predicted − target)/target per target, in the order given.
     pub relative_errors: Vec<f64>,
@@ -99,6 +100,13 @@ impl Surface {
 
     /// Solves for the factors not in `held` so the responses meet `targets`.
     pub fn invert(&self, targets: &[(String, f64)], held: &[(String, f64)]) -> Result<Inversion> {
+        let problem = self.problem(targets, held)?;
+        self.solve(&problem, |_| vec![0.0; problem.targets.len()])
+    }
+
+    /// Checks an inversion's targets and held factors: which responses are aimed at, which
+    /// factors are free, and the point the held ones fix.
+    pub(crate) fn problem(&self, targets: &[(String, f64)], held: &[(String, f64)]) -> Result<Problem> {
         let t: Vec<(usize, f64)> = targets
             .iter()
             .map(|(n, v)| Ok((self.index("response", &self.responses, n)?, *v)))
@@ -128,6 +136,20 @@ impl Surface {
                 t.len()
             )));
         }
+        Ok(Problem { targets: t, free, point })
+    }
+
+    /// Solves a checked problem on the surface plus `correction` (one value per target,
+    /// added to the surface's prediction at a point of every factor): the free factors whose
+    /// corrected responses meet the targets, within the design's range.
+    pub(crate) fn solve(&self, problem: &Problem, correction: impl Fn(&[f64]) -> Vec<f64>) -> Result<Inversion> {
+        let Problem { targets: t, free, point } = problem;
+        let mut point = point.clone();
+        let corrected = |p: &[f64]| -> Vec<f64> {
+            let y = self.predict(p);
+            let c = correction(p);
+            t.iter().zip(&c).map(|(&(k, _), c)| y[k] + c).collect()
+        };
         let opts = Options {
             lower: free.iter().map(|&j| self.range[j].0).collect(),
             upper: free.iter().map(|&j| self.range[j].1).collect(),
@@ -137,8 +159,7 @@ impl Surface {
         let residual = |z: &[f64]| -> Result<Vec<f64>> {
             let mut p = point.clone();
             free.iter().zip(z).for_each(|(&j, v)| p[j] = *v);
-            let y = self.predict(&p);
-            Ok(t.iter().map(|&(k, v)| (y[k] - v) / v.abs()).collect())
+            Ok(corrected(&p).iter().zip(t).map(|(y, &(_, v))| (y - v) / v.abs()).collect())
         };
         // Starts at the centre and at the corners' midpoints towards each bound: the
         // surface may have more than one local minimum within the box.
@@ -155,10 +176,32 @@ impl Surface {
         }
         let best = best.expect("at least one start");
         free.iter().zip(&best.x).for_each(|(&j, v)| point[j] = *v);
-        let predicted = self.predict(&point);
+        let mut predicted = self.predict(&point);
+        for ((k, _), y) in t.iter().zip(corrected(&point)) {
+            predicted[*k] = y;
+        }
         let relative_errors = t.iter().map(|&(k, v)| (predicted[k] - v) / v.abs()).collect();
         Ok(Inversion { point, predicted, relative_errors, converged: best.converged })
     }
+
+    /// The free factors of `point` scaled to [−1, 1] over the design's range.
+    pub(crate) fn scaled(&self, free: &[usize], point: &[f64]) -> Vec<f64> {
+        free.iter()
+            .map(|&j| {
+                let (lo, hi) = self.range[j];
+                (point[j] - 0.5 * (lo + hi)) / (0.5 * (hi - lo))
+            })
+            .collect()
+    }
+}
+
+/// An inversion's checked input: (response index, target) pairs, the free factors' indices
+/// and a point of every factor (the held ones at their values).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Problem {
+    pub targets: Vec<(usize, f64)>,
+    pub free: Vec<usize>,
+    pub point: Vec<f64>,
 }
 
 fn basis(range: &[(f64, f64)], x: &[f64]) -> Vec<f64> {
