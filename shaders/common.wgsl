@@ -40,6 +40,8 @@ const C_GUARD: u32 = 4u; // four slots: non-finite, too fast, overlap, through a
 const C_LONGEST: u32 = 8u; // the longest row a device build found
 const C_CROWDED: u32 = 9u; // rows with more set states than a device build carries
 const C_STIFF: u32 = 10u; // the lowest particle in a contact too stiff for dt (guard.wgsl)
+const C_PORE_STEP: u32 = 11u; // the batch's smallest stable flow step V/(K_f·Σg), f32 bits (pore_flow.wgsl)
+const C_PORE_DRIFT: u32 = 12u; // the largest squared drift since the pore network's build, f32 bits
 
 struct Params {
     n: u32,

@@ -1,69 +1,343 @@
-// The `pore_flow` stage's flow update on the GPU (f32): one explicit sub-step of the pore
-// fluid, in two passes of one invocation per pore.
+// The `pore_flow` stage on the GPU (f32): pore density flow coupled into the step. The
+// network's topology (tetrahedra, pores, throats, each element's corners) is built on the host
+// and uploaded; each step the device follows the elements and moves the fluid:
 //
-// Each pore keeps its excess mass e = m − ρ0·V (V its volume, fixed while the device steps),
-// not m: in f32 the small changes of a nearly incompressible fluid would be lost against m.
+// - `pore_bonds` (per bond edge, one dispatch per slab of rows): whether each bond that crossed
+//   a throat's face at the build still holds (its row entry's w ≠ 0), as the CPU's
+//   `contacts.find(i, j)` sees it.
+// - `pore_geometry` (per pore): its volume (Σ over its tetrahedra of tetrahedron − sphere
+//   sectors, kept above VOLUME_FLOOR of the tetrahedra) and volume-weighted centre.
+// - `throat_conductance` (per throat): the Poiseuille-type conductance of the face's opening,
+//   capped by the pores' thickness, times the cement and permeability factors, plus the cubic
+//   law of each broken bond across it.
+// - `pore_stable_step` (per pore): the flow's stable step V/(K_f·Σg) of each free pore, its
+//   minimum over the batch into a counter (the host sizes the sub-steps with it).
+// - `pore_pressure` and `pore_mass`, once per sub-step (and `pore_pressure` once more after
+//   the last): pressures from the excess masses, then each pore gathering its own row of throats.
+// - `pore_forces` (per element): p·∂V/∂x of each (tetrahedron, corner) in the element's own
+//   row, added to the force lane before integration.
+// - `pore_drift` (per element, once per batch): how far the elements have moved since the
+//   network was built, so the host rebuilds it when the CPU would.
 //
-// - `pore_pressure`: a pore held at a pressure gets the excess of that pressure; every pore's
-//   pressure follows from its excess, p = K_f·e/(ρ0·V) (= K_f·(m/(ρ0·V) − 1)).
-// - `pore_mass`: each pore gathers its own row of throats, inflow = Σ_t g_t·(p_other − p_self),
-//   and adds ρ0·h·(inflow + source) to its own excess. No atomics: both pores of a throat
-//   compute the same g·Δp, so the mass one loses the other gains (to f32 round-off).
-//
-// The network's geometry (volumes, conductances) and its rebuilds stay on the host; the
-// guard's stable step V/(K_f·Σg) is the host's too. CPU twin: pores/flow.rs (`substep`), run
-// by backend/cpu/pore_flow.rs.
+// Each pore keeps its excess mass e, the mass it gained since the upload plus its excess at the
+// upload (m − ρ0·V then), not m: in f32 the small changes of a nearly incompressible fluid
+// would be lost against m. Its volume then is `volume0` as this file computes it, so the
+// pressure p = K_f·(e − ρ0·(V − V0))/(ρ0·V) sees only the change of the volume as this same code
+// measures it (its f32 bias cancels). No float atomics: both pores of a throat compute the same
+// g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own row.
+// CPU twins: pores/network.rs (`refresh`), pores/flow.rs (`substep`),
+// pores/pressure_forces.rs, run by backend/cpu/pore_flow.rs.
 
-struct Fluid {
+struct PoreParams {
     bulk_modulus: f32,
     density: f32,
+    viscosity: f32,
     // Sub-step h (s).
     h: f32,
     pores: u32,
+    throats: u32,
+    elements: u32,
+    bond_edges: u32,
+    cement_factor: f32,
+    crack_aperture: f32,
+    volume_floor: f32,
+    // 1.0, opaque to the shader compiler (ledger_add).
+    one: f32,
 }
 
-@group(0) @binding(0) var<uniform> fluid: Fluid;
-// Per pore: (volume, fixed pressure, volumetric source, 1 when held at the pressure else 0).
-@group(0) @binding(1) var<storage, read> pore: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> excess: array<f32>;
-@group(0) @binding(3) var<storage, read_write> pressure: array<f32>;
-// CSR rows of throats per pore.
-@group(0) @binding(4) var<storage, read> row_start: array<u32>;
-@group(0) @binding(5) var<storage, read> row: array<u32>;
-// Per throat: (pore a, pore b).
-@group(0) @binding(6) var<storage, read> ends: array<vec2<u32>>;
-@group(0) @binding(7) var<storage, read> conductance: array<f32>;
+// A throat: its two pores, its face's three corners, the edges of the face bonded at the build
+// (bit e: the edge opposite corner e) and the index of the first one's flag in `bond_alive`,
+// and the harmonic mean of its corners' permeability factors.
+struct Throat {
+    a: u32,
+    b: u32,
+    c0: u32,
+    c1: u32,
+    c2: u32,
+    bits: u32,
+    first_edge: u32,
+    factor: f32,
+}
 
-fn pore_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> pp: PoreParams;
+@group(0) @binding(2) var<storage, read> origin: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> disp: array<vec4<f32>>;
+// The four corners of each tetrahedron, its pore, and its orientation at the build (±1).
+@group(0) @binding(4) var<storage, read> tets: array<vec4<u32>>;
+@group(0) @binding(5) var<storage, read> tet_pore: array<u32>;
+@group(0) @binding(6) var<storage, read> tet_sign: array<f32>;
+// Tetrahedra of each pore (CSR).
+@group(0) @binding(7) var<storage, read> pore_tet_start: array<u32>;
+@group(0) @binding(8) var<storage, read> pore_tets: array<u32>;
+@group(0) @binding(9) var<storage, read_write> volume: array<f32>;
+// The volume at the upload, as pore_geometry measured it.
+@group(0) @binding(10) var<storage, read_write> volume0: array<f32>;
+@group(0) @binding(11) var<storage, read_write> centre: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> excess: array<f32>;
+@group(0) @binding(13) var<storage, read_write> pressure: array<f32>;
+// Per pore: (fixed pressure, volumetric source, 1 when held at the pressure else 0, 0).
+@group(0) @binding(14) var<storage, read> boundary: array<vec4<f32>>;
+// Per pore: the mass its boundary region supplied since the upload (compensated sum).
+@group(0) @binding(15) var<storage, read_write> supplied: array<vec2<f32>>;
+// Throats of each pore (CSR rows, each throat in both of its pores' rows).
+@group(0) @binding(16) var<storage, read> row_start: array<u32>;
+@group(0) @binding(17) var<storage, read> row: array<u32>;
+@group(0) @binding(18) var<storage, read> throats: array<Throat>;
+@group(0) @binding(19) var<storage, read_write> conductance: array<f32>;
+// The bonds across throats' faces at the build, (i, j), and whether each still holds.
+@group(0) @binding(20) var<storage, read> bond_edges: array<vec2<u32>>;
+@group(0) @binding(21) var<storage, read_write> bond_alive: array<u32>;
+// Each element's corners of tetrahedra (CSR), each 4·tet + corner, in tetrahedron order.
+@group(0) @binding(22) var<storage, read> elem_start: array<u32>;
+@group(0) @binding(23) var<storage, read> elem_corners: array<u32>;
+@group(0) @binding(24) var<storage, read_write> force: array<vec4<f32>>;
+@group(0) @binding(25) var<storage, read_write> counters: array<atomic<u32>>;
+// Each element's position at the network's build, less its origin.
+@group(0) @binding(26) var<storage, read> pore_built: array<vec4<f32>>;
+@group(0) @binding(27) var<uniform> slab: Slab;
+@group(0) @binding(28) var<storage, read> row_len: array<u32>;
+@group(0) @binding(29) var<storage, read> other: array<u32>;
+@group(0) @binding(30) var<storage, read> state: array<vec4<f32>>;
+
+// x_j − x_i from the two parts of the positions (each subtracted first: they differ little).
+fn between(i: u32, j: u32) -> vec3<f32> {
+    return (origin[j].xyz - origin[i].xyz) + (disp[j].xyz - disp[i].xyz);
+}
+
+fn position(i: u32) -> vec3<f32> {
+    return origin[i].xyz + disp[i].xyz;
+}
+
+// Solid angle at a of the triangle b, c, d given as u = b − a, v = c − a, w = d − a
+// (Van Oosterom–Strackee; geometry.rs `solid_angle`).
+fn solid_angle(u: vec3<f32>, v: vec3<f32>, w: vec3<f32>) -> f32 {
+    let lu = length(u);
+    let lv = length(v);
+    let lw = length(w);
+    let num = abs(dot(u, cross(v, w)));
+    let den = lu * lv * lw + dot(u, v) * lw + dot(u, w) * lv + dot(v, w) * lu;
+    return 2.0 * atan2(num, den);
+}
+
+// Angle between the edges u and v (geometry.rs `angle`).
+fn angle(u: vec3<f32>, v: vec3<f32>) -> f32 {
+    return atan2(length(cross(u, v)), dot(u, v));
+}
+
+@compute @workgroup_size(64)
+fn pore_bonds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = invocation(gid, groups);
+    if k >= pp.bond_edges {
+        return;
+    }
+    let ij = bond_edges[k];
+    let i = ij.x;
+    if i < slab.first || i >= slab.first + slab.count {
+        return;
+    }
+    let start = (i - slab.first) * params.cap;
+    var alive = 0u;
+    for (var e = start; e < start + row_len[i]; e++) {
+        if other[e] == ij.y {
+            alive = select(0u, 1u, state[e].w != 0.0);
+            break;
+        }
+    }
+    bond_alive[k] = alive;
+}
+
+@compute @workgroup_size(64)
+fn pore_geometry(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let p = invocation(gid, groups);
+    if p >= pp.pores {
+        return;
+    }
+    var empty = 0.0;
+    var full = 0.0;
+    var c = vec3<f32>(0.0);
+    for (var k = pore_tet_start[p]; k < pore_tet_start[p + 1u]; k++) {
+        let v = tets[pore_tets[k]];
+        // Edges from each corner, so the volume and every solid angle come from differences.
+        let e01 = between(v.x, v.y);
+        let e02 = between(v.x, v.z);
+        let e03 = between(v.x, v.w);
+        let e12 = between(v.y, v.z);
+        let e13 = between(v.y, v.w);
+        let e23 = between(v.z, v.w);
+        let vol = abs(dot(e03, cross(e13, e23))) / 6.0;
+        let r = vec4<f32>(origin[v.x].w, origin[v.y].w, origin[v.z].w, origin[v.w].w);
+        let sectors = solid_angle(e01, e02, e03) * r.x * r.x * r.x
+            + solid_angle(e12, e13, -e01) * r.y * r.y * r.y
+            + solid_angle(e23, -e02, -e12) * r.z * r.z * r.z
+            + solid_angle(-e03, -e13, -e23) * r.w * r.w * r.w;
+        empty += vol - sectors / 3.0;
+        full += vol;
+        // The corners' mean, relative to the first corner (its coordinate added last).
+        c += (position(v.x) + 0.25 * (e01 + e02 + e03)) * vol;
+    }
+    if full > 0.0 {
+        centre[p] = vec4<f32>(c / full, 0.0);
+    } else {
+        let v = tets[pore_tets[pore_tet_start[p]]];
+        centre[p] = vec4<f32>(position(v.x) + 0.25 * (between(v.x, v.y) + between(v.x, v.z) + between(v.x, v.w)), 0.0);
+    }
+    volume[p] = max(empty, pp.volume_floor * full);
+}
+
+// Parallel-plate (cubic-law) conductance w³·b/(12 μ l) of a crack (geometry.rs `cubic_law`).
+fn cubic_law(w: f32, b: f32, l: f32) -> f32 {
+    return w * w * w * b / (12.0 * pp.viscosity * l);
+}
+
+@compute @workgroup_size(64)
+fn throat_conductance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = invocation(gid, groups);
+    if t >= pp.throats {
+        return;
+    }
+    let th = throats[t];
+    var f = array<u32, 3>(th.c0, th.c1, th.c2);
+    let r = vec3<f32>(origin[th.c0].w, origin[th.c1].w, origin[th.c2].w);
+    // The opening: the face less the three circle sectors (geometry.rs `opening`).
+    let e01 = between(th.c0, th.c1);
+    let e02 = between(th.c0, th.c2);
+    let e12 = between(th.c1, th.c2);
+    let face = 0.5 * length(cross(e01, e02));
+    let th0 = angle(e01, e02);
+    let th1 = angle(e12, -e01);
+    let th2 = angle(-e02, -e12);
+    let sectors = 0.5 * (th0 * r.x * r.x + th1 * r.y * r.y + th2 * r.z * r.z);
+    let perimeter = th0 * r.x + th1 * r.y + th2 * r.z;
+    let area = max(face - sectors, 0.0);
+    let mean_r = (r.x + r.y + r.z) / 3.0;
+    let len = max(length(centre[th.a].xyz - centre[th.b].xyz), 0.1 * mean_r);
+    var cracked = false;
+    var crack_g = 0.0;
+    var edge = th.first_edge;
+    for (var e = 0u; e < 3u; e++) {
+        if (th.bits & (1u << e)) == 0u {
+            continue;
+        }
+        if bond_alive[edge] == 0u {
+            cracked = true;
+            let i = f[(e + 1u) % 3u];
+            let j = f[(e + 2u) % 3u];
+            let ri = origin[i].w;
+            let rj = origin[j].w;
+            let gap = length(between(i, j)) - ri - rj;
+            let w = max(gap, pp.crack_aperture * mean_r);
+            crack_g += cubic_law(w, min(ri, rj), len);
+        }
+        edge++;
+    }
+    var factor = th.factor;
+    if th.bits != 0u && !cracked {
+        factor *= pp.cement_factor;
+    }
+    // Poiseuille within the pores' thickness across the face (geometry.rs `poiseuille_within`).
+    var g = 0.0;
+    if area > 0.0 && perimeter > 0.0 {
+        let thickness = 3.0 * min(volume[th.a], volume[th.b]) / max(face, 1e-37);
+        let rh = min(area / perimeter, thickness);
+        g = area * rh * rh / (2.0 * pp.viscosity * len);
+    }
+    conductance[t] = g * factor + crack_g;
+}
+
+@compute @workgroup_size(64)
+fn pore_stable_step(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let p = invocation(gid, groups);
+    if p >= pp.pores || boundary[p].z > 0.5 {
+        return;
+    }
+    var g = 0.0;
+    for (var e = row_start[p]; e < row_start[p + 1u]; e++) {
+        g += conductance[row[e]];
+    }
+    if g > 0.0 {
+        // Positive f32s order like their bits.
+        atomicMin(&counters[C_PORE_STEP], bitcast<u32>(volume[p] / (pp.bulk_modulus * g)));
+    }
 }
 
 @compute @workgroup_size(64)
 fn pore_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let p = pore_index(gid, groups);
-    if p >= fluid.pores {
+    let p = invocation(gid, groups);
+    if p >= pp.pores {
         return;
     }
-    let v = pore[p].x;
-    if pore[p].w > 0.5 {
-        excess[p] = fluid.density * v * pore[p].y / fluid.bulk_modulus;
+    let v = volume[p];
+    let grown = pp.density * (v - volume0[p]);
+    let bc = boundary[p];
+    if bc.z > 0.5 {
+        // Held: the excess that gives the fixed pressure at the current volume.
+        let held = grown + pp.density * v * bc.x / pp.bulk_modulus;
+        supplied[p] = ledger_add(supplied[p], held - excess[p], pp.one);
+        excess[p] = held;
     }
-    pressure[p] = fluid.bulk_modulus * excess[p] / (fluid.density * v);
+    pressure[p] = pp.bulk_modulus * (excess[p] - grown) / (pp.density * v);
 }
 
 @compute @workgroup_size(64)
 fn pore_mass(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let p = pore_index(gid, groups);
-    if p >= fluid.pores {
+    let p = invocation(gid, groups);
+    if p >= pp.pores {
         return;
     }
     let own = pressure[p];
     var inflow = 0.0;
     for (var e = row_start[p]; e < row_start[p + 1u]; e++) {
         let t = row[e];
-        let ab = ends[t];
-        let other = select(ab.x, ab.y, ab.x == p);
-        inflow += conductance[t] * (pressure[other] - own);
+        let th = throats[t];
+        let other_pore = select(th.a, th.b, th.a == p);
+        inflow += conductance[t] * (pressure[other_pore] - own);
     }
-    excess[p] += fluid.density * fluid.h * (inflow + pore[p].z);
+    let source = boundary[p].y;
+    excess[p] += pp.density * pp.h * (inflow + source);
+    if source != 0.0 {
+        supplied[p] = ledger_add(supplied[p], pp.density * pp.h * source, pp.one);
+    }
+}
+
+// The corners of a tetrahedron listed from corner c by an even permutation
+// (pressure_forces.rs `EVEN`).
+fn even(c: u32, v: vec4<u32>) -> vec4<u32> {
+    switch c {
+        case 0u: { return v; }
+        case 1u: { return vec4<u32>(v.y, v.x, v.w, v.z); }
+        case 2u: { return vec4<u32>(v.z, v.w, v.x, v.y); }
+        default: { return vec4<u32>(v.w, v.z, v.y, v.x); }
+    }
+}
+
+@compute @workgroup_size(64)
+fn pore_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= pp.elements {
+        return;
+    }
+    var f = vec3<f32>(0.0);
+    for (var k = elem_start[i]; k < elem_start[i + 1u]; k++) {
+        let corner = elem_corners[k];
+        let t = corner / 4u;
+        let p = pressure[tet_pore[t]];
+        if p != 0.0 {
+            // ∂V/∂x of this corner: (x1 − x3) × (x2 − x3) / 6 in the even order from it.
+            let e = even(corner % 4u, tets[t]);
+            let grad = cross(between(e.w, e.y), between(e.w, e.z)) / 6.0;
+            f += grad * (p * tet_sign[t]);
+        }
+    }
+    force[i] += vec4<f32>(f, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn pore_drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= pp.elements {
+        return;
+    }
+    let d = disp[i].xyz - pore_built[i].xyz;
+    atomicMax(&counters[C_PORE_DRIFT], bitcast<u32>(dot(d, d)));
 }

@@ -3,7 +3,7 @@
 //! the grains move (and the network is rebuilt), the permeability of a random packing against
 //! Kozeny–Carman, the plan's words, and the guard's refusal of an unstable flow.
 
-use crate::common::confine_column;
+use crate::common::pore_column;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
 use matdem_engine::physics::Vec3;
@@ -15,34 +15,8 @@ use std::f64::consts::PI;
 const A: f64 = 1e-3;
 const KN: f64 = 1e6;
 
-/// A simple-cubic column of touching spheres (r = a/2), nx × nx × nz, its bottom layer held,
-/// laterally confined rigidly and without friction (every element's x and y held: walls of
-/// finite stiffness let so narrow a column bulge under the pore pressure), with a
-/// frictionless top wall that will carry the load. The fluid lives in the network's hull,
-/// the box of the element centres, so an element on its side stands for half a column of
-/// the ground and one on its edge for a quarter: their stiffness is halved and quartered
-/// (materials "edge" and "corner"), so that every column of the skeleton is as stiff as the
-/// share of the hull the pore pressure pushes on, and the column deforms in one dimension.
-/// The top wall's area is the hull's cross-section, so its stress is the total stress.
 fn column(nx: usize, nz: usize) -> Model {
-    let mut m = Model::new();
-    let grain =
-        |name: &str, w: f64| Material::from_micro(name, 2650.0, w * KN, 0.4 * w * KN, 1e-3, 1e9, 0.5, 0.5 * A).unwrap();
-    let mats = [
-        m.add_material(grain("grain", 1.0)).unwrap(),
-        m.add_material(grain("edge", 0.5)).unwrap(),
-        m.add_material(grain("corner", 0.25)).unwrap(),
-    ];
-    for k in 0..nz {
-        for j in 0..nx {
-            for i in 0..nx {
-                let sides = [i, j].iter().filter(|&&c| c == 0 || c == nx - 1).count();
-                m.add_particle(Vec3::new(i as f64, j as f64, k as f64) * A, 0.5 * A, mats[sides]).unwrap();
-            }
-        }
-    }
-    confine_column(&mut m, nx, nz, A);
-    m
+    pore_column(nx, nz, A, KN)
 }
 
 fn top_layer(nx: usize, nz: usize) -> Vec<u32> {

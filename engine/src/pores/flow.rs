@@ -77,6 +77,16 @@ pub(crate) const FREE: u32 = u32::MAX;
 /// Safety factor under the critical flow step.
 pub const FLOW_SAFETY: f64 = 0.9;
 
+/// Flow sub-steps of a mechanical step `dt` under the stable flow step `crit`:
+/// ⌈dt / (FLOW_SAFETY · crit)⌉, at least 1 (1 when no pore is connected: `crit` infinite).
+pub fn substeps_for(dt: f64, crit: f64) -> f64 {
+    if crit.is_finite() {
+        (dt / (FLOW_SAFETY * crit)).ceil().max(1.0)
+    } else {
+        1.0
+    }
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PoreFlow {
     pub fluid: Fluid,
@@ -334,7 +344,7 @@ impl PoreFlow {
 
     /// Sets each fixed-pressure pore's mass to its pressure, volume (and temperature); returns
     /// the mass added, booked to its region with its heat c_f·Δm·(T − T0).
-    fn hold_pressures(&mut self) -> f64 {
+    pub(crate) fn hold_pressures(&mut self) -> f64 {
         let c_f = self.fluid.heat.specific_heat;
         let mut added = 0.0;
         for p in 0..self.mass.len() {
@@ -417,6 +427,25 @@ impl PoreFlow {
     /// Follows the elements (rebuilding the network when they have moved far, carrying the
     /// fluid over) and advances the fluid by `dt` in sub-steps under its critical step.
     pub fn advance(&mut self, m: &Model, dt: f64) -> Result<()> {
+        self.follow(m)?;
+        let n = self.substeps_needed(m, dt)?;
+        let h = dt / n as f64;
+        for _ in 0..n {
+            self.substep(h);
+        }
+        self.substeps = n;
+        if let Some(p) = self.pressure.iter().position(|p| !p.is_finite()) {
+            return Err(Error::InvalidScene(format!("pore {p}'s pressure is not finite after the flow update")));
+        }
+        Ok(())
+    }
+
+    /// The first half of [`Self::advance`]: the network follows the elements (rebuilt, the fluid
+    /// carried over, once an element has drifted `rebuild_drift` × the mean radius; otherwise
+    /// its geometry refreshed), the pressures follow the volumes, and the fluid's stiffness on
+    /// the grains is estimated once per build (for the guard's message). The GPU backend calls
+    /// it at each upload.
+    pub fn follow(&mut self, m: &Model) -> Result<()> {
         let drift_limit = self.fluid.rebuild_drift * m.mean_radius();
         if self.network.drift(m) > drift_limit {
             self.rebuild(m)?;
@@ -432,8 +461,15 @@ impl PoreFlow {
             }
             self.estimated = true;
         }
+        Ok(())
+    }
+
+    /// The flow sub-steps a mechanical step `dt` needs on the current network,
+    /// ⌈dt / (0.9 · the stable flow step)⌉, or the guard's error naming the pore when that is more
+    /// than the fluid's `max_substeps`.
+    pub fn substeps_needed(&self, m: &Model, dt: f64) -> Result<u32> {
         let (pore, crit) = self.critical_dt();
-        let n = if crit.is_finite() { (dt / (FLOW_SAFETY * crit)).ceil().max(1.0) } else { 1.0 };
+        let n = substeps_for(dt, crit);
         if n > self.fluid.max_substeps as f64 {
             let t = self.network.tets_of(pore)[0] as usize;
             return Err(Error::Unstable(Box::new(Instability {
@@ -453,16 +489,7 @@ impl PoreFlow {
                 )),
             })));
         }
-        let n = n as u32;
-        let h = dt / n as f64;
-        for _ in 0..n {
-            self.substep(h);
-        }
-        self.substeps = n;
-        if let Some(p) = self.pressure.iter().position(|p| !p.is_finite()) {
-            return Err(Error::InvalidScene(format!("pore {p}'s pressure is not finite after the flow update")));
-        }
-        Ok(())
+        Ok(n as u32)
     }
 
     /// One explicit Euler step of length `h`.

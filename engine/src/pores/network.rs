@@ -320,15 +320,7 @@ impl PoreNetwork {
         }
         let centre = &self.centre;
         let volume = &self.volume;
-        // Per-material permeability factors (1 when the fluid names none): each material's,
-        // or a per-element clone's (`rock~3`) base material's.
-        let factors: Option<Vec<f64>> = (!fluid.permeability.is_empty()).then(|| {
-            let named = |n: &str| fluid.permeability.get(n).copied();
-            m.materials
-                .iter()
-                .map(|mat| named(&mat.name).or_else(|| named(base_name(&mat.name))).unwrap_or(1.0))
-                .collect()
-        });
+        let factors = material_factors(m, fluid);
         let material = &m.particles.material;
         let out: Vec<(f64, f64, bool)> = self
             .throats
@@ -360,10 +352,7 @@ impl PoreNetwork {
                 let cemented = bits != 0 && !cracked;
                 let mut factor = if cemented { fluid.cement_factor } else { 1.0 };
                 if let Some(k) = &factors {
-                    // The harmonic mean of the face's corners: a passage is as tight as its
-                    // tightest walls make it, in series.
-                    let inv: f64 = f.iter().map(|&i| 1.0 / k[material[i as usize] as usize]).sum();
-                    factor *= 3.0 / inv;
+                    factor *= face_factor(k, material, f);
                 }
                 // The pores' thickness across the face, the height 3V/A of a tetrahedron of
                 // the smaller pore's fluid volume on it: a sliver's (the convex hull's flat
@@ -377,6 +366,18 @@ impl PoreNetwork {
             self.opening[t] = a;
             self.cracked[t] = c;
         }
+    }
+
+    /// Each throat's permeability factor: the harmonic mean of its face's corners' material
+    /// factors (1 each when the fluid names none), as [`Self::refresh`] applies it.
+    pub fn throat_factors(&self, m: &Model, fluid: &Fluid) -> Vec<f64> {
+        let Some(k) = material_factors(m, fluid) else { return vec![1.0; self.throats.len()] };
+        self.throats
+            .iter()
+            .map(|th| {
+                face_factor(&k, &m.particles.material, face_corners(self.tri.tets[th.tet as usize].v, th.face as usize))
+            })
+            .collect()
     }
 
     /// The largest distance any element has moved since the network was built (m).
@@ -400,6 +401,22 @@ impl PoreNetwork {
             })
             .map(|t| self.tet_pore[t] as usize)
     }
+}
+
+/// Per-material permeability factors (`None` when the fluid names none): each material's, or
+/// a per-element clone's (`rock~3`) base material's, 1 for a material not named.
+fn material_factors(m: &Model, fluid: &Fluid) -> Option<Vec<f64>> {
+    (!fluid.permeability.is_empty()).then(|| {
+        let named = |n: &str| fluid.permeability.get(n).copied();
+        m.materials.iter().map(|mat| named(&mat.name).or_else(|| named(base_name(&mat.name))).unwrap_or(1.0)).collect()
+    })
+}
+
+/// The harmonic mean of a face's corners' factors: a passage is as tight as its tightest walls
+/// make it, in series.
+fn face_factor(k: &[f64], material: &[u32], f: [u32; 3]) -> f64 {
+    let inv: f64 = f.iter().map(|&i| 1.0 / k[material[i as usize] as usize]).sum();
+    3.0 / inv
 }
 
 /// CSR rows from (row, value) pairs, values in each row in the order given.

@@ -255,6 +255,36 @@ pub fn gpu(test: &str) -> Option<std::sync::Arc<matdem_engine::backend::gpu::dev
     None
 }
 
+/// A simple-cubic column of touching spheres (r = a/2, normal stiffness `kn`), nx × nx × nz, its bottom layer held,
+/// laterally confined rigidly and without friction (every element's x and y held: walls of
+/// finite stiffness let so narrow a column bulge under the pore pressure), with a
+/// frictionless top wall that will carry the load. The fluid lives in the network's hull,
+/// the box of the element centres, so an element on its side stands for half a column of
+/// the ground and one on its edge for a quarter: their stiffness is halved and quartered
+/// (materials "edge" and "corner"), so that every column of the skeleton is as stiff as the
+/// share of the hull the pore pressure pushes on, and the column deforms in one dimension.
+/// The top wall's area is the hull's cross-section, so its stress is the total stress.
+pub fn pore_column(nx: usize, nz: usize, a: f64, kn: f64) -> Model {
+    let mut m = Model::new();
+    let grain =
+        |name: &str, w: f64| Material::from_micro(name, 2650.0, w * kn, 0.4 * w * kn, 1e-3, 1e9, 0.5, 0.5 * a).unwrap();
+    let mats = [
+        m.add_material(grain("grain", 1.0)).unwrap(),
+        m.add_material(grain("edge", 0.5)).unwrap(),
+        m.add_material(grain("corner", 0.25)).unwrap(),
+    ];
+    for k in 0..nz {
+        for j in 0..nx {
+            for i in 0..nx {
+                let sides = [i, j].iter().filter(|&&c| c == 0 || c == nx - 1).count();
+                m.add_particle(Vec3::new(i as f64, j as f64, k as f64) * a, 0.5 * a, mats[sides]).unwrap();
+            }
+        }
+    }
+    confine_column(&mut m, nx, nz, a);
+    m
+}
+
 /// Makes a simple-cubic column of nx × nx × nz touching spheres at spacing `a` (bottom layer
 /// first) a one-dimensional sample: bonds every touching pair, holds the bottom layer, confines
 /// the rest laterally, and closes it with a frictionless top wall over the centres'

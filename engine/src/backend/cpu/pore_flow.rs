@@ -7,7 +7,7 @@
 //! own force ([`crate::pores::pressure_forces`]: a per-element gather, no atomics). With the
 //! heat field on (the plan's `thermal`), each pore's fluid has a temperature, carried by the
 //! flow and exchanged with the elements at its corners after the flow's sub-steps
-//! ([`crate::pores::heat`]). GPU twin of the (isothermal) flow update:
+//! ([`crate::pores::heat`]). GPU twin (isothermal; the GPU refuses the stage with heat on):
 //! `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl).
 
 use crate::error::Result;

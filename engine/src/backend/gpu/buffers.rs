@@ -66,7 +66,11 @@ pub const C_LONGEST: usize = 8;
 pub const C_CROWDED: usize = 9;
 /// The guard's fifth finding: the lowest particle in a contact too stiff for dt.
 pub const C_STIFF: usize = 10;
-pub const COUNTERS: usize = 11;
+/// The pore_flow stage: the batch's smallest stable flow step (f32 bits, minimum).
+pub const C_PORE_STEP: usize = 11;
+/// The pore_flow stage: the largest squared drift since the network's build (f32 bits, maximum).
+pub const C_PORE_DRIFT: usize = 12;
+pub const COUNTERS: usize = 13;
 
 fn v4(v: &Vec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
@@ -323,6 +327,7 @@ impl DeviceLanes {
         let mut counters = [0u32; COUNTERS];
         counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
         counters[C_STIFF] = u32::MAX;
+        counters[C_PORE_STEP] = u32::MAX;
         let mut slabs = Vec::new();
         for r in plan.slabs() {
             slabs.push(SlabLanes {

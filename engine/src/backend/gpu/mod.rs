@@ -4,8 +4,10 @@
 //! brings back only what the host needs: between batches a few counters (the largest drift
 //! and speed, the guard's findings), at the end of the run the state a script reads. One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → parallel bonds, rolling resistance (when the scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on
-//! the device ([`rows`]). Pipelines are built once per plan, with the plan's laws as pipeline
+//! wall forces → parallel bonds, rolling resistance, pore flow (when the scene has them) →
+//! integration; when the drift reaches half the skin the rows are rebuilt on the device
+//! ([`rows`]). The pore network's topology is built on the host and rebuilt through it
+//! ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
 //! 128-byte placeholders or absent. Rows live in fixed-width slots, and the per-entry lanes
@@ -57,7 +59,7 @@ use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
-    C_SPEED, C_STIFF,
+    C_PORE_DRIFT, C_PORE_STEP, C_SPEED, C_STIFF,
 };
 use device::GpuContext;
 use shaders::Kernel;
@@ -84,6 +86,8 @@ struct Pipelines {
     parallel_bond: Option<wgpu::ComputePipeline>,
     /// Only when the plan has rolling resistance.
     rolling_resistance: Option<wgpu::ComputePipeline>,
+    /// Only when the plan has pore flow.
+    pore_flow: Option<pore_flow::Pipelines>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
     /// The optional field stages, only when the plan has them.
@@ -140,6 +144,8 @@ struct Session {
     thermal: Option<conduction::Lanes>,
     /// The moisture stage's lanes, when the plan has it.
     water: Option<moisture::Lanes>,
+    /// The pore_flow stage's network, fluid and kernels, when the plan has it.
+    pores: Option<pore_flow::PoreSession>,
 }
 
 /// How the rows of a backend's runs were built, for tests and benchmarks: a rebuild on the
@@ -201,10 +207,10 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
-        if plan.pore_flow.is_some() {
+        if plan.pore_flow.is_some_and(|p| p.thermal) {
             return Err(Error::InvalidScene(
-                "pore flow (d.enable(\"pore_flow\")) couples into the step on the CPU backend only for now: run with \
-                 --backend cpu (the GPU has the flow update's kernel, backend/gpu/pore_flow.rs, not yet the coupled stage)"
+                "pore flow with the heat field on (the pore fluid's own temperature) runs on the CPU backend only for \
+                 now: run with --backend cpu, or switch heat off (d.disable(\"heat\")) to run pore flow on the GPU"
                     .into(),
             ));
         }
@@ -230,6 +236,7 @@ impl GpuBackend {
             }),
             parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
             rolling_resistance: plan.rolling.as_ref().map(|r| rolling_resistance::pipeline(device, &constants, r)),
+            pore_flow: plan.pore_flow.is_some().then(|| pore_flow::pipelines(device, &constants)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
@@ -362,6 +369,10 @@ impl GpuBackend {
         let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
         let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
         let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
+        let pores = match &p.pore_flow {
+            Some(pipelines) => Some(pore_flow::PoreSession::upload(&self.ctx, m, &host, &lanes, pipelines, limit)?),
+            None => None,
+        };
         let kernels = Kernels {
             drift: neighbours::kernel(device, &p.drift, &lanes),
             rows: rows::kernels(device, &p.rows, &lanes),
@@ -398,11 +409,12 @@ impl GpuBackend {
         self.device_bytes = lanes.bytes
             + bonds.as_ref().map_or(0, |b| b.bytes)
             + thermal.as_ref().map_or(0, |t| t.bytes)
-            + moist.as_ref().map_or(0, |w| w.bytes);
+            + moist.as_ref().map_or(0, |w| w.bytes)
+            + pores.as_ref().map_or(0, |f| f.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal, water: moist })
+        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal, water: moist, pores })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -442,6 +454,10 @@ impl GpuBackend {
         if guard {
             ctx.queue.write_buffer(&s.lanes.counters, (C_STIFF * 4) as u64, bytemuck::cast_slice(&[u32::MAX]));
         }
+        if s.pores.is_some() {
+            debug_assert_eq!(C_PORE_DRIFT, C_PORE_STEP + 1);
+            ctx.queue.write_buffer(&s.lanes.counters, (C_PORE_STEP * 4) as u64, bytemuck::cast_slice(&[u32::MAX, 0]));
+        }
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc
@@ -461,6 +477,9 @@ impl GpuBackend {
                 if !kr.rolling_resistance.is_empty() {
                     dispatch_stage(&mut pass, Stage::RollingResistance, &kr.rolling_resistance);
                 }
+                if let Some(f) = &s.pores {
+                    f.dispatch(&mut pass);
+                }
                 dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
                 if let Some(b) = &kr.buoyancy {
                     dispatch_stage(&mut pass, Stage::Buoyancy, [b]);
@@ -477,6 +496,9 @@ impl GpuBackend {
                 }
             }
             dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
+            if let Some(f) = &s.pores {
+                f.dispatch_drift(&mut pass);
+            }
             if guard {
                 dispatch_stage(&mut pass, Stage::Guard, &kr.guard);
             }
@@ -507,6 +529,9 @@ impl GpuBackend {
         }
         if let (Some(w), Some(plan)) = (&s.water, &self.plan.moisture) {
             w.download(&self.ctx, &s.lanes, m, plan, s.thermal.as_ref())?;
+        }
+        if let Some(f) = &s.pores {
+            f.download(&self.ctx, m)?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
@@ -572,6 +597,9 @@ impl Backend for GpuBackend {
             let counters = self.step_batch(&session, k, guard_now)?;
             done += k;
             session.steps += k;
+            if let Some(f) = session.pores.as_mut() {
+                f.stepped = true;
+            }
             if guard_now {
                 self.stiff = (counters[C_STIFF] != u32::MAX).then_some(counters[C_STIFF]);
                 let failed = (0..4).find(|&s| counters[C_GUARD + s] != u32::MAX);
@@ -591,8 +619,41 @@ impl Backend for GpuBackend {
                 crate::guard::check_state(m)?;
                 return Err(crate::guard::unstable(m, 0, guard::FAILURES[0].to_string()));
             }
+            // The pore network: the next batch's sub-steps from this batch's smallest stable flow
+            // step; a rebuild (through the host) when the drift may pass the threshold next step.
+            let mut pore_batch = MAX_BATCH;
+            if let Some(f) = session.pores.as_mut() {
+                let crit = match counters[C_PORE_STEP] {
+                    u32::MAX => f64::INFINITY,
+                    bits => f64::from(f32::from_bits(bits)),
+                };
+                let need = crate::pores::flow::substeps_for(m.clock.dt, crit);
+                let pore_drift = f64::from(f32::from_bits(counters[C_PORE_DRIFT])).sqrt();
+                let rebuild_in = steps_until_rebuild(pore_drift, speed, 2.0 * f.drift_limit, m.clock.dt, MAX_BATCH);
+                if need > f64::from(f.max_substeps) || rebuild_in.is_none() {
+                    // Through the host: its f64 check words the guard's error (or finds the
+                    // flow stable after all), or it rebuilds the network.
+                    self.download(m, session)?;
+                    if rebuild_in.is_none() {
+                        if let Some(mut p) = m.pores.take() {
+                            let r = p.rebuild(m);
+                            m.pores = Some(p);
+                            r?;
+                        }
+                    }
+                    session = self.upload(m)?;
+                    self.batch = 1;
+                    continue;
+                }
+                // The stable step fell within the batch: look again after each step.
+                if need as u32 > f.substeps {
+                    pore_batch = 1;
+                }
+                f.set_substeps(&self.ctx, need as u32, m.clock.dt);
+                pore_batch = pore_batch.min(rebuild_in.unwrap_or(1));
+            }
             match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
-                Some(k) => self.batch = k,
+                Some(k) => self.batch = k.min(pore_batch),
                 None => {
                     if let Err(why) = self.build_rows(&session)? {
                         // The rows did not fit: the host builds them and widens the slots.

@@ -1,97 +1,573 @@
-//! The `pore_flow` stage's flow update on the GPU (shaders/pore_flow.wgsl, f32): the pore
-//! network's fluid advanced by explicit sub-steps on the device, each pore gathering its own
-//! row of throats (no atomics). The network's geometry (volumes, conductances, rebuilds), the
-//! stable step and the pressure forces stay on the host; the GPU backend does not run the
-//! coupled stage yet (it refuses a plan with pore flow), so this kernel is driven on its own:
-//! upload a [`PoreFlow`], run sub-steps, download the masses. CPU twin: `pores/flow.rs`
-//! (`PoreFlow::substep`), run by `backend/cpu/pore_flow.rs`.
+//! The `pore_flow` stage on the GPU (shaders/pore_flow.wgsl, f32), a force stage between
+//! `rolling_resistance` (or `wall_forces`) and `integrate`: the pipelines, the stage's own
+//! buffers (the network's topology, per-pore and per-throat lanes) and the kernels bound to
+//! them and to the particles' lanes. Built only when the plan has the stage. CPU twin:
+//! `backend/cpu/pore_flow.rs`.
+//!
+//! Who does what:
+//!
+//! - **Host, at each upload** ([`PoreSession::upload`]): the network follows the elements as on
+//!   the CPU ([`PoreFlow::follow`]: rebuilt, fluid carried over, after a drift of
+//!   `rebuild_drift` × the mean radius or a change of the element count), the sub-steps of the
+//!   first batch are sized from the f64 state ([`PoreFlow::substeps_needed`], the guard's error
+//!   when too many), and the topology goes up: tetrahedra, pores, throats with their face's
+//!   corners and bonded edges, each element's corners (the CSR row the forces gather over).
+//! - **Device, each step**: bonds still holding across each throat's face, pore volumes and
+//!   centres from the current positions, throat conductances, the stable flow step (its
+//!   minimum over the batch into a counter), the flow's sub-steps, the pressures, and each
+//!   element's pressure force added to its force lane; once per batch, the elements' drift
+//!   since the network's build.
+//! - **Host, between batches** (`GpuBackend::run_chunk`): the next batch's sub-steps from the
+//!   batch's smallest stable step; when the drift may reach the rebuild threshold within the
+//!   next step, the model comes back, the host rebuilds the network and puts it back up (the
+//!   cost of a rebuild is a download and an upload of the model, as for rows built on the host).
+//! - **Host, at each download** ([`PoreSession::download`]): the masses (the f64 mass at the
+//!   upload plus the f32 change), the mass each boundary region supplied, the geometry in f64.
+//!
+//! The flow update alone is also driven by [`PoreFlowKernel`] (upload a network, run sub-steps,
+//! download the masses), for the flow's own parity test.
 
+use super::buffers::{read, DeviceLanes, HostLanes};
 use super::device::GpuContext;
 use super::shaders::{self, groups_for, Kernel};
-use crate::error::Result;
+use crate::error::{GpuError, Result};
+use crate::model::Model;
 use crate::plan::Stage;
+use crate::pores::network::{face_corners, VOLUME_FLOOR};
 use crate::pores::PoreFlow;
+use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
-/// The kernel's buffers, one field per binding of shaders/pore_flow.wgsl.
-pub struct PoreBuffers {
-    /// (K_f, ρ0, h, pores).
-    pub fluid: wgpu::Buffer,
-    /// Per pore (V, fixed pressure, source, held).
-    pub pore: wgpu::Buffer,
-    /// Per pore m − ρ0·V.
-    pub excess: wgpu::Buffer,
-    pub pressure: wgpu::Buffer,
-    pub row_start: wgpu::Buffer,
-    pub row: wgpu::Buffer,
-    /// Per throat (a, b).
-    pub ends: wgpu::Buffer,
-    pub conductance: wgpu::Buffer,
+/// The fluid and the network's sizes (`PoreParams` in pore_flow.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct PoreParams {
+    bulk_modulus: f32,
+    density: f32,
+    viscosity: f32,
+    h: f32,
+    pores: u32,
+    throats: u32,
+    elements: u32,
+    bond_edges: u32,
+    cement_factor: f32,
+    crack_aperture: f32,
+    volume_floor: f32,
+    one: f32,
 }
 
-/// The flow update of one network on the device.
-pub struct PoreFlowKernel {
-    pub buffers: PoreBuffers,
+/// A throat (`Throat` in pore_flow.wgsl), 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ThroatLane {
+    a: u32,
+    b: u32,
+    corners: [u32; 3],
+    bits: u32,
+    first_edge: u32,
+    factor: f32,
+}
+
+/// The stage's pipelines, one per entry point of pore_flow.wgsl.
+pub struct Pipelines {
+    bonds: wgpu::ComputePipeline,
+    geometry: wgpu::ComputePipeline,
+    conductance: wgpu::ComputePipeline,
+    stable_step: wgpu::ComputePipeline,
+    pressure: wgpu::ComputePipeline,
+    mass: wgpu::ComputePipeline,
+    forces: wgpu::ComputePipeline,
+    drift: wgpu::ComputePipeline,
+}
+
+fn pipeline(device: &wgpu::Device, entry: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+    shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_FLOW, entry, constants)
+}
+
+pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines {
+    Pipelines {
+        bonds: pipeline(device, "pore_bonds", constants),
+        geometry: pipeline(device, "pore_geometry", constants),
+        conductance: pipeline(device, "throat_conductance", constants),
+        stable_step: pipeline(device, "pore_stable_step", constants),
+        pressure: pipeline(device, "pore_pressure", constants),
+        mass: pipeline(device, "pore_mass", constants),
+        forces: pipeline(device, "pore_forces", constants),
+        drift: pipeline(device, "pore_drift", constants),
+    }
+}
+
+/// The stage's buffers for one upload, one field per binding of pore_flow.wgsl (the particles'
+/// lanes are the core's).
+pub struct Lanes {
+    params: wgpu::Buffer,
+    tets: wgpu::Buffer,
+    tet_pore: wgpu::Buffer,
+    tet_sign: wgpu::Buffer,
+    pore_tet_start: wgpu::Buffer,
+    pore_tets: wgpu::Buffer,
+    volume: wgpu::Buffer,
+    volume0: wgpu::Buffer,
+    centre: wgpu::Buffer,
+    /// Per pore: the excess mass at the upload (m − ρ0·V) plus the mass gained since.
+    excess: wgpu::Buffer,
+    pressure: wgpu::Buffer,
+    boundary: wgpu::Buffer,
+    /// Per pore: the mass its boundary region supplied since the upload (compensated f32 sum).
+    supplied: wgpu::Buffer,
+    row_start: wgpu::Buffer,
+    row: wgpu::Buffer,
+    throats: wgpu::Buffer,
+    conductance: wgpu::Buffer,
+    bond_edges: wgpu::Buffer,
+    bond_alive: wgpu::Buffer,
+    elem_start: wgpu::Buffer,
+    elem_corners: wgpu::Buffer,
+    pore_built: wgpu::Buffer,
+    uniform: PoreParams,
+    /// The f64 masses and volumes at the upload and the f32 excesses the device started from.
+    mass0: Vec<f64>,
+    volume_up: Vec<f64>,
+    excess0: Vec<f32>,
+    /// Bytes of the stage's buffers.
+    pub bytes: u64,
+}
+
+const STORAGE: wgpu::BufferUsages =
+    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
+
+impl Lanes {
+    /// Uploads the network and fluid of `f` for sub-steps of `h` (s); `built` is each
+    /// element's position at the network's build less its origin on the device (empty for the
+    /// flow alone). Refuses a lane larger than `limit` bytes.
+    /// `factors` is each throat's permeability factor (empty: 1).
+    fn upload(ctx: &GpuContext, f: &PoreFlow, built: &[[f32; 4]], factors: &[f64], h: f64, limit: u64) -> Result<Self> {
+        let net = &f.network;
+        let np = net.pore_count();
+        let fl = &f.fluid;
+        let (k, rho0) = (fl.bulk_modulus, fl.density);
+        let mut bytes = 0u64;
+        let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
+            // A binding may not be empty: an empty lane gets a placeholder.
+            let zeros = [0u8; 32];
+            let contents = if data.is_empty() { &zeros[..] } else { data };
+            if contents.len() as u64 > limit {
+                return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
+            }
+            bytes += contents.len() as u64;
+            Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(lane),
+                contents,
+                usage: STORAGE,
+            }))
+        };
+        let tets: Vec<[u32; 4]> = net.tri.tets.iter().map(|t| t.v).collect();
+        let sign: Vec<f32> = net.orient.iter().map(|&o| o as f32).collect();
+        let volume: Vec<f32> = net.volume.iter().map(|&v| v as f32).collect();
+        let excess0: Vec<f32> = (0..np).map(|p| (f.mass[p] - rho0 * net.volume[p]) as f32).collect();
+        let boundary: Vec<[f32; 4]> = (0..np)
+            .map(|p| {
+                let held = f.fixed_pressure(p);
+                [held.unwrap_or(0.0) as f32, f.source[p] as f32, if held.is_some() { 1.0 } else { 0.0 }, 0.0]
+            })
+            .collect();
+        let mut bond_edges: Vec<[u32; 2]> = Vec::new();
+        let throats: Vec<ThroatLane> = net
+            .throats
+            .iter()
+            .zip(&net.bonded_at_build)
+            .enumerate()
+            .map(|(t, (th, &bits))| {
+                let factor = factors.get(t).copied().unwrap_or(1.0);
+                let c = face_corners(net.tri.tets[th.tet as usize].v, th.face as usize);
+                let first_edge = bond_edges.len() as u32;
+                for e in 0..3 {
+                    if bits & (1 << e) != 0 {
+                        bond_edges.push([c[(e + 1) % 3], c[(e + 2) % 3]]);
+                    }
+                }
+                ThroatLane { a: th.a, b: th.b, corners: c, bits: u32::from(bits), first_edge, factor: factor as f32 }
+            })
+            .collect();
+        let conductance: Vec<f32> = net.conductance.iter().map(|&g| g as f32).collect();
+        let uniform = PoreParams {
+            bulk_modulus: k as f32,
+            density: rho0 as f32,
+            viscosity: fl.viscosity as f32,
+            h: h as f32,
+            pores: np as u32,
+            throats: throats.len() as u32,
+            elements: built.len() as u32,
+            bond_edges: bond_edges.len() as u32,
+            cement_factor: fl.cement_factor as f32,
+            crack_aperture: fl.crack_aperture as f32,
+            volume_floor: VOLUME_FLOOR as f32,
+            one: 1.0,
+        };
+        let lanes = Lanes {
+            params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("pore parameters"),
+                contents: bytemuck::bytes_of(&uniform),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            }),
+            tets: make("pore tetrahedra", bytemuck::cast_slice(&tets))?,
+            tet_pore: make("pore of each tetrahedron", bytemuck::cast_slice(&net.tet_pore))?,
+            tet_sign: make("tetrahedron orientation", bytemuck::cast_slice(&sign))?,
+            pore_tet_start: make("pore tetrahedra rows", bytemuck::cast_slice(&net.pore_tet_start))?,
+            pore_tets: make("pore tetrahedra ids", bytemuck::cast_slice(&net.pore_tets))?,
+            volume: make("pore volume", bytemuck::cast_slice(&volume))?,
+            volume0: make("pore volume at upload", bytemuck::cast_slice(&volume))?,
+            centre: make("pore centre", bytemuck::cast_slice(&vec![[0f32; 4]; np]))?,
+            excess: make("pore excess mass", bytemuck::cast_slice(&excess0))?,
+            pressure: make("pore pressure", bytemuck::cast_slice(&vec![0f32; np]))?,
+            boundary: make("pore boundary", bytemuck::cast_slice(&boundary))?,
+            supplied: make("pore supplied mass", bytemuck::cast_slice(&vec![[0f32; 2]; np]))?,
+            row_start: make("pore rows", bytemuck::cast_slice(&net.row_start))?,
+            row: make("pore row throats", bytemuck::cast_slice(&net.row))?,
+            throats: make("throats", bytemuck::cast_slice(&throats))?,
+            conductance: make("throat conductance", bytemuck::cast_slice(&conductance))?,
+            bond_edges: make("throat bonds", bytemuck::cast_slice(&bond_edges))?,
+            bond_alive: make("throat bonds holding", bytemuck::cast_slice(&vec![1u32; bond_edges.len()]))?,
+            elem_start: make("element corner rows", bytemuck::cast_slice(&net.elem_start))?,
+            elem_corners: make("element corners", bytemuck::cast_slice(&net.elem_corners))?,
+            pore_built: make("element position at the network's build", bytemuck::cast_slice(built))?,
+            uniform,
+            mass0: f.mass.clone(),
+            volume_up: net.volume.clone(),
+            excess0,
+            bytes: 0,
+        };
+        Ok(Lanes { bytes: bytes + std::mem::size_of::<PoreParams>() as u64, ..lanes })
+    }
+
+    /// Sets the sub-step length for the following dispatches.
+    fn set_substep(&mut self, ctx: &GpuContext, h: f64) {
+        self.uniform.h = h as f32;
+        ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.uniform));
+    }
+
+    /// Brings the fluid back into `f`: each pore's mass is its f64 mass at the upload plus the
+    /// f32 change, the mass the boundary regions supplied is booked to them, the held pores
+    /// are set to their pressure at the host's volume, and the pressures and flows follow.
+    fn download(&self, ctx: &GpuContext, f: &mut PoreFlow, geometry: bool) -> Result<()> {
+        let np = self.mass0.len();
+        if geometry {
+            // The geometry of the last step's stage (before that step's integration), as the
+            // CPU's network holds it after a step.
+            let net = &mut f.network;
+            // Each volume is the f64 volume at the upload plus the change the device measured
+            // (its f32 volumes are off by ~1e-5 of themselves, the change is not).
+            let v: Vec<f32> = read(ctx, &self.volume, np)?;
+            let v0: Vec<f32> = read(ctx, &self.volume0, np)?;
+            let c: Vec<[f32; 4]> = read(ctx, &self.centre, np)?;
+            let g: Vec<f32> = read(ctx, &self.conductance, net.throats.len())?;
+            for p in 0..np {
+                net.volume[p] = self.volume_up[p] + (f64::from(v[p]) - f64::from(v0[p]));
+                net.centre[p] = crate::physics::Vec3::new(f64::from(c[p][0]), f64::from(c[p][1]), f64::from(c[p][2]));
+            }
+            for (t, g) in g.iter().enumerate() {
+                net.conductance[t] = f64::from(*g);
+            }
+        }
+        let e: Vec<f32> = read(ctx, &self.excess, np)?;
+        let s: Vec<[f32; 2]> = read(ctx, &self.supplied, np)?;
+        for p in 0..np {
+            f.mass[p] = self.mass0[p] + (f64::from(e[p]) - f64::from(self.excess0[p]));
+            let dm = f64::from(s[p][0]) + f64::from(s[p][1]);
+            if dm != 0.0 {
+                f.boundary_mass += dm;
+                if let Some(m) = f.region_mass.get_mut(f.region[p] as usize) {
+                    *m += dm;
+                }
+            }
+        }
+        // A zero-length sub-step: held pores at their pressure (booked), pressures, flows.
+        f.substep(0.0);
+        Ok(())
+    }
+}
+
+/// The stage's kernels bound to one upload (the bond checks one per slab of rows; none when
+/// no bond crosses a throat's face).
+pub struct Kernels {
+    bonds: Vec<Kernel>,
+    geometry: Kernel,
+    conductance: Kernel,
+    stable_step: Kernel,
     pressure: Kernel,
     mass: Kernel,
-    pores: usize,
+    forces: Kernel,
+    drift: Kernel,
 }
 
-fn storage<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T]) -> wgpu::Buffer {
-    // A binding may not be empty: a network without throats gets one zero word.
-    let bytes: &[u8] = bytemuck::cast_slice(data);
-    let zero = [0u8; 16];
-    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: if bytes.is_empty() { &zero } else { bytes },
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    })
+/// The stage on the device for one upload: its lanes, kernels and the batch's sub-steps.
+pub struct PoreSession {
+    lanes: Lanes,
+    kernels: Kernels,
+    /// Flow sub-steps per mechanical step in the current batch.
+    pub substeps: u32,
+    /// Drift (m) at which the CPU would rebuild the network.
+    pub drift_limit: f64,
+    pub max_substeps: u32,
+    pub bytes: u64,
+    /// Whether a step has run since the upload (the device's geometry is then the stage's).
+    pub stepped: bool,
+}
+
+impl PoreSession {
+    /// The host's part of the step (the network follows the elements; the first batch's
+    /// sub-steps), then the upload of the network and its fluid, and the pore volumes at the
+    /// upload measured on the device.
+    pub fn upload(
+        ctx: &GpuContext,
+        m: &mut Model,
+        host: &HostLanes,
+        d: &DeviceLanes,
+        p: &Pipelines,
+        limit: u64,
+    ) -> Result<Self> {
+        let Some(mut f) = m.pores.take() else {
+            return Err(crate::Error::InvalidScene("the plan has pore flow but the model has no pore network".into()));
+        };
+        let mut prepared = Ok(0);
+        if f.network.tri.points.len() != m.len() {
+            prepared = f.rebuild(m).map(|_| 0);
+        }
+        if prepared.is_ok() {
+            prepared = f.follow(m).and_then(|_| f.substeps_needed(m, m.clock.dt));
+        }
+        let n = match prepared {
+            Ok(n) => n,
+            Err(e) => {
+                m.pores = Some(f);
+                return Err(e);
+            }
+        };
+        let built: Vec<[f32; 4]> = f
+            .network
+            .built_at
+            .iter()
+            .zip(&host.origin)
+            .map(|(b, o)| {
+                [(b.x - f64::from(o[0])) as f32, (b.y - f64::from(o[1])) as f32, (b.z - f64::from(o[2])) as f32, 0.0]
+            })
+            .collect();
+        let drift_limit = f.fluid.rebuild_drift * m.mean_radius();
+        let max_substeps = f.fluid.max_substeps;
+        let factors = f.network.throat_factors(m, &f.fluid);
+        let lanes = Lanes::upload(ctx, &f, &built, &factors, m.clock.dt / f64::from(n), limit);
+        m.pores = Some(f);
+        let lanes = lanes?;
+        let kernels = kernels(&ctx.device, p, &lanes, d);
+        // The volumes at the upload as the device measures them (the pressures see only their change).
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let label = Some("pore_flow: volumes at upload");
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None });
+            kernels.geometry.dispatch(&mut pass);
+        }
+        let bytes = (lanes.mass0.len() * 4) as u64;
+        enc.copy_buffer_to_buffer(&lanes.volume, 0, &lanes.volume0, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        let bytes = lanes.bytes;
+        Ok(PoreSession { lanes, kernels, substeps: n, drift_limit, max_substeps, bytes, stepped: false })
+    }
+
+    /// Sets the sub-steps of the following mechanical steps of length `dt`.
+    pub fn set_substeps(&mut self, ctx: &GpuContext, n: u32, dt: f64) {
+        if n != self.substeps {
+            self.substeps = n;
+            self.lanes.set_substep(ctx, dt / f64::from(n));
+        }
+    }
+
+    /// Encodes one step of the stage (in a debug group named for it).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let k = &self.kernels;
+        pass.push_debug_group(Stage::PoreFlow.name());
+        for b in &k.bonds {
+            b.dispatch(pass);
+        }
+        k.geometry.dispatch(pass);
+        k.conductance.dispatch(pass);
+        k.stable_step.dispatch(pass);
+        for _ in 0..self.substeps {
+            k.pressure.dispatch(pass);
+            k.mass.dispatch(pass);
+        }
+        k.pressure.dispatch(pass);
+        k.forces.dispatch(pass);
+        pass.pop_debug_group();
+    }
+
+    /// Encodes the drift measure (once per batch).
+    pub fn dispatch_drift(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.push_debug_group(Stage::PoreFlow.name());
+        self.kernels.drift.dispatch(pass);
+        pass.pop_debug_group();
+    }
+
+    /// Brings the fluid back into the model (whose positions have come back already), the
+    /// network's geometry recomputed in f64 from them.
+    pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
+        let Some(mut f) = m.pores.take() else { return Ok(()) };
+        // Openings and crack flags at the positions that came back; then the stage's own
+        // volumes, centres and conductances from the device.
+        f.network.refresh(m, &f.fluid);
+        let r = self.lanes.download(ctx, &mut f, self.stepped);
+        f.substeps = self.substeps;
+        m.pores = Some(f);
+        r
+    }
+}
+
+fn kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes, d: &DeviceLanes) -> Kernels {
+    let (np, nt, ne) = (l.uniform.pores as usize, l.uniform.throats as usize, l.uniform.elements as usize);
+    let bonds = if l.uniform.bond_edges == 0 {
+        Vec::new()
+    } else {
+        let groups = groups_for(l.uniform.bond_edges as usize);
+        d.slabs
+            .iter()
+            .map(|s| {
+                let b = [
+                    (0, &d.params),
+                    (1, &l.params),
+                    (20, &l.bond_edges),
+                    (21, &l.bond_alive),
+                    (27, &s.uniform),
+                    (28, &d.row_len),
+                    (29, &s.other),
+                    (30, &s.state),
+                ];
+                Kernel::bind_at(device, &p.bonds, &b, groups)
+            })
+            .collect()
+    };
+    let geometry = Kernel::bind_at(
+        device,
+        &p.geometry,
+        &[
+            (1, &l.params),
+            (2, &d.origin),
+            (3, &d.disp),
+            (4, &l.tets),
+            (7, &l.pore_tet_start),
+            (8, &l.pore_tets),
+            (9, &l.volume),
+            (11, &l.centre),
+        ],
+        groups_for(np),
+    );
+    let conductance = Kernel::bind_at(
+        device,
+        &p.conductance,
+        &[
+            (1, &l.params),
+            (2, &d.origin),
+            (3, &d.disp),
+            (9, &l.volume),
+            (11, &l.centre),
+            (18, &l.throats),
+            (19, &l.conductance),
+            (21, &l.bond_alive),
+        ],
+        groups_for(nt),
+    );
+    let stable_step = Kernel::bind_at(
+        device,
+        &p.stable_step,
+        &[
+            (1, &l.params),
+            (9, &l.volume),
+            (14, &l.boundary),
+            (16, &l.row_start),
+            (17, &l.row),
+            (19, &l.conductance),
+            (25, &d.counters),
+        ],
+        groups_for(np),
+    );
+    let (pressure, mass) = flow_kernels(device, p, l);
+    let forces = Kernel::bind_at(
+        device,
+        &p.forces,
+        &[
+            (1, &l.params),
+            (2, &d.origin),
+            (3, &d.disp),
+            (4, &l.tets),
+            (5, &l.tet_pore),
+            (6, &l.tet_sign),
+            (13, &l.pressure),
+            (22, &l.elem_start),
+            (23, &l.elem_corners),
+            (24, &d.force),
+        ],
+        groups_for(ne),
+    );
+    let drift = Kernel::bind_at(
+        device,
+        &p.drift,
+        &[(1, &l.params), (3, &d.disp), (25, &d.counters), (26, &l.pore_built)],
+        groups_for(ne),
+    );
+    Kernels { bonds, geometry, conductance, stable_step, pressure, mass, forces, drift }
+}
+
+/// The two kernels of one flow sub-step: pressures from the excess masses, then each pore's
+/// excess from its row of throats.
+fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Kernel) {
+    let groups = groups_for(l.uniform.pores as usize);
+    let pressure = Kernel::bind_at(
+        device,
+        &p.pressure,
+        &[
+            (1, &l.params),
+            (9, &l.volume),
+            (10, &l.volume0),
+            (12, &l.excess),
+            (13, &l.pressure),
+            (14, &l.boundary),
+            (15, &l.supplied),
+        ],
+        groups,
+    );
+    let mass = Kernel::bind_at(
+        device,
+        &p.mass,
+        &[
+            (1, &l.params),
+            (12, &l.excess),
+            (13, &l.pressure),
+            (14, &l.boundary),
+            (15, &l.supplied),
+            (16, &l.row_start),
+            (17, &l.row),
+            (18, &l.throats),
+            (19, &l.conductance),
+        ],
+        groups,
+    );
+    (pressure, mass)
+}
+
+/// The flow update of one network on the device, on its own: the volumes and conductances
+/// stay as uploaded (the flow's parity test, `engine/tests/pore_flow_parity.rs`).
+pub struct PoreFlowKernel {
+    lanes: Lanes,
+    pressure: Kernel,
+    mass: Kernel,
 }
 
 impl PoreFlowKernel {
     /// Uploads the network and fluid of `f` (its current volumes, conductances, boundary
     /// regions and masses) for sub-steps of length `h` (s).
-    pub fn upload(ctx: &GpuContext, f: &PoreFlow, h: f64) -> Self {
-        let net = &f.network;
-        let np = net.pore_count();
-        let (k, rho0) = (f.fluid.bulk_modulus, f.fluid.density);
-        let fluid: [u32; 4] = [(k as f32).to_bits(), (rho0 as f32).to_bits(), (h as f32).to_bits(), np as u32];
-        let pore: Vec<[f32; 4]> = (0..np)
-            .map(|p| {
-                let held = f.fixed_pressure(p);
-                [
-                    net.volume[p] as f32,
-                    held.unwrap_or(0.0) as f32,
-                    f.source[p] as f32,
-                    if held.is_some() { 1.0 } else { 0.0 },
-                ]
-            })
-            .collect();
-        let excess: Vec<f32> = (0..np).map(|p| (f.mass[p] - rho0 * net.volume[p]) as f32).collect();
-        let ends: Vec<[u32; 2]> = net.throats.iter().map(|t| [t.a, t.b]).collect();
-        let g: Vec<f32> = net.conductance.iter().map(|&g| g as f32).collect();
-        let buffers = PoreBuffers {
-            fluid: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("pore fluid"),
-                contents: bytemuck::cast_slice(&fluid),
-                usage: wgpu::BufferUsages::UNIFORM,
-            }),
-            pore: storage(ctx, "pores", &pore),
-            excess: storage(ctx, "pore excess mass", &excess),
-            pressure: storage(ctx, "pore pressure", &vec![0f32; np]),
-            row_start: storage(ctx, "pore rows", &net.row_start),
-            row: storage(ctx, "pore row throats", &net.row),
-            ends: storage(ctx, "throat ends", &ends),
-            conductance: storage(ctx, "throat conductance", &g),
-        };
-        let [pp, pm] = pipelines(&ctx.device);
-        let b = &buffers;
-        let groups = groups_for(np);
-        let pressure =
-            Kernel::bind_at(&ctx.device, &pp, &[(0, &b.fluid), (1, &b.pore), (2, &b.excess), (3, &b.pressure)], groups);
-        let all = [&b.fluid, &b.pore, &b.excess, &b.pressure, &b.row_start, &b.row, &b.ends, &b.conductance];
-        let mass = Kernel::bind(&ctx.device, &pm, &all, groups);
-        PoreFlowKernel { buffers, pressure, mass, pores: np }
+    pub fn upload(ctx: &GpuContext, f: &PoreFlow, h: f64) -> Result<Self> {
+        let p = pipelines(&ctx.device, &[]);
+        let lanes = Lanes::upload(ctx, f, &[], &[], h, ctx.limits.max_storage_buffer_binding_size)?;
+        let (pressure, mass) = flow_kernels(&ctx.device, &p, &lanes);
+        Ok(PoreFlowKernel { lanes, pressure, mass })
     }
 
     /// Runs `n` sub-steps (each: pressures, then masses) in one submission.
@@ -103,36 +579,16 @@ impl PoreFlowKernel {
                 timestamp_writes: None,
             });
             for _ in 0..n {
-                for k in [&self.pressure, &self.mass] {
-                    pass.set_pipeline(&k.pipeline);
-                    pass.set_bind_group(0, &k.bind_group, &[]);
-                    pass.dispatch_workgroups(k.groups.0, k.groups.1, 1);
-                }
+                self.pressure.dispatch(&mut pass);
+                self.mass.dispatch(&mut pass);
             }
         }
         ctx.queue.submit([enc.finish()]);
     }
 
-    /// Brings the masses back into `f` (m = ρ0·V + e, in f64), the held pores at their
-    /// pressure, and the pressures from them.
+    /// Brings the masses back into `f` (the f64 mass at the upload plus the f32 change), the
+    /// held pores at their pressure, and the pressures and flows from them.
     pub fn download(&self, ctx: &GpuContext, f: &mut PoreFlow) -> Result<()> {
-        let e: Vec<f32> = super::buffers::read(ctx, &self.buffers.excess, self.pores)?;
-        let (k, rho0) = (f.fluid.bulk_modulus, f.fluid.density);
-        for p in 0..self.pores {
-            let v = f.network.volume[p];
-            f.mass[p] = match f.fixed_pressure(p) {
-                Some(held) => rho0 * v * (1.0 + held / k),
-                None => rho0 * v + f64::from(e[p]),
-            };
-        }
-        f.update_pressure();
-        Ok(())
+        self.lanes.download(ctx, f, false)
     }
-}
-
-/// The two passes of one flow sub-step: pressures from masses, then each pore's mass from its
-/// row of throats.
-pub fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 2] {
-    ["pore_pressure", "pore_mass"]
-        .map(|e| shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_FLOW, e, &[]))
 }
