@@ -45,6 +45,10 @@ pub enum Stage {
     /// the fluid flows between pores in sub-steps under its stable step, and each pore's
     /// pressure pushes the elements at its corners (pores/coupling.rs). A force stage.
     PoreFlow,
+    /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
+    /// below the level (fields.rs), a force stage: added to the force lane before integration,
+    /// so local damping sees it.
+    Buoyancy,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
     /// Optional: the energy ledger, the heat each particle releases by cause and the work
@@ -52,9 +56,6 @@ pub enum Stage {
     /// as they dissipate, because each cause is a by-product of a core law (see
     /// docs/adding-an-effect.md).
     Heat,
-    /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
-    /// below the level, a velocity kick after integration (fields.rs).
-    Buoyancy,
     /// Optional: heat conduction between elements in contact or bonded, sources, fixed and
     /// insulated groups, thermal expansion of radii, every field step (fields.rs).
     Conduction,
@@ -76,9 +77,9 @@ impl Stage {
         Stage::ParallelBond,
         Stage::RollingResistance,
         Stage::PoreFlow,
+        Stage::Buoyancy,
         Stage::Integrate,
         Stage::Heat,
-        Stage::Buoyancy,
         Stage::Conduction,
         Stage::Moisture,
         Stage::Guard,
@@ -345,9 +346,13 @@ impl StepPlan {
     }
 
     /// Whether a force stage runs between the core's forces and the move (parallel bonds,
-    /// rolling resistance, pore flow): the CPU then runs the core's passes apart instead of fused.
+    /// rolling resistance, pore flow, buoyancy): the CPU then runs the core's passes apart
+    /// instead of fused.
     pub fn has_force_stage(&self) -> bool {
-        self.has(Stage::ParallelBond) || self.has(Stage::RollingResistance) || self.has(Stage::PoreFlow)
+        self.has(Stage::ParallelBond)
+            || self.has(Stage::RollingResistance)
+            || self.has(Stage::PoreFlow)
+            || self.has(Stage::Buoyancy)
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -499,12 +504,12 @@ impl fmt::Display for StepPlan {
             w.push(')');
             stages.push(w);
         }
-        stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
         if let Some(b) = &self.buoyancy {
             let drag =
                 if b.viscosity > 0.0 { format!(", stokes drag μ = {:.3e} Pa·s", b.viscosity) } else { String::new() };
             stages.push(format!("buoyancy(water level z = {} m, ρ_f = {} kg/m³{drag})", b.level, b.density));
         }
+        stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
         if let Some(c) = &self.conduction {
             let mut w = format!("conduction(forward euler every {} step(s) in {} sub-step(s)", c.every, c.substeps);
             if c.expansion {

@@ -235,7 +235,7 @@ fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them() {
         let plan = sim.plan().clone();
         assert!(plan.has(Stage::Conduction) && plan.has(Stage::Buoyancy));
         let names: Vec<&str> = plan.stages().iter().map(|s| s.name()).collect();
-        assert_eq!(names.join(" "), "walls neighbours contact_forces wall_forces integrate buoyancy conduction guard");
+        assert_eq!(names.join(" "), "walls neighbours contact_forces wall_forces buoyancy integrate conduction guard");
         let sets: Vec<&str> = plan.lane_sets().iter().map(|s| s.stage).collect();
         assert_eq!(sets, ["core", "conduction"]);
         assert_eq!(plan.bytes_per_particle(), CORE + bytes, "expansion {expansion}");

@@ -1,55 +1,71 @@
-//! The `buoyancy` stage on the CPU: the water table's buoyant force −ρ_f·V_sub·g on every
-//! element below the level (V_sub its submerged volume, a spherical cap where the level cuts
-//! it; `physics::buoyancy`), and, with a viscosity, Stokes drag −6π·μ·r·v scaled by the
-//! submerged fraction.
+//! The `buoyancy` stage on the CPU, a force stage between the other force stages
+//! (`wall_forces`, `parallel_bond`, `rolling_resistance`, `pore_flow`) and `integrate`: every
+//! element below the water level adds the buoyant force −ρ_f·V_sub·g to its force lane (V_sub
+//! its submerged volume, a spherical cap where the level cuts it; `physics::buoyancy`), and,
+//! with a viscosity, the Stokes drag −6π·μ·r·v scaled by the submerged fraction. Each element
+//! writes only its own lane: no atomics.
 //!
-//! It runs after integration, without a flag in the core's fused loop, and finishes the step
-//! as if the core had integrated the buoyant acceleration b with the other forces: the
-//! velocity gains b·dt/(1 + a) (a = c·dt/(2m), the semi-implicit viscous damping's factor, 0
-//! without it) and the position that velocity times dt. With drag the step is the exact
-//! solution of dv/dt = g + b − v/τ over dt (τ = m/(6π·μ·r·fraction)) from the velocity before
-//! gravity's kick, so a sinking element reaches the Stokes terminal speed exactly and any
-//! viscosity is stable. Local damping does not see buoyancy (it vanishes at rest, so
-//! equilibria are unaffected). Blocked components are untouched; the force lane does not
-//! carry buoyancy (it is a body force, like gravity).
+//! Because the buoyancy is in the force lane before `integrate`, everything that reads the
+//! unbalanced force sees it: MatDEM's local damping −α·|F|·sign(v) damps what is left of
+//! gravity, contacts *and* buoyancy (so a floating or submerged element settles where the
+//! forces balance, with no dead band), and the status' unbalanced force of a settled submerged
+//! column is zero. The force lane thus carries every force but gravity (gravity is added in
+//! `integrate`, and by the status, from the settings); the contact loads
+//! (`status::contact_loads`) and the walls' loads are computed from the contacts and never
+//! include it.
+//!
+//! NOTE: the drag is an exponential integrator written as a force. With A the acceleration of
+//! every other force on the element (this lane after buoyancy, plus gravity) and v the
+//! half-step velocity, the exact solution of dv/dt = A − v/τ over dt (τ = m/(6π·μ·r·fraction),
+//! x = dt/τ) is v·e^(−x) + A·dt·φ, φ = (1 − e^(−x))/x; the stage adds the force that makes the
+//! leapfrog kick land there, F_d = −m·[v·(1 − e^(−x))/dt + A·(1 − φ)] (→ −6π·μ·r·fraction·
+//! (v + A·dt/2) as x → 0: the drag on the step's mean velocity). A force computed from the
+//! velocity explicitly, −v/τ, would be unstable once dt > 2τ (a fine grain in a viscous
+//! fluid); this one is stable for any viscosity (the kick's velocity is bounded by |v| + |A|·dt,
+//! and tends to A·τ), and a sinking element reaches the Stokes terminal speed A·τ exactly.
+//! Being a force, the drag is also seen by local damping; with MatDEM's viscous damping as
+//! well the terminal speed is A/(1/τ + c/m) to first order in x.
 
 use super::blocks::{for_blocks, Rows};
 use crate::fields::BuoyancyPlan;
 use crate::model::Model;
 use crate::physics::buoyancy::submerged_volume;
-use crate::state::particles::dof;
 
-/// `damping_c`: each particle's viscous damping coefficient (empty when off).
-pub fn buoyancy(m: &mut Model, plan: &BuoyancyPlan, damping_c: &[f64]) {
+/// Adds the buoyant force (and the drag) of this step to the force lane of every element
+/// below the level. Runs after the other force stages: the drag reads their sum.
+pub fn buoyancy(m: &mut Model, plan: &BuoyancyPlan) {
     let dt = m.clock.dt;
     let g = m.settings.gravity;
     let p = &mut m.particles;
-    let (radius, mass, fixed) = (&p.radius, &p.mass, &p.fixed);
+    let (pos, vel, radius, mass) = (&p.pos, &p.vel, &p.radius, &p.mass);
     let six_pi_mu = 6.0 * std::f64::consts::PI * plan.viscosity;
-    for_blocks(0..radius.len(), Rows::None, (&mut p.pos[..], &mut p.vel[..]), (), &|range, (pos, vel), ()| {
+    let drag = plan.viscosity > 0.0;
+    for_blocks(0..radius.len(), Rows::None, &mut p.force[..], (), &|range, force, ()| {
         for i in range.clone() {
-            let li = i - range.start;
             let r = radius[i];
-            let v_sub = submerged_volume(pos[li].z, r, plan.level);
+            let v_sub = submerged_volume(pos[i].z, r, plan.level);
             if v_sub == 0.0 {
                 continue;
             }
             let mi = mass[i];
-            let kf = 1.0 / (1.0 + 0.5 * damping_c.get(i).copied().unwrap_or(0.0) * dt / mi);
-            let b = -g * (plan.density * v_sub / mi);
-            let fraction = v_sub / (4.0 / 3.0 * std::f64::consts::PI * r * r * r);
-            let x = six_pi_mu * r * fraction * dt / mi;
-            let decay = (-x).exp();
-            // (1 − e^(−x))/x, 1 at x = 0.
-            let phi = if x > 0.0 { -(-x).exp_m1() / x } else { 1.0 };
-            let v1 = vel[li];
-            let v = v1 * decay - g * (dt * kf * decay) + (g + b) * (dt * kf * phi);
-            for (axis, bit) in [dof::X, dof::Y, dof::Z].into_iter().enumerate() {
-                if fixed[i] & bit == 0 {
-                    pos[li][axis] += (v[axis] - v1[axis]) * dt;
-                    vel[li][axis] = v[axis];
-                }
+            let f = &mut force[i - range.start];
+            *f -= g * (plan.density * v_sub);
+            if drag {
+                let fraction = v_sub / (4.0 / 3.0 * std::f64::consts::PI * r * r * r);
+                let x = six_pi_mu * r * fraction * dt / mi;
+                let (decay_loss, phi_loss) = drag_factors(x);
+                let a = *f / mi + g;
+                *f -= (vel[i] * (decay_loss / dt) + a * phi_loss) * mi;
             }
         }
     });
+}
+
+/// (1 − e^(−x), 1 − φ) with φ = (1 − e^(−x))/x; 1 − φ by its series where the closed form
+/// would cancel (buoyancy.wgsl, whose f32 has no expm1, uses series for both).
+#[inline]
+pub fn drag_factors(x: f64) -> (f64, f64) {
+    let loss = -(-x).exp_m1();
+    let phi_loss = if x < 1e-4 { x / 2.0 - x * x / 6.0 + x * x * x / 24.0 } else { 1.0 - loss / x };
+    (loss, phi_loss)
 }

@@ -118,14 +118,14 @@ impl CpuBackend {
             self.pore_flow(m);
             times.add(Stage::PoreFlow, t.elapsed());
         }
+        if let Some(b) = &self.plan.buoyancy {
+            let t = Instant::now();
+            buoyancy::buoyancy(m, b);
+            times.add(Stage::Buoyancy, t.elapsed());
+        }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
-        if let Some(b) = &self.plan.buoyancy {
-            let t = Instant::now();
-            buoyancy::buoyancy(m, b, &self.damping_c);
-            times.add(Stage::Buoyancy, t.elapsed());
-        }
         if let Some(c) = &self.plan.conduction {
             let t = Instant::now();
             conduction::conduction(m, c, &mut self.next_temperature);
@@ -163,8 +163,9 @@ impl CpuBackend {
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
         }
-        // A force stage (parallel bonds, rolling resistance) adds its loads between the core's
-        // forces and the move, so a plan with one runs the core's passes apart instead of fused.
+        // A force stage (parallel bonds, rolling resistance, pore flow, buoyancy) adds its loads
+        // between the core's forces and the move, so a plan with one runs the core's passes
+        // apart instead of fused.
         if !observe && !self.plan.has_force_stage() {
             // Nothing is read between the forces and the move: finish each particle in one pass.
             let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
@@ -187,6 +188,10 @@ impl CpuBackend {
         }
         if self.plan.has(Stage::PoreFlow) {
             self.pore_flow(m);
+        }
+        if let Some(b) = &self.plan.buoyancy {
+            // Last of the force stages: its drag reads the others' sum.
+            buoyancy::buoyancy(m, b);
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
@@ -226,12 +231,9 @@ impl CpuBackend {
         }
     }
 
-    /// The optional stages after integration, each when the plan has it: the water table's
-    /// buoyancy, then heat conduction, then moisture (their field steps).
+    /// The optional field stages after integration, each when the plan has it: heat
+    /// conduction, then moisture (their field steps).
     fn field_stages(&mut self, m: &mut Model) {
-        if let Some(b) = &self.plan.buoyancy {
-            buoyancy::buoyancy(m, b, &self.damping_c);
-        }
         if let Some(c) = &self.plan.conduction {
             conduction::conduction(m, c, &mut self.next_temperature);
         }

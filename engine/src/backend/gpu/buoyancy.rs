@@ -1,5 +1,6 @@
-//! The `buoyancy` stage on the GPU (shaders/buoyancy.wgsl): the water table's kick after
-//! integration, every step. Built only when the plan has the stage; its one buffer is the
+//! The `buoyancy` stage on the GPU (shaders/buoyancy.wgsl): the water table's buoyant force
+//! (and Stokes drag) added to the force lane, every step, after the other force stages and
+//! before `integrate`. Built only when the plan has the stage; its one buffer is the
 //! water's uniform (level, fluid density, 6π·μ). CPU twin: `backend/cpu/buoyancy.rs`.
 
 use super::buffers::DeviceLanes;
@@ -24,6 +25,6 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Kernel {
-    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.kind, &d.vel, water];
+    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }

@@ -4,9 +4,9 @@
 //! brings back only what the host needs: between batches a few counters (the largest drift
 //! and speed, the guard's findings), at the end of the run the state a script reads. One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → parallel bonds, rolling resistance, pore flow (when the scene has them) →
-//! integration; when the drift reaches half the skin the rows are rebuilt on the device
-//! ([`rows`]). The pore network's topology is built on the host and rebuilt through it
+//! wall forces → parallel bonds, rolling resistance, pore flow, buoyancy (when the scene has
+//! them) → integration; when the drift reaches half the skin the rows are rebuilt on the
+//! device ([`rows`]). The pore network's topology is built on the host and rebuilt through it
 //! ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
@@ -90,7 +90,7 @@ struct Pipelines {
     pore_flow: Option<pore_flow::Pipelines>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
-    /// The optional field stages, only when the plan has them.
+    /// The optional buoyancy (a force stage) and field stages, only when the plan has them.
     buoyancy: Option<wgpu::ComputePipeline>,
     conduction: Option<conduction::Pipelines>,
     moisture: Option<moisture::Pipelines>,
@@ -480,10 +480,10 @@ impl GpuBackend {
                 if let Some(f) = &s.pores {
                     f.dispatch(&mut pass);
                 }
-                dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
                 if let Some(b) = &kr.buoyancy {
                     dispatch_stage(&mut pass, Stage::Buoyancy, [b]);
                 }
+                dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
                 if let (Some(c), Some(plan)) = (&kr.conduction, &self.plan.conduction) {
                     if plan.runs_after(s.step0 + s.steps + t) {
                         c.dispatch(&mut pass);
