@@ -4,7 +4,10 @@
 // with a the Hertz radius √(R*·δ), at least the bond's neck for a bonded pair) and writes only
 // its own next temperature and ΣH; `settle` then makes the
 // next temperatures current, and `expand` sets r = r0·(1 + α·(T − T0)) in origin.w, which every
-// stage reads as the radius. No atomics. CPU twin: backend/cpu/conduction.rs.
+// stage reads as the radius. With the dissipated heat fed in (the plan's `dissipation`), `feed`
+// first adds to each free element's temperature the heat its ledger slots (heat.wgsl; damping,
+// contact damping, friction, breakage, not wall work) booked since the last field step, over
+// its capacity. No atomics. CPU twin: backend/cpu/conduction.rs.
 
 // Some element expands (the plan's `expansion`).
 override EXPANSION: bool = false;
@@ -35,6 +38,11 @@ struct Conduction {
 @group(0) @binding(11) var<storage, read> mode: array<u32>;
 // x expansion coefficient α, y radius r0 at T0.
 @group(0) @binding(12) var<storage, read> expansion: array<vec2<f32>>;
+// The heat ledger (heat.wgsl), read by `feed`.
+@group(0) @binding(13) var<storage, read> heat: array<vec2<f32>>;
+// Per element, the ledger's booked heat (a compensated pair) at the last field step that fed
+// it, less what the host had booked at the upload (its own part of the sum starts at zero).
+@group(0) @binding(14) var<storage, read_write> fed: array<vec2<f32>>;
 
 fn field_value(j: u32) -> f32 {
     return thermal[j].x;
@@ -97,4 +105,34 @@ fn expand(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
     let e = expansion[i];
     origin[i].w = e.y * (1.0 + e.x * (thermal[i].x - field.reference));
+}
+
+// Adds ledger slot `slot` of element i (a compensated pair) to the compensated sum `acc`.
+fn add_booked(acc: vec2<f32>, i: u32, slot: u32) -> vec2<f32> {
+    if slot == HEAT_OFF {
+        return acc;
+    }
+    let h = heat[i * HEAT_LANES + slot];
+    return ledger_add(ledger_add(acc, h.x, params.one), h.y, params.one);
+}
+
+@compute @workgroup_size(64)
+fn feed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n {
+        return;
+    }
+    var booked = add_booked(vec2<f32>(0.0, 0.0), i, HEAT_DAMPING);
+    booked = add_booked(booked, i, HEAT_CONTACT_DAMPING);
+    booked = add_booked(booked, i, HEAT_FRICTION);
+    booked = add_booked(booked, i, HEAT_BREAKAGE);
+    let was = fed[i];
+    fed[i] = booked;
+    // The two sums are close, so hi − hi is exact (Sterbenz) and the new heat keeps the pairs'
+    // ~48 bits, though it is ~1e-6 of them after a long run.
+    let new_heat = (booked.x - was.x) + (booked.y - was.y);
+    let t = thermal[i];
+    if mode[i] != FIELD_FIXED && t.y > 0.0 {
+        thermal[i].x = t.x + new_heat / t.y;
+    }
 }

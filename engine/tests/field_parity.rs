@@ -203,13 +203,3 @@ fn buoyancy_and_drag_under_local_damping_match_the_cpu() {
         assert!(a.vel[2].z < 0.0 && a.vel[0].z < 0.0 && a.vel[3].z < 0.0);
     }
 }
-
-// Feeding the ledger's heat into temperature runs on the CPU only: the GPU says so.
-#[test]
-fn the_gpu_refuses_fed_dissipation_with_the_fix() {
-    let Some(ctx) = gpu("fed_dissipation") else { return };
-    let mut m = chain(1, 1);
-    m.settings.heat.dissipation = true;
-    let e = Simulation::with_gpu(m, ctx).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(e.contains("--backend cpu"), "{e}");
-}

@@ -15,6 +15,7 @@ mod fixed_rotation;
 mod gpu_energy;
 mod gpu_parity;
 mod guard_stiffness;
+mod heat_dissipation;
 mod lattice;
 mod module_deps;
 mod moisture;

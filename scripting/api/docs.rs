@@ -219,7 +219,7 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     ("reference_temperature", "Model (read, set)", "T0: elements start at it and have their reference radius there (293.15 by default)"),
     ("heat_every", "Model (read, set)", "the field step in mechanical steps: conduction runs after every n-th step with Δt = n·dt (1 by default)"),
     ("heat_substeps", "Model (read, set)", "forward-Euler sub-steps per field step; the guard refuses a sub-step above C/ΣH of any element and says how many are needed"),
-    ("heat_dissipation", "Model (read, set)", "feed the heat the ledger books (damping, friction, breakage) into temperature (CPU backend; false by default)"),
+    ("heat_dissipation", "Model (read, set)", "feed the heat the ledger books (damping, friction, breakage) into temperature (both backends; false by default)"),
     ("heat_bond_radius", "Model (read, set)", "a bond's conducting neck radius as a fraction of the smaller element's radius (0.5 by default)"),
     ("water", "Model (read, set)", "water content ω of every element, kg of water per kg of element (a Field; set a Field or one number for all, ≥ 0); moisture must be on (d.enable(\"moisture\"))"),
     ("total_water", "Model (read)", "Σ m·ω over the elements, kg (0 with moisture off)"),

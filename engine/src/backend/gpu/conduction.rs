@@ -4,8 +4,13 @@
 //! buffers are made at upload and the temperatures, conductances (and radii, with expansion)
 //! come back at each download. CPU twin: `backend/cpu/conduction.rs`.
 //!
-//! Not on the device: feeding the ledger's heat into temperature (the plan's `dissipation`),
-//! which the GPU backend refuses with a message; the CPU backend runs it.
+//! With the plan's `dissipation`, each field step first runs `feed`: the heat the device's
+//! ledger ([`super::heat`]) booked on each element since the last field step goes into its
+//! temperature. The ledger's device sums start at zero at each upload, so the `fed` lane
+//! holds, as a compensated f32 pair, the device sum at the last feed less the heat the host
+//! had booked but not fed at the upload; the download gives the model's `fed` lane back in
+//! the host's terms (booked at the upload + the device's fed sum), so a run may continue on
+//! either backend.
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
@@ -32,13 +37,20 @@ pub struct Pipelines {
     conduct: wgpu::ComputePipeline,
     settle: wgpu::ComputePipeline,
     expand: Option<wgpu::ComputePipeline>,
+    /// Only when the dissipated heat is fed in.
+    feed: Option<wgpu::ComputePipeline>,
 }
 
 pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
     let mut c = constants.to_vec();
     c.push(("EXPANSION", if plan.expansion { 1.0 } else { 0.0 }));
     let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), shaders::CONDUCTION, entry, &c);
-    Pipelines { conduct: make("conduct"), settle: make("settle"), expand: plan.expansion.then(|| make("expand")) }
+    Pipelines {
+        conduct: make("conduct"),
+        settle: make("settle"),
+        expand: plan.expansion.then(|| make("expand")),
+        feed: plan.dissipation.then(|| make("feed")),
+    }
 }
 
 /// The stage's device lanes.
@@ -51,6 +63,9 @@ pub struct Lanes {
     mode: wgpu::Buffer,
     /// (α, r0) per particle; a placeholder without expansion.
     expansion: wgpu::Buffer,
+    /// The ledger's heat fed so far, in the device's terms (a compensated pair per particle);
+    /// only when the dissipated heat is fed in.
+    fed: Option<wgpu::Buffer>,
     /// Bytes of the lanes.
     pub bytes: u64,
 }
@@ -83,6 +98,18 @@ impl Lanes {
         } else {
             Vec::new()
         };
+        // The device's ledger starts at zero: what the host booked and has not fed is owed.
+        let fed: Vec<[f32; 2]> = if plan.dissipation {
+            (0..n)
+                .map(|i| {
+                    let owed = th.fed[i] - m.booked_heat(i);
+                    let hi = owed as f32;
+                    [hi, (owed - f64::from(hi)) as f32]
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let params = FieldParams {
             dt: plan.substep(m.clock.dt) as f32,
             bond_radius: plan.bond_radius as f32,
@@ -95,6 +122,7 @@ impl Lanes {
             conductance: make("conductance", &vec![0u8; 4 * n]),
             mode: make("thermal mode", bytemuck::cast_slice(&mode)),
             expansion: make("expansion", bytemuck::cast_slice(&expansion)),
+            fed: plan.dissipation.then(|| make("fed heat", bytemuck::cast_slice(&fed))),
             params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("conduction"),
                 contents: bytemuck::bytes_of(&params),
@@ -115,11 +143,20 @@ impl Lanes {
         &self.expansion
     }
 
-    /// Brings the temperatures and conductances back (and the radii, with expansion).
+    /// Brings the temperatures and conductances back (and the radii, with expansion, and the
+    /// heat fed, with dissipation). Runs before the heat ledger's download adds the device's
+    /// sums to the model's ledger.
     pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &ConductionPlan) -> Result<()> {
         let n = d.n;
         let thermal: Vec<[f32; 4]> = super::buffers::read(ctx, &self.thermal, n)?;
         let g: Vec<f32> = super::buffers::read(ctx, &self.conductance, n)?;
+        if let Some(fed) = &self.fed {
+            let fed: Vec<[f32; 2]> = super::buffers::read(ctx, fed, n)?;
+            let booked: Vec<f64> = (0..n).map(|i| m.booked_heat(i)).collect();
+            for (i, f) in m.particles.thermal.fed.iter_mut().enumerate() {
+                *f = booked[i] + f64::from(fed[i][0]) + f64::from(fed[i][1]);
+            }
+        }
         let th = &mut m.particles.thermal;
         for i in 0..n {
             th.temperature[i] = f64::from(thermal[i][0]);
@@ -140,6 +177,7 @@ pub struct Kernels {
     conduct: Vec<Kernel>,
     settle: Kernel,
     expand: Option<Kernel>,
+    feed: Option<Kernel>,
     substeps: u32,
 }
 
@@ -169,13 +207,24 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes,
             groups_for(d.n),
         )
     });
-    Kernels { conduct, settle, expand, substeps: plan.substeps }
+    let feed = p.feed.as_ref().zip(f.fed.as_ref()).map(|(k, fed)| {
+        Kernel::bind_at(
+            device,
+            k,
+            &[(0, &d.params), (8, &f.thermal), (11, &f.mode), (13, &d.heat), (14, fed)],
+            groups_for(d.n),
+        )
+    });
+    Kernels { conduct, settle, expand, feed, substeps: plan.substeps }
 }
 
 impl Kernels {
     /// One field step, in the kernels' order (each in the stage's debug group).
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.push_debug_group(Stage::Conduction.name());
+        if let Some(f) = &self.feed {
+            f.dispatch(pass);
+        }
         for _ in 0..self.substeps {
             for k in &self.conduct {
                 k.dispatch(pass);

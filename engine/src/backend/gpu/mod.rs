@@ -214,13 +214,6 @@ impl GpuBackend {
                     .into(),
             ));
         }
-        if plan.conduction.is_some_and(|c| c.dissipation) {
-            return Err(Error::InvalidScene(
-                "feeding the dissipated heat into temperature (d.heat_dissipation = true) runs on the CPU backend \
-                 only: run with --backend cpu, or switch it off"
-                    .into(),
-            ));
-        }
         let device = &ctx.device;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
