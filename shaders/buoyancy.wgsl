@@ -25,6 +25,7 @@ const PI: f32 = 3.14159265358979;
 @group(0) @binding(4) var<storage, read> vel: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> force: array<vec4<f32>>;
 @group(0) @binding(6) var<uniform> water: Water;
+@group(0) @binding(7) var<storage, read> kind: array<u32>;
 
 @compute @workgroup_size(64)
 fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -35,7 +36,8 @@ fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     let r = origin[i].w;
     let z = origin[i].z + disp[i].z;
     let h = clamp(water.level - (z - r), 0.0, 2.0 * r);
-    if h <= 0.0 {
+    // A killed element is out of the model: its lane stays empty.
+    if h <= 0.0 || (kind[i] & KILLED) != 0u {
         return;
     }
     let v_sub = PI * h * h * (3.0 * r - h) / 3.0;

@@ -182,6 +182,7 @@ fn free_elements() -> Model {
 
 // Buoyancy and drag in the force lane, under local damping: velocities agree to 1e-5 of the
 // largest speed and heights to 1e-6 of the radius after 50 and 500 steps (f32 against f64).
+// A killed element's lane stays empty.
 #[test]
 fn buoyancy_and_drag_under_local_damping_match_the_cpu() {
     let Some(ctx) = gpu("buoyancy_local_damping") else { return };
@@ -201,5 +202,12 @@ fn buoyancy_and_drag_under_local_damping_match_the_cpu() {
         // Every element moves down: the wood, let go less than half under, sinks towards its
         // flotation depth; the sand sinks.
         assert!(a.vel[2].z < 0.0 && a.vel[0].z < 0.0 && a.vel[3].z < 0.0);
+    }
+    // A killed element is out of the model: no buoyancy in its force lane, on either backend.
+    for sim in [&mut cpu, &mut gpu] {
+        sim.model.kill(&[0]).unwrap();
+        run(sim, 10);
+        assert_eq!(sim.model.particles.force[0], Vec3::zeros());
+        assert!(sim.model.particles.force[3].z > 0.0, "a live element's lane carries its buoyancy");
     }
 }

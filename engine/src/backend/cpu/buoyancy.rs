@@ -2,8 +2,8 @@
 //! (`wall_forces`, `parallel_bond`, `rolling_resistance`, `pore_flow`) and `integrate`: every
 //! element below the water level adds the buoyant force −ρ_f·V_sub·g to its force lane (V_sub
 //! its submerged volume, a spherical cap where the level cuts it; `physics::buoyancy`), and,
-//! with a viscosity, the Stokes drag −6π·μ·r·v scaled by the submerged fraction. Each element
-//! writes only its own lane: no atomics.
+//! with a viscosity, the Stokes drag −6π·μ·r·v scaled by the submerged fraction (killed
+//! elements excepted). Each element writes only its own lane: no atomics.
 //!
 //! Because the buoyancy is in the force lane before `integrate`, everything that reads the
 //! unbalanced force sees it: MatDEM's local damping −α·|F|·sign(v) damps what is left of
@@ -30,6 +30,7 @@ use super::blocks::{for_blocks, Rows};
 use crate::fields::BuoyancyPlan;
 use crate::model::Model;
 use crate::physics::buoyancy::submerged_volume;
+use crate::state::particles::dof;
 
 /// Adds the buoyant force (and the drag) of this step to the force lane of every element
 /// below the level. Runs after the other force stages: the drag reads their sum.
@@ -37,14 +38,15 @@ pub fn buoyancy(m: &mut Model, plan: &BuoyancyPlan) {
     let dt = m.clock.dt;
     let g = m.settings.gravity;
     let p = &mut m.particles;
-    let (pos, vel, radius, mass) = (&p.pos, &p.vel, &p.radius, &p.mass);
+    let (pos, vel, radius, mass, fixed) = (&p.pos, &p.vel, &p.radius, &p.mass, &p.fixed);
     let six_pi_mu = 6.0 * std::f64::consts::PI * plan.viscosity;
     let drag = plan.viscosity > 0.0;
     for_blocks(0..radius.len(), Rows::None, &mut p.force[..], (), &|range, force, ()| {
         for i in range.clone() {
             let r = radius[i];
             let v_sub = submerged_volume(pos[i].z, r, plan.level);
-            if v_sub == 0.0 {
+            // A killed element is out of the model (kill.rs): its lane stays empty.
+            if v_sub == 0.0 || fixed[i] & dof::KILLED != 0 {
                 continue;
             }
             let mi = mass[i];

@@ -25,6 +25,6 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Kernel {
-    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water];
+    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water, &d.kind];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }
