@@ -133,8 +133,8 @@ const GROWTH_STEPS: u64 = 250;
 /// Settling criterion of the frictionless packing: it ends when the unbalanced force ratio
 /// (the mean over the grains of |contact and wall forces + zone wall force|, over the mean
 /// contact normal force) falls under this, checked every [`SETTLE_CHECK_EVERY`] steps.
-/// 0.05 is MatDEM's usual "balanced" mark; the grains are frictionless and damped (local
-/// damping 0.7), so a jammed packing reaches it in a few thousand steps.
+/// 0.05 is MatDEM's usual "balanced" mark. A zoned packing rarely gets there (its ratio
+/// stays near 0.1–0.2, see [`SETTLE_SPEED`]); a jammed one-size packing can.
 pub const PACK_BALANCE_RATIO: f64 = 0.05;
 /// The packing's cap (after growth): a packing that has not settled by then is returned as
 /// it is, its ratio in [`PackReport::unbalanced_ratio`].
@@ -145,15 +145,16 @@ const SETTLE_CHECK_EVERY: u64 = 100;
 /// over a check's 100 steps). A packing at the edge of jamming (the zones' 0.3545 is
 /// random close packing for a 10 % size spread) relaxes its last overlaps by slow
 /// rearrangement, its unbalanced ratio near 0.1–0.15 for thousands of steps while hardly
-/// anything moves (measured on the CPT's group E, quick mode: the mean speed falls through
-/// 3e-5 radii a step after 8,000–13,000 steps, the ratio stays over 0.09 to the cap); this
-/// ends it there.
+/// anything moves; this ends it there. Measured on the CPT's quick chamber (examples/cpt,
+/// five seeds): A (one zone) settles after 6,400–8,900 steps, E after 7,800–9,800, B–D after
+/// 17,000–19,300 or, in a third of their packings, not before the cap.
 pub const SETTLE_SPEED: f64 = 3e-5;
 /// Steps between the zone walls' pushes. The push is the walls' force over this interval
-/// given at once (an impulse): for the stiffest grain ω·dt ≤ 2π/50 at MatDEM's standard
-/// step (the wall's stiffness is the grain's own, 2·Kn), so ω·T ≤ 0.63, well inside the
-/// impulse map's stability limit ω·T < 2; running the chunk step by step instead would
-/// repeat the run loop's per-chunk checks every step.
+/// given at once (an impulse). MatDEM's standard step is 2π/50 of the stiffest grain's
+/// element period, so with the wall at 4× the element stiffness ω·dt ≤ 2·2π/50 and ω·T ≤
+/// 0.5, well inside the impulse map's stability limit ω·T < 2 (and the dashpot's impulse
+/// 2ζ·ω·T ≤ 0.5 never reverses a grain); a push every step would repeat the run loop's
+/// per-chunk checks every step.
 const ZONE_WALL_EVERY: u64 = 2;
 /// The zone walls' stiffness in the grain's element stiffness (2·Kn for linear contacts).
 const ZONE_WALL_STIFFNESS: f64 = 4.0;
@@ -180,9 +181,10 @@ pub struct PackReport {
 
 /// The packing's soft radial walls: each grain's centre is held in its own annulus
 /// r_in ≤ ρ ≤ r_out by a repulsive linear spring with a dashpot on the depth it lies
-/// outside (k = the grain's own element stiffness, 2·Kn for linear contacts, like the
-/// engine's walls). They act on nothing else, and only while packing: a builder's device,
-/// applied between chunks of steps, not a stage of the engine. The core has no inner wall
+/// outside (k = 4× the grain's element stiffness, 8·Kn for linear contacts: stiff enough
+/// that a jammed region's pressure pushes centres out by at most ≈ 2 % of a radius,
+/// measured). They act on nothing else, and only while packing: a builder's device, applied
+/// between chunks of steps, not a stage of the engine. The core has no inner wall
 /// and the outer zone no outer one (the ring holds it). Centres, not surfaces, are held,
 /// so neighbouring regions' grains still nest into each other's surface pockets across the
 /// boundary instead of each region packing loose against a wall of its own.
