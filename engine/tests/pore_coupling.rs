@@ -19,12 +19,12 @@ fn column(nx: usize, nz: usize) -> Model {
     pore_column(nx, nz, A, KN)
 }
 
-fn top_layer(nx: usize, nz: usize) -> Vec<u32> {
+pub(crate) fn top_layer(nx: usize, nz: usize) -> Vec<u32> {
     (((nz - 1) * nx * nx) as u32..(nz * nx * nx) as u32).collect()
 }
 
 /// Mean z displacement of the top layer since the start (positive down).
-fn settlement(m: &Model, nx: usize, nz: usize) -> f64 {
+pub(crate) fn settlement(m: &Model, nx: usize, nz: usize) -> f64 {
     let h = (nz - 1) as f64 * A;
     let top = top_layer(nx, nz);
     top.iter().map(|&i| h - m.particles.pos[i as usize].z).sum::<f64>() / top.len() as f64
@@ -36,7 +36,7 @@ fn run(sim: &mut Simulation, steps: u64) {
 
 /// Terzaghi's excess pore pressure, u/u0 at depth z below the drained face of a layer of
 /// drainage length H at time factor T_v.
-fn terzaghi(z_over_h: f64, tv: f64) -> f64 {
+pub(crate) fn terzaghi(z_over_h: f64, tv: f64) -> f64 {
     (0..200)
         .map(|m| {
             let mm = (2 * m + 1) as f64 * PI / 2.0;
@@ -57,7 +57,7 @@ fn degree(tv: f64) -> f64 {
 
 /// The volume-weighted mean pore pressure of the pores whose centres lie in each cell layer
 /// k (between element layers k and k + 1).
-fn layer_pressures(m: &Model, nz: usize) -> Vec<f64> {
+pub(crate) fn layer_pressures(m: &Model, nz: usize) -> Vec<f64> {
     let f = m.pores.as_ref().unwrap();
     let net = &f.network;
     let mut pv = vec![0.0; nz - 1];

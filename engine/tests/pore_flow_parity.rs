@@ -3,7 +3,8 @@
 //! an injection well; mass conservation with every boundary sealed), and the coupled stage in
 //! the GPU backend's step (a bonded, confined column under a step load, drained at its top:
 //! pore pressures and positions against the CPU's; a sealed column compressed by its top wall
-//! while the network is rebuilt through the host: mass conserved). Skipped without an adapter
+//! while the network is rebuilt through the host: mass conserved; Terzaghi's consolidation run on
+//! the device). Skipped without an adapter
 //! unless MATDEM_REQUIRE_GPU=1 (CI: lavapipe).
 #![cfg(feature = "gpu")]
 
@@ -197,4 +198,72 @@ fn pore_flow_with_heat_is_refused_on_the_gpu_with_what_to_do() {
     let err = sim.run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
     assert!(err.contains("--backend cpu") && err.contains("heat"), "{err}");
     assert_eq!(sim.model.clock.step, 0);
+}
+
+// Terzaghi's consolidation on the device: the column of pore_coupling.rs's CPU test (3 × 3 × 12,
+// loaded to 1 MPa through a servo wall, drained at the top), with a fluid as stiff as the
+// skeleton (K_f = M, not 10·M: the flow sub-steps a consolidation needs scale with K_f/M + n,
+// and lavapipe is slow: 8 a step here) and μ set so that T_v = 1 after 20,000 steps; the excess
+// pore pressure at mid-depth against Terzaghi's series (with the fluid's storage in c_v) within
+// the CPU test's 10 % at T_v = 0.1, 0.3 and 0.6 (measured on lavapipe: −1.0 %, +2.2 %, +7.3 %),
+// and within 2e-3 of u0 of the CPU's run of the same column (measured: 3e-4). The skeleton's
+// modulus is measured dry on the CPU (the CPU test's first half).
+#[test]
+fn terzaghi_consolidation_on_the_device() {
+    use crate::pore_coupling::{layer_pressures, settlement, terzaghi, top_layer};
+    let Some(ctx) = gpu("pore_flow_terzaghi") else { return };
+    let (nx, nz) = (3, 12);
+    let sigma = 1e6;
+    let hull = ((nx - 1) as f64 * A).powi(2);
+    let mut dry = Simulation::new(pore_column(nx, nz, A, 1e6));
+    let dt = dry.model.clock.dt;
+    dry.model.wall_mut("top").unwrap().motion = WallMotion::Servo { stress: sigma, max_speed: 1e-3 * A / dt };
+    run(&mut dry, 20_000);
+    let modulus = sigma / (settlement(&dry.model, nx, nz) / ((nz - 1) as f64 * A));
+
+    let mut m = pore_column(nx, nz, A, 1e6);
+    let k_f = modulus;
+    m.settings.pores.fluid = Fluid { bulk_modulus: k_f, viscosity: 1.0, max_substeps: 200, ..Fluid::default() };
+    m.enable_pore_flow().unwrap();
+    m.add_pore_boundary(PoreRegion::Elements(top_layer(nx, nz)), BoundaryKind::Pressure(0.0)).unwrap();
+    let f = m.pores.as_ref().unwrap();
+    let bottom: Vec<u32> = (0..(nx * nx) as u32).collect();
+    let (q, c_in, c_out) = f.darcy_flux(PoreRegion::Elements(bottom), PoreRegion::Elements(top_layer(nx, nz))).unwrap();
+    let k = f.fluid.viscosity * q * (c_out.z - c_in.z) / hull;
+    let n = f.porosity(&m.particles.pos);
+    let h_drain = (nz as f64 - 1.5) * A;
+    let storage = 1.0 / modulus + n / k_f;
+    let t_end = 20_000.0 * dt;
+    let mu = k * t_end / (storage * h_drain * h_drain);
+    m.set_pore_fluid(Fluid { viscosity: mu, ..m.settings.pores.fluid.clone() }).unwrap();
+    let cv = k / (mu * storage);
+    let u0 = sigma / (1.0 + n * modulus / k_f);
+    m.wall_mut("top").unwrap().motion = WallMotion::Servo { stress: sigma, max_speed: 1e-3 * A / dt };
+    let mut cpu = Simulation::new(m.clone());
+    let mut sim = Simulation::with_gpu(m, ctx);
+    let z_mid = (nz as f64 - 1.5) * A - 0.5 * h_drain;
+    let mid = |m: &Model| {
+        let p = layer_pressures(m, nz);
+        let x = z_mid / A - 0.5;
+        let (k, w) = (x.floor() as usize, x - x.floor());
+        (p[k] * (1.0 - w) + p[k + 1] * w) / u0
+    };
+    let mut done = 0u64;
+    for tv in [0.1, 0.3, 0.6] {
+        let steps = (tv * t_end / dt).round() as u64;
+        run(&mut sim, steps - done);
+        run(&mut cpu, steps - done);
+        done = steps;
+        let (u, u_cpu) = (mid(&sim.model), mid(&cpu.model));
+        let tv_now = cv * sim.model.clock.time / (h_drain * h_drain);
+        let want = terzaghi(0.5, tv_now);
+        println!(
+            "T_v = {tv_now:.3}: u/u0 at mid-depth {u:.4} (gpu), {u_cpu:.4} (cpu) vs Terzaghi {want:.4} ({:+.1} %); {} flow \
+             sub-steps a step",
+            (u / want - 1.0) * 100.0,
+            sim.model.pores.as_ref().unwrap().substeps
+        );
+        assert!((u / want - 1.0).abs() < 0.10, "T_v = {tv_now:.3}: u/u0 = {u:.4} vs Terzaghi's {want:.4}");
+        assert!((u - u_cpu).abs() < 2e-3, "T_v = {tv_now:.3}: u/u0 = {u:.4} on the GPU, {u_cpu:.4} on the CPU");
+    }
 }
