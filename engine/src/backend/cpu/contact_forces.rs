@@ -119,10 +119,15 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
             // The pairs this particle owns end its row.
             let (first_pair, end) = (pair_start[i] as usize, row_start[i + 1] as usize);
             let first = end - (pair_start[i + 1] as usize - first_pair);
-            for (e, k) in (first..end).zip(first_pair - base..) {
-                let j = other[e] as usize;
-                debug_assert!(j > i && c.pair[e] as usize == k + base);
-                let mut st = state[e];
+            // The row's tail and the scratch records are walked in step, as slices checked
+            // once per particle rather than indexed (and bounds-checked) once per pair.
+            let k0 = first_pair - base;
+            let records = &mut out[k0..k0 + (end - first)];
+            let tail = other[first..end].iter().zip(&state[first..end]).zip(records.iter_mut());
+            for (n, ((&j, &st0), record)) in tail.enumerate() {
+                let (j, k) = (j as usize, k0 + n);
+                debug_assert!(j > i && c.pair[first + n] as usize == k + base);
+                let mut st = st0;
                 let d = pos[j] - xi;
                 let rj = radius[j];
                 let touch = ri + rj;
@@ -164,7 +169,7 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
                         breaks.0.push((i as u32, j as u32, kind));
                     }
                 }
-                out[k] = PairOut { state: st, normal: nrm, normal_force, heat };
+                *record = PairOut { state: st, normal: nrm, normal_force, heat };
                 if let Some(d) = dashpots.as_deref_mut().filter(|_| T::DAMPED) {
                     d[k] = td;
                 }
