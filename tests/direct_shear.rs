@@ -74,7 +74,8 @@ fn direct_shear_holds_the_normal_stress_and_balances_the_shear_force() {
     let peak = out["peak"].as_float().unwrap();
     assert!(peak > 0.2 * 100e3, "a frictional packing resists shear: peak τ {peak:.0} Pa");
     // The upper box's push and the lower box's reaction: equal and opposite but for the
-    // grains' inertia, averaged over the rows (each row is one step's loads).
+    // grains' inertia and the local damping, averaged over the rows (each row's loads are
+    // means over its checks; measured 2.4 kPa against a 156 kPa peak).
     let imbalance: f64 = tau.iter().zip(&lower).map(|(t, l)| (t - l).abs()).sum::<f64>() / tau.len() as f64;
     eprintln!("mean |τ_upper − τ_lower| {imbalance:.1} Pa against a peak of {peak:.0} Pa");
     assert!(imbalance < 0.05 * peak, "force balance off by {imbalance:.1} Pa (peak {peak:.0} Pa)");
@@ -113,6 +114,8 @@ fn shear_box_and_direct_shear_refuse_bad_inputs() {
     assert!(m.contains("normal stress must be a number > 0"), "{m}");
     let m = fails("let a = shear_box(d, 0.0015, 0.0, #{}); direct_shear(d, a, 1e5, #{ speed: -1.0 })");
     assert!(m.contains("must be > 0"), "{m}");
+    let m = fails("d.set_platen_stress(\"top_platen\", 0.0 / 0.0)");
+    assert!(m.contains("platen stress must be a finite number of Pa"), "{m}");
     let m = fails("let a = shear_box(d, 0.0015, 0.0, #{}); d.set_platen_stress(\"upper_left\", 1e5)");
     assert!(m.contains("is a strip") && m.contains("move_boundary"), "{m}");
     let m =
@@ -128,4 +131,46 @@ fn shear_box_and_direct_shear_refuse_bad_inputs() {
     // A model without a shear box's walls.
     let m = fails("let m2 = new_model(\"empty\"); shear_box(m2, 0.001, 0.0, #{})");
     assert!(m.contains("no wall 'bottom'") && m.contains("set_type"), "{m}");
+}
+
+#[test]
+fn shear_peak_takes_the_largest_running_mean_over_a_window_of_rows() {
+    let dir = crate::common::temp_dir("direct_shear_peak_window");
+    let e = engine(&dir);
+    // A record with a one-row spike (row 1, 150 kPa) before a broad hump (rows 4–6): the plain
+    // peak is the spike; the peak over 3 rows is the hump's mean (90 + 100 + 95)/3 = 95 kPa,
+    // centred on row 5, with the mean normal stress of those rows.
+    let script = r#"
+let t = new_table();
+let tau = [60e3, 150e3, 40e3, 50e3, 90e3, 100e3, 95e3, 60e3];
+let sig = [100e3, 101e3, 99e3, 100e3, 102e3, 98e3, 100e3, 100e3];
+for k in 0..8 {
+    t.add_row(#{ shear_displacement: 5e-5 * (k + 1), shear_stress: tau[k], normal_stress: sig[k] });
+}
+let one = shear_peak(t);
+let same = shear_peak(t, #{ window: 1 });
+let three = shear_peak(t, #{ window: 3 });
+let all = shear_peak(t, #{ window: 8 });
+[one.tau, one.row, same.tau, three.tau, three.sigma, three.row, three.displacement, all.tau]
+"#;
+    let v: Vec<f64> = e
+        .eval::<rhai::Array>(script)
+        .unwrap_or_else(|err| panic!("{err}"))
+        .iter()
+        .map(|x| x.as_float().unwrap_or_else(|_| x.as_int().unwrap() as f64))
+        .collect();
+    assert_eq!((v[0], v[1], v[2]), (150e3, 1.0, 150e3), "{v:?}");
+    assert!((v[3] - 95e3).abs() < 1e-9, "window 3: {v:?}");
+    assert!((v[4] - 100e3).abs() < 1e-9, "window 3's normal stress: {v:?}");
+    assert_eq!(v[5], 5.0, "{v:?}");
+    assert!((v[6] - 3e-4).abs() < 1e-12, "{v:?}");
+    assert!((v[7] - 645e3 / 8.0).abs() < 1e-9, "the whole record's mean: {v:?}");
+    for bad in ["0", "9", "1.5"] {
+        let err = e
+            .eval::<rhai::Dynamic>(&format!("{script}; shear_peak(t, #{{ window: {bad} }})"))
+            .map(|v| panic!("window {bad} accepted: {v}"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("window must be a whole number of rows from 1 to the record's 8"), "{err}");
+    }
 }

@@ -101,7 +101,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("move_boundary", "d.move_boundary(name, [vx, vy, vz])", "moves a wall at a velocity, m/s (MatDEM d.moveBoundary)"),
     ("place_boundary", "d.place_boundary(name, [x, y, z])", "puts a wall at a position, m"),
     ("stop_boundary", "d.stop_boundary(name)", "stops a wall and its servo"),
-    ("set_platen_stress", "d.set_platen_stress(name, stress) / (name, stress, max_speed)", "servo-controls a platen to a stress, Pa (its speed capped at max_speed, m/s)"),
+    ("set_platen_stress", "d.set_platen_stress(name, stress) / (name, stress, max_speed)", "servo-controls a platen to a stress, Pa, compression > 0 (its speed capped at max_speed, m/s); a stress < 0 is a set-point below zero: the platen backs away (walls carry no tension), for an outer control loop"),
     ("set_boundary_friction", "d.set_boundary_friction(name, mu)", "friction between a wall and the particles"),
     ("porosity_box", "d.porosity_box([x0, y0, z0], [x1, y1, z1]) -> f64", "porosity of a box window by volume fraction: 1 − (the volume the spheres share with the box, cut spheres by their part inside) / the box's volume"),
     ("porosity_cylinder", "d.porosity_cylinder(r, z0, z1) -> f64", "porosity of a vertical cylinder on the z axis between z0 and z1 by volume fraction (spheres cut by its wall, floor or lid count by their part inside)"),

@@ -114,8 +114,11 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
 }
 
 fn set_servo(d: &ModelHandle, name: &str, stress: f64, max_speed: Option<f64>) -> RhaiResult<()> {
-    if !(stress.is_finite() && stress >= 0.0) {
-        return Err(err(format!("platen stress must be a finite number ≥ 0 Pa, got {stress}")));
+    // A negative stress is a set-point below zero: walls carry no tension, so the platen backs
+    // away at the servo's speed for that error — what an outer control loop asks when the
+    // sample swells faster than the servo follows from a set-point of zero (direct_shear's).
+    if !stress.is_finite() {
+        return Err(err(format!("platen stress must be a finite number of Pa (compression > 0), got {stress}")));
     }
     let mut m = d.model();
     match m.walls[m.wall_index(name).map_err(raise)?].shape {
