@@ -238,31 +238,41 @@ pub(super) fn gather_row<T: TangentialLaw, const ROT: bool>(
     state: &mut [PairState],
 ) -> RowSum {
     let sc = &scratch.0[..];
-    let (mut f, mut t) = (Vec3::zeros(), Vec3::zeros());
-    let (mut hd, mut hf, mut hb) = (0.0, 0.0, 0.0);
-    // The row is the pairs of lower-id neighbours, then the particle's own.
-    for (e, (&k, slot)) in pairs.iter().zip(state.iter_mut()).enumerate() {
+    let mut sum = RowSum { force: Vec3::zeros(), torque: Vec3::zeros(), heat: [0.0; 3] };
+    // One pair's record: its new state, and the tangential force (the spring, and the
+    // dashpot of a damped law) and the whole force on the lower id.
+    let record = |k: u32| {
         let out = &sc[k as usize];
-        let st = out.state;
-        // The tangential force: the spring, and the dashpot of a damped law.
-        let tangential = if T::DAMPED { st.shear + scratch.1[k as usize] } else { st.shear };
-        let force = tangential - out.normal * out.normal_force;
-        if e >= own {
-            f += force;
-            *slot = st;
-        } else {
-            // Seen from the higher id: opposite force and shear (0 − s keeps +0).
-            f -= force;
-            *slot = PairState { shear: Vec3::zeros() - st.shear, ..st };
-        }
+        let tangential = if T::DAMPED { out.state.shear + scratch.1[k as usize] } else { out.state.shear };
+        (out, tangential, tangential - out.normal * out.normal_force)
+    };
+    // Torque and heat are the same from both ends: (n·r_i) × s keeps its sign as n and s
+    // both flip, and a pair's heat is the whole pair's.
+    let add_both_ends = |sum: &mut RowSum, out: &PairOut, tangential: &Vec3| {
         if ROT {
-            // (n·r_i) × s is the same product from both ends: n and s both flip.
-            t += (out.normal * radius).cross(&tangential);
+            sum.torque += (out.normal * radius).cross(tangential);
         }
         let [d, fr, b] = out.heat;
-        hd += d;
-        hf += fr;
-        hb += b;
+        sum.heat[0] += d;
+        sum.heat[1] += fr;
+        sum.heat[2] += b;
+    };
+    // The row is the pairs of lower-id neighbours, then the particle's own: two loops in row
+    // order (the same sums as one), so no entry asks which kind it is.
+    let (lower, owned) = pairs.split_at(own);
+    let (lower_states, owned_states) = state.split_at_mut(own);
+    for (&k, slot) in lower.iter().zip(lower_states) {
+        let (out, tangential, force) = record(k);
+        // Seen from the higher id: opposite force and shear (0 − s keeps +0).
+        sum.force -= force;
+        *slot = PairState { shear: Vec3::zeros() - out.state.shear, ..out.state };
+        add_both_ends(&mut sum, out, &tangential);
     }
-    RowSum { force: f, torque: t, heat: [hd, hf, hb] }
+    for (&k, slot) in owned.iter().zip(owned_states) {
+        let (out, tangential, force) = record(k);
+        sum.force += force;
+        *slot = out.state;
+        add_both_ends(&mut sum, out, &tangential);
+    }
+    sum
 }
