@@ -5,7 +5,9 @@
 // as an exponential integrator written as a force: with A the acceleration of every other
 // force (this lane after buoyancy, plus gravity) and x = dt/τ, F_d = −m·[v·(1 − e^(−x))/dt +
 // A·(1 − φ)], φ = (1 − e^(−x))/x, which makes the leapfrog kick the exact solution of
-// dv/dt = A − v/τ over the step (stable for any viscosity). No atomics.
+// dv/dt = A − v/τ over the step (stable for any viscosity). With the ledger's damping slot
+// the drag's heat −F_d·v̄·dt (v̄ the mean of the velocity before and the kick's, free
+// components) is booked there. No atomics.
 // CPU twin: backend/cpu/buoyancy.rs.
 
 struct Water {
@@ -26,6 +28,7 @@ const PI: f32 = 3.14159265358979;
 @group(0) @binding(5) var<storage, read_write> force: array<vec4<f32>>;
 @group(0) @binding(6) var<uniform> water: Water;
 @group(0) @binding(7) var<storage, read> kind: array<u32>;
+@group(0) @binding(8) var<storage, read_write> heat: array<vec2<f32>>;
 
 @compute @workgroup_size(64)
 fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -55,7 +58,19 @@ fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             phi_loss = 1.0 - loss / x;
         }
         let a = f / m + g;
-        f = f - (vel[i].xyz * (loss / params.dt) + a * phi_loss) * m;
+        let v0 = vel[i].xyz;
+        let fd = -(v0 * (loss / params.dt) + a * phi_loss) * m;
+        f = f + fd;
+        if HEAT_DAMPING != HEAT_OFF {
+            // The drag's heat, −F_d·v̄·dt over the free components (cpu/buoyancy.rs' drag_heat).
+            let v1 = v0 + (a + fd / m) * params.dt;
+            let fixed = kind[i] >> 24u;
+            let free = vec3<f32>(select(1.0, 0.0, (fixed & 1u) != 0u), select(1.0, 0.0, (fixed & 2u) != 0u),
+                select(1.0, 0.0, (fixed & 4u) != 0u));
+            let q = -dot(fd * free, 0.5 * (v0 + v1)) * params.dt;
+            let k = i * HEAT_LANES + HEAT_DAMPING;
+            heat[k] = ledger_add(heat[k], q, params.one);
+        }
     }
     force[i] = vec4<f32>(f, force[i].w);
 }

@@ -103,6 +103,41 @@ fn groups_sources_and_the_water_table_from_a_script() {
     assert!(off.contains("heat conduction, buoyancy"), "{off}");
 }
 
+// The water table in `d.energies()`: filling the table books its buoyant potential as body
+// work (the total does not jump), lowering it books the change, gravity's change is body work too,
+// and removing the water takes the potential back (to 1e-12 of the potential).
+#[test]
+fn the_water_table_and_gravity_are_booked_in_the_energy_account() {
+    let script = format!(
+        r#"{SMALL_BOX}
+        d.gravity = [0.0, 0.0, -9.81];
+        d.run(10);
+        let e0 = d.energies();
+        d.water_level = 0.004;
+        let e1 = d.energies();
+        d.water_level = 0.002;
+        let e2 = d.energies();
+        d.gravity = [0.0, 0.0, -12.0];
+        let e3 = d.energies();
+        d.disable("water");
+        let e4 = d.energies();
+        #{{ e0: e0, e1: e1, e2: e2, e3: e3, e4: e4 }}"#
+    );
+    let out: rhai::Map = engine("fields_energy").eval(&script).unwrap_or_else(|e| panic!("{e}"));
+    let e = |k: &str, f: &str| out[k].clone_cast::<rhai::Map>()[f].as_float().unwrap();
+    let ub = e("e1", "buoyancy");
+    assert!(ub > 0.0 && e("e0", "buoyancy") == 0.0 && e("e0", "body_work") == 0.0);
+    assert!((e("e1", "body_work") - ub).abs() < 1e-12 * ub, "filling books the potential");
+    assert!(e("e2", "buoyancy") < ub && e("e2", "buoyancy") > 0.0);
+    assert!((e("e2", "body_work") - e("e2", "buoyancy")).abs() < 1e-12 * ub, "lowering books the change");
+    let dg = e("e3", "gravity") + e("e3", "buoyancy") - e("e2", "gravity") - e("e2", "buoyancy");
+    assert!((e("e3", "body_work") - e("e2", "body_work") - dg).abs() < 1e-12 * dg.abs(), "gravity's change");
+    assert!(e("e4", "buoyancy") == 0.0);
+    for k in ["e1", "e2", "e3", "e4"] {
+        assert!((e(k, "total") - e("e0", "total")).abs() < 1e-12 * ub, "{k}: the total jumped");
+    }
+}
+
 #[test]
 fn bad_field_input_is_refused_with_what_to_do() {
     let cases = [

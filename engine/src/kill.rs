@@ -60,6 +60,8 @@ impl Model {
         if doomed.is_empty() {
             return Ok(report);
         }
+        // A change of the body forces' fields not yet booked, booked with the doomed still in.
+        self.book_body_work();
         // The account before: rows must be current for the elastic energy to be the step's.
         if self.contacts.stale || self.contacts.row_start.len() != self.len() + 1 {
             crate::neighbours::rebuild(self);

@@ -21,7 +21,9 @@
 //!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage);
 //!   [`moisture`] the water content with evaporation, drying shrinkage and bond strength (the
 //!   `moisture` stage); both diffuse through the shared core [`diffusion`].
-//! - [`status`] measures energies, heat, coordination number and porosity.
+//! - [`status`] measures energies, heat, coordination number and porosity;
+//!   [`body_potential`] the water table's buoyant potential and the work of changing gravity
+//!   or the table between runs.
 //! - [`checkpoint`] saves a model to versioned, checksummed bytes and loads it back, so a
 //!   later run continues it bit for bit.
 //! - [`zoned`] packs concentric zones of growing grain size with mixing layers (paper 001);
@@ -34,6 +36,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod body_potential;
 pub mod builder;
 pub mod checkpoint;
 pub mod diffusion;

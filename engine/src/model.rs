@@ -180,6 +180,10 @@ pub struct Model {
     /// ([`Model::enable_pore_flow`]). Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub pores: Option<Box<crate::pores::PoreFlow>>,
+    /// The work done by changing gravity or the water table between runs, for the energy
+    /// account (`body_potential`). Not saved: a loaded model's account starts from none.
+    #[serde(skip)]
+    pub body_work: crate::body_potential::BodyWork,
 }
 
 impl Default for Model {
@@ -204,6 +208,7 @@ impl Model {
             parallel_bonds: ParallelBonds::default(),
             wall_rolling: Vec::new(),
             pores: None,
+            body_work: Default::default(),
         }
     }
 

@@ -196,7 +196,10 @@ impl StepPlan {
         let rolling = s.rolling.filter(|r| r.mu_r > 0.0);
         let heat = if s.heat_ledger {
             HeatCauses {
-                damping: s.damping > 0.0 || s.local_damping > 0.0,
+                // The water's drag is a damping too (the buoyancy stage books its heat here).
+                damping: s.damping > 0.0
+                    || s.local_damping > 0.0
+                    || (s.water.level.is_some() && s.water.viscosity > 0.0),
                 contact_damping: dashpot,
                 // Rolling resistance is friction too (its stage books its torques' work here).
                 friction: shear_springs || rolling.is_some(),

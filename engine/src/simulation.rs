@@ -282,6 +282,9 @@ fn run_loop(
     sample: &mut dyn FnMut(EnergySample),
 ) -> Result<RunReport> {
     let guard_every = model.settings.guard_every.max(1);
+    // A change of gravity or of the water table since the last run is work done on the model
+    // where it stands now (body_potential).
+    model.book_body_work();
     let mut observer = observer.filter(|o| o.every > 0);
     // The clock at the run's start: a backend that keeps the state on a device advances the
     // model's clock only when it syncs.

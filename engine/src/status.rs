@@ -1,6 +1,7 @@
 //! Observation: energies and heat, coordination number, contact forces, unbalanced force,
 //! porosity. These run on demand or on sampling steps, never inside the force loops.
 
+use crate::body_potential::BodyFields;
 use crate::geometry::sphere_box::{sphere_box_volume, sphere_cylinder_volume};
 use crate::model::{Model, NormalKind};
 use crate::physics::contact_law::{normal_energy, shear_energy, Hertz, Linear, NormalLaw, TangentialLaw};
@@ -12,18 +13,26 @@ use crate::walls::WallShape;
 use serde::{Deserialize, Serialize};
 
 /// Energy account of the model (J). With no damping and no breakage the mechanical sum
-/// is constant; otherwise mechanical + heat − wall work is.
+/// is constant; otherwise mechanical + heat − wall work − body work is.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Energies {
     pub kinetic: f64,
     pub normal_elastic: f64,
     pub shear_elastic: f64,
     pub gravity: f64,
+    /// The water table's buoyant potential Σ −g_z·ρ_f·∫V_sub dz (0 without water;
+    /// `body_potential`): ρ_f·|g|·V times the depth of a submerged element's centre.
+    #[serde(default)]
+    pub buoyancy: f64,
     pub heat_damping: f64,
     pub heat_contact_damping: f64,
     pub heat_friction: f64,
     pub heat_breakage: f64,
     pub wall_work: f64,
+    /// Work done on the model by changing gravity or the water table between runs
+    /// (`body_potential`): the change of the body potential where the elements stood.
+    #[serde(default)]
+    pub body_work: f64,
 }
 
 /// One energy sample of a run: the account at the start of step `step` (time `time`).
@@ -36,16 +45,17 @@ pub struct EnergySample {
 
 impl Energies {
     pub fn mechanical(&self) -> f64 {
-        self.kinetic + self.normal_elastic + self.shear_elastic + self.gravity
+        self.kinetic + self.normal_elastic + self.shear_elastic + self.gravity + self.buoyancy
     }
 
     pub fn heat(&self) -> f64 {
         self.heat_damping + self.heat_contact_damping + self.heat_friction + self.heat_breakage
     }
 
-    /// Mechanical energy plus heat minus the work walls did: constant in a closed system.
+    /// Mechanical energy plus heat minus the work walls and changes of the body forces did:
+    /// constant in a closed system.
     pub fn total(&self) -> f64 {
-        self.mechanical() + self.heat() - self.wall_work
+        self.mechanical() + self.heat() - self.wall_work - self.body_work
     }
 }
 
@@ -60,10 +70,11 @@ pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
         e.normal_elastic += normal;
         e.shear_elastic += shear;
     }
-    let p = &m.particles;
-    let g = m.settings.gravity;
-    e.gravity = -(0..p.len()).map(|i| p.mass[i] * g.dot(&p.pos[i])).sum::<f64>();
-    let h = &p.heat;
+    let body = BodyFields::of(m);
+    e.gravity = body.gravity_potential(m);
+    e.buoyancy = body.buoyant_potential(m);
+    e.body_work = m.body_work();
+    let h = &m.particles.heat;
     e.heat_damping = h.damping.iter().sum();
     e.heat_contact_damping = h.contact_damping.iter().sum();
     e.heat_friction = h.friction.iter().sum();

@@ -5,6 +5,7 @@
 mod common;
 
 mod buoyancy;
+mod buoyancy_energy;
 mod checkpoint;
 mod conduction;
 mod cone;

@@ -46,7 +46,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("balance", "d.balance() / d.balance(\"standard\", n) / d.balance(steps)", "runs until the unbalanced force falls under the tolerance or the standard number of steps passes (MatDEM d.balance)"),
     ("balance_until", "d.balance_until(ratio, max_steps) -> map", "balances until the unbalanced force ratio falls under `ratio`"),
     ("unbalanced_ratio", "d.unbalanced_ratio() -> f64", "the mean unbalanced force over the mean contact force"),
-    ("energies", "d.energies() -> map", "kinetic, elastic, gravity energies, heat and wall work, J"),
+    ("energies", "d.energies() -> map", "kinetic, elastic, gravity and buoyancy (the water table's potential) energies, heat, wall work and body work (changes of gravity or the water table between runs), J; total = the sum less the two works"),
     ("coordination_number", "d.coordination_number() -> f64", "mean contacts per particle (Nc/Np), every particle counted (d.mechanical_coordination() leaves rattlers out)"),
     ("mechanical_coordination", "d.mechanical_coordination() -> map", "the coordination number without rattlers (Thornton's mechanical coordination): particles with fewer than 2 contacts (walls count towards the 2) are left out with their contacts, repeatedly until none is left; #{ coordination, rattlers, counted }"),
     ("mean_contact_force", "d.mean_contact_force() -> f64", "mean normal contact force, N"),

@@ -142,12 +142,22 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().settings.water.level.map_or(Dynamic::UNIT, Dynamic::from_float)
         })
         .register_set("water_level", |d: &mut ModelHandle, z: FLOAT| -> RhaiResult<()> {
-            d.model().settings.water.level = Some(finite("water_level", z)?);
+            let z = finite("water_level", z)?;
+            // Moving the table does work on the elements where they stand (the energy account's
+            // body work): booked before and after the change.
+            let mut m = d.model();
+            m.book_body_work();
+            m.settings.water.level = Some(z);
+            m.book_body_work();
             Ok(())
         })
         .register_get("fluid_density", |d: &mut ModelHandle| d.model().settings.water.density)
         .register_set("fluid_density", |d: &mut ModelHandle, rho: FLOAT| -> RhaiResult<()> {
-            d.model().settings.water.density = positive("fluid_density (kg/m³)", rho)?;
+            let rho = positive("fluid_density (kg/m³)", rho)?;
+            let mut m = d.model();
+            m.book_body_work();
+            m.settings.water.density = rho;
+            m.book_body_work();
             Ok(())
         })
         .register_get("fluid_viscosity", |d: &mut ModelHandle| d.model().settings.water.viscosity)

@@ -28,11 +28,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     ("normal_elastic", e.normal_elastic),
                     ("shear_elastic", e.shear_elastic),
                     ("gravity", e.gravity),
+                    ("buoyancy", e.buoyancy),
                     ("heat_damping", e.heat_damping),
                     ("heat_contact_damping", e.heat_contact_damping),
                     ("heat_friction", e.heat_friction),
                     ("heat_breakage", e.heat_breakage),
                     ("wall_work", e.wall_work),
+                    ("body_work", e.body_work),
                     ("total", e.total()),
                 ] {
                     map.insert(k.into(), v.into());

@@ -21,7 +21,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             vec![Dynamic::from_float(g.x), Dynamic::from_float(g.y), Dynamic::from_float(g.z)]
         })
         .register_set("gravity", |d: &mut ModelHandle, g: Array| -> RhaiResult<()> {
-            d.model().settings.gravity = vec3(&Dynamic::from_array(g), "gravity")?;
+            let g = vec3(&Dynamic::from_array(g), "gravity")?;
+            // Changing gravity changes the elements' potential where they stand: the energy
+            // account books it as body work, before and after the change.
+            let mut m = d.model();
+            m.book_body_work();
+            m.settings.gravity = g;
+            m.book_body_work();
             Ok(())
         })
         .register_get("damping", |d: &mut ModelHandle| d.model().settings.damping)
@@ -103,7 +109,11 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 // The lanes stay (a later enable continues from them); the plan drops the stage.
                 "heat" => m.settings.heat.enabled = false,
                 "moisture" => m.settings.moisture.enabled = false,
-                "water" => m.settings.water.level = None,
+                "water" => {
+                    m.book_body_work();
+                    m.settings.water.level = None;
+                    m.book_body_work();
+                }
                 "rolling_resistance" => m.settings.rolling = None,
                 // The network and its fluid go; a later enable builds them afresh.
                 "pore_flow" => m.disable_pore_flow(),

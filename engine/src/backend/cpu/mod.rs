@@ -120,7 +120,7 @@ impl CpuBackend {
         }
         if let Some(b) = &self.plan.buoyancy {
             let t = Instant::now();
-            buoyancy::buoyancy(m, b);
+            buoyancy::buoyancy(m, b, &self.plan.heat);
             times.add(Stage::Buoyancy, t.elapsed());
         }
         let t = Instant::now();
@@ -189,9 +189,10 @@ impl CpuBackend {
         if self.plan.has(Stage::PoreFlow) {
             self.pore_flow(m);
         }
+        let mut drag_heat = 0.0;
         if let Some(b) = &self.plan.buoyancy {
             // Last of the force stages: its drag reads the others' sum.
-            buoyancy::buoyancy(m, b);
+            drag_heat = buoyancy::buoyancy(m, b, &self.plan.heat).0;
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
@@ -211,7 +212,8 @@ impl CpuBackend {
         // damping: book half of it, or the account runs half a step behind (an offset of
         // ζ·ω·dt of the kinetic energy, frozen in when the motion starts or stops).
         if self.plan.heat.damping {
-            e.heat_damping += 0.5 * obs.damping_heat;
+            // The drag's heat (buoyancy, before the sample) likewise: half of this step's.
+            e.heat_damping += 0.5 * (obs.damping_heat - drag_heat);
         }
         self.field_stages(m);
         m.clock.step += 1;

@@ -1,7 +1,8 @@
 //! The `buoyancy` stage on the GPU (shaders/buoyancy.wgsl): the water table's buoyant force
 //! (and Stokes drag) added to the force lane, every step, after the other force stages and
-//! before `integrate`. Built only when the plan has the stage; its one buffer is the
-//! water's uniform (level, fluid density, 6π·μ). CPU twin: `backend/cpu/buoyancy.rs`.
+//! before `integrate`, booking the drag's heat in the ledger's damping slot. Built only when the
+//! plan has the stage; its one buffer is the water's uniform (level, fluid density, 6π·μ). CPU
+//! twin: `backend/cpu/buoyancy.rs`.
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
@@ -25,6 +26,6 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
 }
 
 pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Kernel {
-    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water, &d.kind];
+    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water, &d.kind, &d.heat];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }
