@@ -7,10 +7,12 @@
 //! sphere, which depends on its height z only. Its potential, zero where the element is dry
 //! and growing with depth, is
 //!
-//!     U_b(z) = −g_z·ρ_f·∫_z^∞ V_sub(z′) dz′ = −g_z·ρ_f·I(h),   h = L + r − z (the cap's height),
+//! ```text
+//! U_b(z) = −g_z·ρ_f·∫_z^∞ V_sub(z′) dz′ = −g_z·ρ_f·I(h),   h = L + r − z (the cap's height),
 //!
-//!     I(h) = π·(r·h³/3 − h⁴/12)      for 0 ≤ h ≤ 2r (the cap),
-//!     I(h) = V·(h − r) = V·(L − z)   for h ≥ 2r (submerged: ρ_f·|g|·V times the centre's depth),
+//! I(h) = π·(r·h³/3 − h⁴/12)      for 0 ≤ h ≤ 2r (the cap),
+//! I(h) = V·(h − r) = V·(L − z)   for h ≥ 2r (submerged: ρ_f·|g|·V times the centre's depth),
+//! ```
 //!
 //! so that −dU_b/dz is the buoyant force, cap included. (The same potential, up to a constant
 //! that depends on L, as the displaced water's ρ_f·V·g_z·z with a negative mass.) Only the
