@@ -42,6 +42,7 @@ const C_CROWDED: u32 = 9u; // rows with more set states than a device build carr
 const C_STIFF: u32 = 10u; // the lowest particle in a contact too stiff for dt (guard.wgsl)
 const C_PORE_STEP: u32 = 11u; // the batch's smallest stable flow step V/(K_f·Σg), f32 bits (pore_flow.wgsl)
 const C_PORE_DRIFT: u32 = 12u; // the largest squared drift since the pore network's build, f32 bits
+const C_PORE_EXCHANGE: u32 = 13u; // the batch's smallest stable step of the fluid–grain heat exchange, f32 bits (pore_heat.wgsl)
 
 struct Params {
     n: u32,

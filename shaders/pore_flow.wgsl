@@ -26,7 +26,8 @@
 // measures it (its f32 bias cancels). No float atomics: both pores of a throat compute the same
 // g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own row.
 // CPU twins: pores/network.rs (`refresh`), pores/flow.rs (`substep`),
-// pores/pressure_forces.rs, run by backend/cpu/pore_flow.rs.
+// pores/pressure_forces.rs, run by backend/cpu/pore_flow.rs. With the heat field on, the
+// kernels of pore_heat.wgsl (appended to this file) replace `pore_pressure` and `pore_mass`.
 
 struct PoreParams {
     bulk_modulus: f32,

@@ -415,8 +415,35 @@ pub fn rigid_wall_params(a: &Material) -> PairParams {
     }
 }
 
+/// A plan in words for one backend ([`StepPlan::on`]): the bytes the pore network takes are the
+/// backend's (the CPU's f64 lanes or the GPU's f32 buffers).
+pub struct PlanText<'a> {
+    plan: &'a StepPlan,
+    gpu: bool,
+}
+
+impl StepPlan {
+    /// The plan in words as the GPU backend (`gpu`) or the CPU backend runs it; `Display` is
+    /// the CPU's.
+    pub fn on(&self, gpu: bool) -> PlanText<'_> {
+        PlanText { plan: self, gpu }
+    }
+}
+
 impl fmt::Display for StepPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.on(false).fmt(f)
+    }
+}
+
+impl fmt::Display for PlanText<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.plan.write_text(f, self.gpu)
+    }
+}
+
+impl StepPlan {
+    fn write_text(&self, f: &mut fmt::Formatter<'_>, gpu: bool) -> fmt::Result {
         let mut stages = Vec::new();
         if self.walls > 0 {
             stages.push(format!(
@@ -556,7 +583,11 @@ impl fmt::Display for StepPlan {
             .collect();
         writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
         if let Some(p) = &self.pore_flow {
-            writeln!(f, "pore network (cpu, f64): about {} B ({})", p.bytes(), p.lanes().join("; "))?;
+            if gpu {
+                writeln!(f, "pore network (gpu, f32): about {} B ({})", p.device_bytes(), p.device_lanes().join("; "))?;
+            } else {
+                writeln!(f, "pore network (cpu, f64): about {} B ({})", p.bytes(), p.lanes().join("; "))?;
+            }
         }
         let mut off = Vec::new();
         if !self.rotation {

@@ -106,6 +106,13 @@ impl Simulation {
         &prepared(&mut self.prepared, &self.model).plan
     }
 
+    /// The plan in words, as this simulation's backend runs it (the pore network's bytes are
+    /// the GPU's f32 buffers on the GPU).
+    pub fn plan_text(&mut self) -> String {
+        let gpu = !matches!(self.target, Target::Cpu);
+        self.plan().on(gpu).to_string()
+    }
+
     /// Runs `steps` steps, checking stability every `guard_every` steps and honouring
     /// cancellation; `progress(done)` is called between chunks.
     pub fn run(&mut self, steps: u64, ctl: &RunControl, progress: &mut dyn FnMut(u64)) -> Result<RunReport> {

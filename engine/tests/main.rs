@@ -25,6 +25,7 @@ mod pore_coupling;
 mod pore_flow;
 mod pore_flow_parity;
 mod pore_heat;
+mod pore_heat_parity;
 mod pore_network;
 mod rolling_resistance;
 mod run_loop;

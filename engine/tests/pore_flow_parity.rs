@@ -11,7 +11,6 @@
 use crate::common::{gpu, pore_column};
 use matdem_engine::backend::gpu::pore_flow::PoreFlowKernel;
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::ThermalProps;
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::Stage;
 use matdem_engine::pores::{BoundaryKind, Fluid, PoreBoundary, PoreFlow, PoreRegion};
@@ -180,24 +179,6 @@ fn coupled_stage_conserves_mass_on_the_device() {
     assert!(pmax > 0.0, "the compression raised no pressure");
     assert!(f.boundary_mass.abs() < 1e-12 * m0, "the sealed boundaries added {:e} kg", f.boundary_mass);
     assert!(drift < 1e-9, "mass changed by {drift:e} of itself");
-}
-
-// Pore flow with the heat field on (the fluid's own temperature) has no WGSL twin yet: the GPU
-// refuses the plan, saying to run on the CPU backend, and steps nothing.
-#[test]
-fn pore_flow_with_heat_is_refused_on_the_gpu_with_what_to_do() {
-    let Some(ctx) = gpu("pore_flow_heat_refused") else { return };
-    let mut m = pore_column(3, 4, A, 1e6);
-    m.enable_heat();
-    for name in ["grain", "edge", "corner"] {
-        let props = ThermalProps { conductivity: 3.0, specific_heat: 800.0, expansion: 0.0 };
-        m.set_thermal_material(name, props).unwrap();
-    }
-    m.enable_pore_flow().unwrap();
-    let mut sim = Simulation::with_gpu(m, ctx);
-    let err = sim.run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(err.contains("--backend cpu") && err.contains("heat"), "{err}");
-    assert_eq!(sim.model.clock.step, 0);
 }
 
 // Terzaghi's consolidation on the device: the column of pore_coupling.rs's CPU test (3 × 3 × 12,

@@ -13,15 +13,15 @@ use matdem_engine::pores::{BoundaryKind, Fluid, FluidHeat, PoreBoundary, PoreFlo
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Material, Model, Simulation, WallMotion};
 
-const A: f64 = 1e-3;
-const T0: f64 = 293.15;
+pub(crate) const A: f64 = 1e-3;
+pub(crate) const T0: f64 = 293.15;
 
 fn run(sim: &mut Simulation, steps: u64) {
     sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
 }
 
 /// Σ C_i·(T_i − T0) over the elements plus Σ c_f·m_p·(T_p − T0) over the pores (J).
-fn thermal_energy(m: &Model) -> (f64, f64) {
+pub(crate) fn thermal_energy(m: &Model) -> (f64, f64) {
     let th = &m.particles.thermal;
     let grains: f64 = th.capacity.iter().zip(&th.temperature).map(|(c, t)| c * (t - T0)).sum();
     (grains, m.pores.as_ref().unwrap().fluid_heat())
@@ -30,7 +30,7 @@ fn thermal_energy(m: &Model) -> (f64, f64) {
 /// A simple-cubic column (nx × nx × nz) of bonded, touching spheres (r = a/2), its bottom layer
 /// held and the rest confined laterally, under a top wall; heat on with element properties
 /// scaled down (c = 0.8 J/(kg·K)) so that grains and fluid exchange within a few thousand steps.
-fn bonded_column(nx: usize, nz: usize) -> Model {
+pub(crate) fn bonded_column(nx: usize, nz: usize) -> Model {
     let mut m = Model::new();
     let mat =
         m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 1e-3, 1e9, 0.5, 0.5 * A).unwrap()).unwrap();
@@ -48,7 +48,7 @@ fn bonded_column(nx: usize, nz: usize) -> Model {
 }
 
 /// A soft fluid with a small heat capacity (so it exchanges with the grains within the test).
-fn warm_fluid() -> Fluid {
+pub(crate) fn warm_fluid() -> Fluid {
     Fluid {
         bulk_modulus: 1e8,
         viscosity: 1e-2,
@@ -105,7 +105,7 @@ fn thermal_energy_of_grains_and_fluid_is_conserved_to_round_off_with_insulated_s
 }
 
 /// A simple-cubic block (n³, r = 0.4 a: no contacts), every element held in place.
-fn rigid_block(n: usize) -> Model {
+pub(crate) fn rigid_block(n: usize) -> Model {
     let mut m = Model::new();
     let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4 * A).unwrap()).unwrap();
     for i in 0..n {

@@ -33,6 +33,9 @@ pub struct PoreSettings {
 pub struct PoreFlowPlan {
     pub pores: usize,
     pub throats: usize,
+    /// Tetrahedra of the network (a pore is one or a few) and the elements at their corners.
+    pub tets: usize,
+    pub elements: usize,
     pub bulk_modulus: f64,
     pub density: f64,
     pub viscosity: f64,
@@ -55,6 +58,8 @@ impl PoreFlowPlan {
         Some(PoreFlowPlan {
             pores: f.network.pore_count(),
             throats: f.network.throats.len(),
+            tets: f.network.tri.tets.len(),
+            elements: m.len(),
             bulk_modulus: s.fluid.bulk_modulus,
             density: s.fluid.density,
             viscosity: s.fluid.viscosity,
@@ -84,6 +89,38 @@ impl PoreFlowPlan {
     pub fn bytes(&self) -> usize {
         let temperature = if self.thermal { 8 } else { 0 };
         self.pores * (8 * 4 + 24 + 4 + 8 + temperature) + self.throats * (4 * 4 + 8 * 3 + 1 + 1)
+    }
+
+    /// The stage's buffers on the GPU backend (backend/gpu/pore_flow.rs, pore_heat.rs), by
+    /// what they index.
+    pub fn device_lanes(&self) -> Vec<&'static str> {
+        vec![
+            if self.thermal {
+                "pore: tetrahedra row, volume, volume at upload, centre, excess mass, pressure, boundary, supplied \
+                 mass, throat row, fluid supply, temperature, next temperature, temperature carry, supplied heat"
+            } else {
+                "pore: tetrahedra row, volume, volume at upload, centre, excess mass, pressure, boundary, supplied \
+                 mass, throat row"
+            },
+            if self.thermal {
+                "tetrahedron: corners, pore, orientation, element corners, exchange conductance"
+            } else {
+                "tetrahedron: corners, pore, orientation, element corners"
+            },
+            "throat: row entries, throat (pores, face, bonds, factor), conductance, bonds across it",
+            if self.thermal {
+                "element: corner row, position at the build, temperature carry"
+            } else {
+                "element: corner row, position at the build"
+            },
+        ]
+    }
+
+    /// Bytes of the stage's buffers on the GPU backend (f32 values, u32 indices), about: the
+    /// bonds across throats' faces (8 B each and a flag) not counted.
+    pub fn device_bytes(&self) -> usize {
+        let (pore, tet, element) = if self.thermal { (100, 60, 24) } else { (64, 44, 20) };
+        self.pores * pore + self.tets * tet + self.throats * (8 + 32 + 4) + self.elements * element
     }
 }
 

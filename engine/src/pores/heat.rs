@@ -128,16 +128,12 @@ impl PoreFlow {
             .collect()
     }
 
-    /// Exchanges heat between each pore's fluid and the elements at its corners for `dt`, in
-    /// as many forward-Euler sub-steps as the stable step of both sides needs (the guard's
-    /// error, naming the pore or the element, beyond the fluid's `max_substeps`). Each pore
-    /// and each element sums its own corners with the same conductance, so the heat one gains
-    /// the other loses; a fixed element keeps its temperature, a pore held at a temperature
-    /// is reset to it (booked to its region).
-    pub fn exchange_heat(&mut self, m: &mut Model, dt: f64) -> Result<()> {
-        if self.temperature.is_empty() {
-            return Ok(());
-        }
+    /// The exchange's corner conductances ([`Self::corner_conductance`]) and the forward-Euler
+    /// sub-steps a mechanical step `dt` needs under the stable step of both sides, min of
+    /// c_f·m_p/ΣG_p and C_i/ΣG_i (0 when nothing exchanges), or the guard's error naming the
+    /// pore or the element beyond the fluid's `max_substeps`. The GPU backend sizes its first
+    /// batch's exchange with it ([`Self::exchange_substeps_needed`]).
+    fn exchange_plan(&self, m: &Model, dt: f64) -> Result<(Vec<f64>, u32)> {
         let g = self.corner_conductance(m);
         let c_f = self.fluid.heat.specific_heat;
         let net = &self.network;
@@ -165,8 +161,7 @@ impl PoreFlow {
         let Some((crit, who, is_pore)) =
             pore_limit.chain(elem_limit).min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
         else {
-            self.exchange_substeps = 0;
-            return Ok(());
+            return Ok((g, 0));
         };
         let n = (dt / (0.9 * crit)).ceil().max(1.0);
         if n > self.fluid.max_substeps as f64 || !crit.is_finite() || crit <= 0.0 {
@@ -193,7 +188,34 @@ impl PoreFlow {
                 )),
             })));
         }
-        let n = n as u32;
+        Ok((g, n as u32))
+    }
+
+    /// The sub-steps of the fluid–grain heat exchange a mechanical step `dt` needs now (0 when
+    /// nothing exchanges), or the guard's error beyond the fluid's `max_substeps`.
+    pub fn exchange_substeps_needed(&self, m: &Model, dt: f64) -> Result<u32> {
+        if self.temperature.is_empty() {
+            return Ok(0);
+        }
+        self.exchange_plan(m, dt).map(|(_, n)| n)
+    }
+
+    /// Exchanges heat between each pore's fluid and the elements at its corners for `dt`, in
+    /// as many forward-Euler sub-steps as the stable step of both sides needs (the guard's
+    /// error, naming the pore or the element, beyond the fluid's `max_substeps`). Each pore
+    /// and each element sums its own corners with the same conductance, so the heat one gains
+    /// the other loses; a fixed element keeps its temperature, a pore held at a temperature
+    /// is reset to it (booked to its region).
+    pub fn exchange_heat(&mut self, m: &mut Model, dt: f64) -> Result<()> {
+        if self.temperature.is_empty() {
+            return Ok(());
+        }
+        let (g, n) = self.exchange_plan(m, dt)?;
+        if n == 0 {
+            self.exchange_substeps = 0;
+            return Ok(());
+        }
+        let c_f = self.fluid.heat.specific_heat;
         let h = dt / f64::from(n);
         for _ in 0..n {
             let th = &m.particles.thermal;

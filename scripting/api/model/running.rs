@@ -11,7 +11,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
     {
         let mut data = d.data();
         if !data.plan_noted {
-            let plan = data.sim.plan().to_string();
+            let plan = data.sim.plan_text();
             if host.plan_only {
                 println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
             }

@@ -127,7 +127,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             }
             Ok(())
         })
-        .register_fn("plan", |d: &mut ModelHandle| d.data().sim.plan().to_string());
+        .register_fn("plan", |d: &mut ModelHandle| d.data().sim.plan_text());
 }
 
 /// The keys of `d.rolling_resistance`'s map.

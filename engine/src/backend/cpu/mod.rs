@@ -13,6 +13,7 @@ pub mod integrate;
 pub mod moisture;
 pub mod parallel_bond;
 pub mod pore_flow;
+pub mod pore_heat;
 mod prefetch;
 pub mod rolling_resistance;
 pub mod wall_forces;

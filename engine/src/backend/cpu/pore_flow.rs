@@ -7,9 +7,11 @@
 //! own force ([`crate::pores::pressure_forces`]: a per-element gather, no atomics). With the
 //! heat field on (the plan's `thermal`), each pore's fluid has a temperature, carried by the
 //! flow and exchanged with the elements at its corners after the flow's sub-steps
-//! ([`crate::pores::heat`]). GPU twin (isothermal; the GPU refuses the stage with heat on):
-//! `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl).
+//! ([`crate::pores::heat`], run by `backend/cpu/pore_heat.rs`). GPU twin:
+//! `backend/gpu/pore_flow.rs` (shaders/pore_flow.wgsl), with `backend/gpu/pore_heat.rs`
+//! (shaders/pore_heat.wgsl) for the fluid's temperature.
 
+use super::pore_heat;
 use crate::error::Result;
 use crate::model::Model;
 use crate::pores::PoreFlowPlan;
@@ -19,8 +21,7 @@ pub fn pore_flow(m: &mut Model, plan: &PoreFlowPlan) -> Result<()> {
     let Some(mut f) = m.pores.take() else { return Ok(()) };
     let mut result = Ok(());
     if plan.thermal {
-        m.fit_thermal();
-        f.fit_temperature(m);
+        pore_heat::fit(m, &mut f);
     }
     if f.network.tri.points.len() != m.len() {
         result = f.rebuild(m);
@@ -29,7 +30,7 @@ pub fn pore_flow(m: &mut Model, plan: &PoreFlowPlan) -> Result<()> {
         result = f.advance(m, m.clock.dt);
     }
     if result.is_ok() && plan.thermal {
-        result = f.exchange_heat(m, m.clock.dt);
+        result = pore_heat::exchange(m, &mut f);
     }
     if result.is_ok() {
         f.add_forces(&m.particles.pos, &mut m.particles.force);

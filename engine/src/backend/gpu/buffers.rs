@@ -70,7 +70,10 @@ pub const C_STIFF: usize = 10;
 pub const C_PORE_STEP: usize = 11;
 /// The pore_flow stage: the largest squared drift since the network's build (f32 bits, maximum).
 pub const C_PORE_DRIFT: usize = 12;
-pub const COUNTERS: usize = 13;
+/// The pore_flow stage with the fluid's temperature: the batch's smallest stable step of the
+/// fluid–grain heat exchange (f32 bits, minimum).
+pub const C_PORE_EXCHANGE: usize = 13;
+pub const COUNTERS: usize = 14;
 
 fn v4(v: &Vec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
@@ -328,6 +331,7 @@ impl DeviceLanes {
         counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
         counters[C_STIFF] = u32::MAX;
         counters[C_PORE_STEP] = u32::MAX;
+        counters[C_PORE_EXCHANGE] = u32::MAX;
         let mut slabs = Vec::new();
         for r in plan.slabs() {
             slabs.push(SlabLanes {

@@ -137,6 +137,11 @@ impl Lanes {
         &self.thermal
     }
 
+    /// The elements' thermal modes, which the pore fluid's exchange reads.
+    pub fn mode(&self) -> &wgpu::Buffer {
+        &self.mode
+    }
+
     /// The (α, r0) lane (a placeholder without expansion), whose r0 the moisture stage keeps
     /// at r0·f(ω) when both set the radius.
     pub fn expansion(&self) -> &wgpu::Buffer {

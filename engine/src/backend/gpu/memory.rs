@@ -59,6 +59,12 @@ pub struct Scene {
     pub heat_lanes: usize,
     /// Whether contacts carry an epsd rolling spring (16 bytes a row entry and a wall).
     pub rolling: bool,
+    /// The pore_flow stage's element corners (4 per tetrahedron of the pore network; 0 without
+    /// the stage): each element's row of (tetrahedron, corner), 4 bytes an entry, with its row
+    /// start and position at the network's build (20 bytes an element).
+    pub pore_corners: usize,
+    /// The pore fluid has a temperature: each element also keeps its exchange's carry (4 bytes).
+    pub pore_heat: bool,
 }
 
 /// Slot width for rows whose longest is `longest`: room for a quarter more (at least four),
@@ -142,14 +148,25 @@ impl MemoryPlan {
         let rotation = if scene.rotation { 2 } else { 0 };
         // origin, displacement, velocity, body, force, build position (+ angular velocity, torque).
         // + kind, row length, cell item, and a (hi, lo) f32 pair per heat cause.
-        let per_particle = (6 + rotation) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64;
+        // The pore network's per-element lanes (its per-pore and per-throat lanes are the stage's
+        // own, `pore_flow::PoreSession::bytes`).
+        let pore = match (scene.pore_corners > 0, scene.pore_heat) {
+            (false, _) => 0,
+            (true, false) => 4 + 16,
+            (true, true) => 4 + 16 + 4,
+        };
+        let per_particle = (6 + rotation) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64 + pore;
         // Neighbour id, pair state (and dashpot force) per slot; a state per wall.
         // (And the epsd rolling spring per slot and per wall.)
         let spring = if scene.rolling { 16 } else { 0 };
         let per_slot = 4 + STATE_BYTES + if scene.dashpot { 4 } else { 0 } + spring;
         let per_entry = per_slot * cap as u64 + (STATE_BYTES + spring) * scene.walls as u64;
         let partials = (n.div_ceil(WORKGROUP) * scene.walls * 32) as u64;
-        let bytes = n as u64 * (per_particle + per_entry) + table + partials + 16 * max_events as u64;
+        let bytes = n as u64 * (per_particle + per_entry)
+            + 4 * scene.pore_corners as u64
+            + table
+            + partials
+            + 16 * max_events as u64;
         Ok(MemoryPlan { particles: n, cap, walls: scene.walls, slab, bytes, max_events })
     }
 
@@ -192,6 +209,8 @@ mod tests {
                 dashpot: true,
                 heat_lanes: 2,
                 rolling: false,
+                pore_corners: 0,
+                pore_heat: false,
             };
             let plan = MemoryPlan::new(scene, H100).unwrap();
             let per = plan.bytes_per_particle();
@@ -208,6 +227,30 @@ mod tests {
     }
 
     #[test]
+    fn the_pore_networks_element_lanes_are_counted_when_the_stage_is_on() {
+        // A packing has about 6.5 tetrahedra an element: 26 corners.
+        let scene = Scene {
+            particles: 1000,
+            longest_row: 12,
+            walls: 0,
+            rotation: false,
+            bonds: 0,
+            dashpot: false,
+            heat_lanes: 0,
+            rolling: false,
+            pore_corners: 0,
+            pore_heat: false,
+        };
+        let limits = Limits { binding: 1 << 30, buffer: 1 << 30 };
+        let bare = MemoryPlan::new(scene, limits).unwrap();
+        let pores = MemoryPlan::new(Scene { pore_corners: 26_000, ..scene }, limits).unwrap();
+        assert_eq!(pores.bytes - bare.bytes, 1000 * (4 + 16) + 4 * 26_000);
+        let heat = MemoryPlan::new(Scene { pore_corners: 26_000, pore_heat: true, ..scene }, limits).unwrap();
+        assert_eq!(heat.bytes - pores.bytes, 1000 * 4);
+        assert!(pores.bytes_per_particle() - bare.bytes_per_particle() == 124.0);
+    }
+
+    #[test]
     fn a_small_binding_splits_the_rows_into_workgroup_slabs() {
         let scene = Scene {
             particles: 1000,
@@ -218,6 +261,8 @@ mod tests {
             dashpot: true,
             heat_lanes: 5,
             rolling: false,
+            pore_corners: 0,
+            pore_heat: false,
         };
         let plan = MemoryPlan::new(scene, Limits { binding: 64 * 16 * 16 * 3 + 5, buffer: 1 << 30 }).unwrap();
         assert_eq!(plan.cap, 16);
@@ -237,6 +282,8 @@ mod tests {
             dashpot: false,
             heat_lanes: 0,
             rolling: false,
+            pore_corners: 0,
+            pore_heat: false,
         };
         let e = MemoryPlan::new(scene, Limits { binding: 128 << 20, buffer: 1 << 40 }).unwrap_err().to_string();
         assert!(e.contains("`positions`") && e.contains("134217728") && e.contains("fewer particles"), "{e}");

@@ -42,6 +42,7 @@ pub mod moisture;
 pub mod neighbours;
 pub mod parallel_bond;
 pub mod pore_flow;
+pub mod pore_heat;
 pub mod rolling_resistance;
 pub mod rows;
 pub mod shaders;
@@ -59,7 +60,7 @@ use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
-    C_PORE_DRIFT, C_PORE_STEP, C_SPEED, C_STIFF,
+    C_PORE_DRIFT, C_PORE_EXCHANGE, C_PORE_STEP, C_SPEED, C_STIFF,
 };
 use device::GpuContext;
 use shaders::Kernel;
@@ -207,13 +208,6 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
-        if plan.pore_flow.is_some_and(|p| p.thermal) {
-            return Err(Error::InvalidScene(
-                "pore flow with the heat field on (the pore fluid's own temperature) runs on the CPU backend only for \
-                 now: run with --backend cpu, or switch heat off (d.disable(\"heat\")) to run pore flow on the GPU"
-                    .into(),
-            ));
-        }
         let device = &ctx.device;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
@@ -229,7 +223,7 @@ impl GpuBackend {
             }),
             parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
             rolling_resistance: plan.rolling.as_ref().map(|r| rolling_resistance::pipeline(device, &constants, r)),
-            pore_flow: plan.pore_flow.is_some().then(|| pore_flow::pipelines(device, &constants)),
+            pore_flow: plan.pore_flow.map(|f| pore_flow::pipelines(device, &constants, f.thermal)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
@@ -324,6 +318,11 @@ impl GpuBackend {
             dashpot: self.plan.dashpot,
             heat_lanes: self.ledger.lanes(),
             rolling: self.plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd),
+            pore_corners: match (&self.plan.pore_flow, &m.pores) {
+                (Some(_), Some(f)) => 4 * f.network.tri.tets.len(),
+                _ => 0,
+            },
+            pore_heat: self.plan.pore_flow.is_some_and(|p| p.thermal),
         };
         let limits = self.limits();
         let layout = memory::MemoryPlan::new(scene, limits)?;
@@ -363,7 +362,9 @@ impl GpuBackend {
         let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
         let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let pores = match &p.pore_flow {
-            Some(pipelines) => Some(pore_flow::PoreSession::upload(&self.ctx, m, &host, &lanes, pipelines, limit)?),
+            Some(pipelines) => {
+                Some(pore_flow::PoreSession::upload(&self.ctx, m, &host, &lanes, pipelines, thermal.as_ref(), limit)?)
+            }
             None => None,
         };
         let kernels = Kernels {
@@ -448,8 +449,9 @@ impl GpuBackend {
             ctx.queue.write_buffer(&s.lanes.counters, (C_STIFF * 4) as u64, bytemuck::cast_slice(&[u32::MAX]));
         }
         if s.pores.is_some() {
-            debug_assert_eq!(C_PORE_DRIFT, C_PORE_STEP + 1);
-            ctx.queue.write_buffer(&s.lanes.counters, (C_PORE_STEP * 4) as u64, bytemuck::cast_slice(&[u32::MAX, 0]));
+            debug_assert_eq!((C_PORE_DRIFT, C_PORE_EXCHANGE), (C_PORE_STEP + 1, C_PORE_STEP + 2));
+            let reset = [u32::MAX, 0, u32::MAX];
+            ctx.queue.write_buffer(&s.lanes.counters, (C_PORE_STEP * 4) as u64, bytemuck::cast_slice(&reset));
         }
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
@@ -621,9 +623,18 @@ impl Backend for GpuBackend {
                     bits => f64::from(f32::from_bits(bits)),
                 };
                 let need = crate::pores::flow::substeps_for(m.clock.dt, crit);
+                // The fluid–grain heat exchange, likewise (its stable step C/ΣG of either side).
+                let exchange = f.exchange_substeps().map(|now| {
+                    let crit = match counters[C_PORE_EXCHANGE] {
+                        u32::MAX => f64::INFINITY,
+                        bits => f64::from(f32::from_bits(bits)),
+                    };
+                    (now, crate::pores::flow::substeps_for(m.clock.dt, crit))
+                });
+                let exchange_over = exchange.is_some_and(|(_, x)| x > f64::from(f.max_substeps));
                 let pore_drift = f64::from(f32::from_bits(counters[C_PORE_DRIFT])).sqrt();
                 let rebuild_in = steps_until_rebuild(pore_drift, speed, 2.0 * f.drift_limit, m.clock.dt, MAX_BATCH);
-                if need > f64::from(f.max_substeps) || rebuild_in.is_none() {
+                if need > f64::from(f.max_substeps) || exchange_over || rebuild_in.is_none() {
                     // Through the host: its f64 check words the guard's error (or finds the
                     // flow stable after all), or it rebuilds the network.
                     self.download(m, session)?;
@@ -643,6 +654,12 @@ impl Backend for GpuBackend {
                     pore_batch = 1;
                 }
                 f.set_substeps(&self.ctx, need as u32, m.clock.dt);
+                if let Some((now, x)) = exchange {
+                    if x as u32 > now {
+                        pore_batch = 1;
+                    }
+                    f.set_exchange_substeps(&self.ctx, x as u32, m.clock.dt);
+                }
                 pore_batch = pore_batch.min(rebuild_in.unwrap_or(1));
             }
             match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {

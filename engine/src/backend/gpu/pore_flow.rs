@@ -24,11 +24,18 @@
 //! - **Host, at each download** ([`PoreSession::download`]): the masses (the f64 mass at the
 //!   upload plus the f32 change), the mass each boundary region supplied, the geometry in f64.
 //!
+//! With the heat field on too (the plan's pore flow `thermal`), the fluid's temperature runs in
+//! the same step ([`super::pore_heat`], shaders/pore_heat.wgsl): its pressure and mass kernels
+//! take the place of `pore_pressure` and `pore_mass`, and the exchange with the grains runs
+//! after the flow, before the pressure forces.
+//!
 //! The flow update alone is also driven by [`PoreFlowKernel`] (upload a network, run sub-steps,
 //! download the masses), for the flow's own parity test.
 
 use super::buffers::{read, DeviceLanes, HostLanes};
+use super::conduction;
 use super::device::GpuContext;
+use super::pore_heat::{self, PoreHeatSession};
 use super::shaders::{self, groups_for, Kernel};
 use crate::error::{GpuError, Result};
 use crate::model::Model;
@@ -78,13 +85,16 @@ pub struct Pipelines {
     mass: wgpu::ComputePipeline,
     forces: wgpu::ComputePipeline,
     drift: wgpu::ComputePipeline,
+    /// The fluid's temperature, only when the plan's pore flow is `thermal`.
+    heat: Option<pore_heat::Pipelines>,
 }
 
 fn pipeline(device: &wgpu::Device, entry: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_FLOW, entry, constants)
 }
 
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines {
+/// The stage's pipelines; with `thermal`, the fluid temperature's too (shaders/pore_heat.wgsl).
+pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], thermal: bool) -> Pipelines {
     Pipelines {
         bonds: pipeline(device, "pore_bonds", constants),
         geometry: pipeline(device, "pore_geometry", constants),
@@ -94,41 +104,42 @@ pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines 
         mass: pipeline(device, "pore_mass", constants),
         forces: pipeline(device, "pore_forces", constants),
         drift: pipeline(device, "pore_drift", constants),
+        heat: thermal.then(|| pore_heat::pipelines(device, constants)),
     }
 }
 
 /// The stage's buffers for one upload, one field per binding of pore_flow.wgsl (the particles'
 /// lanes are the core's).
 pub struct Lanes {
-    params: wgpu::Buffer,
-    tets: wgpu::Buffer,
-    tet_pore: wgpu::Buffer,
-    tet_sign: wgpu::Buffer,
-    pore_tet_start: wgpu::Buffer,
-    pore_tets: wgpu::Buffer,
-    volume: wgpu::Buffer,
-    volume0: wgpu::Buffer,
-    centre: wgpu::Buffer,
+    pub(super) params: wgpu::Buffer,
+    pub(super) tets: wgpu::Buffer,
+    pub(super) tet_pore: wgpu::Buffer,
+    pub(super) tet_sign: wgpu::Buffer,
+    pub(super) pore_tet_start: wgpu::Buffer,
+    pub(super) pore_tets: wgpu::Buffer,
+    pub(super) volume: wgpu::Buffer,
+    pub(super) volume0: wgpu::Buffer,
+    pub(super) centre: wgpu::Buffer,
     /// Per pore: the excess mass at the upload (m − ρ0·V) plus the mass gained since.
-    excess: wgpu::Buffer,
-    pressure: wgpu::Buffer,
-    boundary: wgpu::Buffer,
+    pub(super) excess: wgpu::Buffer,
+    pub(super) pressure: wgpu::Buffer,
+    pub(super) boundary: wgpu::Buffer,
     /// Per pore: the mass its boundary region supplied since the upload (compensated f32 sum).
-    supplied: wgpu::Buffer,
-    row_start: wgpu::Buffer,
-    row: wgpu::Buffer,
-    throats: wgpu::Buffer,
-    conductance: wgpu::Buffer,
-    bond_edges: wgpu::Buffer,
-    bond_alive: wgpu::Buffer,
-    elem_start: wgpu::Buffer,
-    elem_corners: wgpu::Buffer,
-    pore_built: wgpu::Buffer,
+    pub(super) supplied: wgpu::Buffer,
+    pub(super) row_start: wgpu::Buffer,
+    pub(super) row: wgpu::Buffer,
+    pub(super) throats: wgpu::Buffer,
+    pub(super) conductance: wgpu::Buffer,
+    pub(super) bond_edges: wgpu::Buffer,
+    pub(super) bond_alive: wgpu::Buffer,
+    pub(super) elem_start: wgpu::Buffer,
+    pub(super) elem_corners: wgpu::Buffer,
+    pub(super) pore_built: wgpu::Buffer,
     uniform: PoreParams,
     /// The f64 masses and volumes at the upload and the f32 excesses the device started from.
-    mass0: Vec<f64>,
-    volume_up: Vec<f64>,
-    excess0: Vec<f32>,
+    pub(super) mass0: Vec<f64>,
+    pub(super) volume_up: Vec<f64>,
+    pub(super) excess0: Vec<f32>,
     /// Bytes of the stage's buffers.
     pub bytes: u64,
 }
@@ -249,7 +260,9 @@ impl Lanes {
     /// Brings the fluid back into `f`: each pore's mass is its f64 mass at the upload plus the
     /// f32 change, the mass the boundary regions supplied is booked to them, the held pores
     /// are set to their pressure at the host's volume, and the pressures and flows follow.
-    fn download(&self, ctx: &GpuContext, f: &mut PoreFlow, geometry: bool) -> Result<()> {
+    /// `carry`: what the excess masses' updates rounded away (the thermal kernels keep it), or
+    /// empty.
+    fn download(&self, ctx: &GpuContext, f: &mut PoreFlow, geometry: bool, carry: &[f32]) -> Result<()> {
         let np = self.mass0.len();
         if geometry {
             // The geometry of the last step's stage (before that step's integration), as the
@@ -272,7 +285,8 @@ impl Lanes {
         let e: Vec<f32> = read(ctx, &self.excess, np)?;
         let s: Vec<[f32; 2]> = read(ctx, &self.supplied, np)?;
         for p in 0..np {
-            f.mass[p] = self.mass0[p] + (f64::from(e[p]) - f64::from(self.excess0[p]));
+            let rest = carry.get(p).map_or(0.0, |&c| f64::from(c));
+            f.mass[p] = self.mass0[p] + (f64::from(e[p]) - f64::from(self.excess0[p])) + rest;
             let dm = f64::from(s[p][0]) + f64::from(s[p][1]);
             if dm != 0.0 {
                 f.boundary_mass += dm;
@@ -304,6 +318,8 @@ pub struct Kernels {
 pub struct PoreSession {
     lanes: Lanes,
     kernels: Kernels,
+    /// The fluid's temperature, when the plan's pore flow is `thermal`.
+    heat: Option<PoreHeatSession>,
     /// Flow sub-steps per mechanical step in the current batch.
     pub substeps: u32,
     /// Drift (m) at which the CPU would rebuild the network.
@@ -316,19 +332,26 @@ pub struct PoreSession {
 
 impl PoreSession {
     /// The host's part of the step (the network follows the elements; the first batch's
-    /// sub-steps), then the upload of the network and its fluid, and the pore volumes at the
-    /// upload measured on the device.
+    /// sub-steps; with `thermal`, the conduction stage's lanes, the fluid's temperatures fitted
+    /// and the first batch's exchange sub-steps), then the upload of the network and its fluid,
+    /// and the pore volumes at the upload measured on the device.
     pub fn upload(
         ctx: &GpuContext,
         m: &mut Model,
         host: &HostLanes,
         d: &DeviceLanes,
         p: &Pipelines,
+        thermal: Option<&conduction::Lanes>,
         limit: u64,
     ) -> Result<Self> {
         let Some(mut f) = m.pores.take() else {
             return Err(crate::Error::InvalidScene("the plan has pore flow but the model has no pore network".into()));
         };
+        let thermal = thermal.zip(p.heat.as_ref());
+        if thermal.is_some() {
+            m.fit_thermal();
+            f.fit_temperature(m);
+        }
         let mut prepared = Ok(0);
         if f.network.tri.points.len() != m.len() {
             prepared = f.rebuild(m).map(|_| 0);
@@ -336,9 +359,13 @@ impl PoreSession {
         if prepared.is_ok() {
             prepared = f.follow(m).and_then(|_| f.substeps_needed(m, m.clock.dt));
         }
-        let n = match prepared {
-            Ok(n) => n,
-            Err(e) => {
+        let mut exchange = Ok(0);
+        if prepared.is_ok() && thermal.is_some() {
+            exchange = f.exchange_substeps_needed(m, m.clock.dt);
+        }
+        let (n, exchange) = match (prepared, exchange) {
+            (Ok(n), Ok(x)) => (n, x),
+            (Err(e), _) | (_, Err(e)) => {
                 m.pores = Some(f);
                 return Err(e);
             }
@@ -356,8 +383,13 @@ impl PoreSession {
         let max_substeps = f.fluid.max_substeps;
         let factors = f.network.throat_factors(m, &f.fluid);
         let lanes = Lanes::upload(ctx, &f, &built, &factors, m.clock.dt / f64::from(n), limit);
+        let heat = match (&lanes, thermal) {
+            (Ok(l), Some((c, hp))) => Some(PoreHeatSession::upload(ctx, m, &f, l, d, c, hp, exchange, limit)),
+            _ => None,
+        };
         m.pores = Some(f);
         let lanes = lanes?;
+        let heat = heat.transpose()?;
         let kernels = kernels(&ctx.device, p, &lanes, d);
         // The volumes at the upload as the device measures them (the pressures see only their change).
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -369,8 +401,8 @@ impl PoreSession {
         let bytes = (lanes.mass0.len() * 4) as u64;
         enc.copy_buffer_to_buffer(&lanes.volume, 0, &lanes.volume0, 0, bytes);
         ctx.queue.submit([enc.finish()]);
-        let bytes = lanes.bytes;
-        Ok(PoreSession { lanes, kernels, substeps: n, drift_limit, max_substeps, bytes, stepped: false })
+        let bytes = lanes.bytes + heat.as_ref().map_or(0, |h| h.bytes);
+        Ok(PoreSession { lanes, kernels, heat, substeps: n, drift_limit, max_substeps, bytes, stepped: false })
     }
 
     /// Sets the sub-steps of the following mechanical steps of length `dt`.
@@ -378,6 +410,19 @@ impl PoreSession {
         if n != self.substeps {
             self.substeps = n;
             self.lanes.set_substep(ctx, dt / f64::from(n));
+        }
+    }
+
+    /// The exchange sub-steps of the current batch, when the fluid exchanges heat with the
+    /// grains on the device.
+    pub fn exchange_substeps(&self) -> Option<u32> {
+        self.heat.as_ref().filter(|h| h.exchanges()).map(|h| h.exchange_substeps)
+    }
+
+    /// Sets the exchange sub-steps of the following mechanical steps of length `dt`.
+    pub fn set_exchange_substeps(&mut self, ctx: &GpuContext, n: u32, dt: f64) {
+        if let Some(h) = self.heat.as_mut() {
+            h.set_exchange_substeps(ctx, n, dt);
         }
     }
 
@@ -391,11 +436,22 @@ impl PoreSession {
         k.geometry.dispatch(pass);
         k.conductance.dispatch(pass);
         k.stable_step.dispatch(pass);
-        for _ in 0..self.substeps {
-            k.pressure.dispatch(pass);
-            k.mass.dispatch(pass);
+        match &self.heat {
+            None => {
+                for _ in 0..self.substeps {
+                    k.pressure.dispatch(pass);
+                    k.mass.dispatch(pass);
+                }
+                k.pressure.dispatch(pass);
+            }
+            Some(h) => {
+                for _ in 0..self.substeps {
+                    h.dispatch_substep(pass);
+                }
+                h.dispatch_pressure(pass);
+                h.dispatch_exchange(pass);
+            }
         }
-        k.pressure.dispatch(pass);
         k.forces.dispatch(pass);
         pass.pop_debug_group();
     }
@@ -407,14 +463,18 @@ impl PoreSession {
         pass.pop_debug_group();
     }
 
-    /// Brings the fluid back into the model (whose positions have come back already), the
-    /// network's geometry recomputed in f64 from them.
+    /// Brings the fluid back into the model (whose positions, and temperatures with heat on,
+    /// have come back already), the network's geometry recomputed in f64 from them.
     pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
         let Some(mut f) = m.pores.take() else { return Ok(()) };
         // Openings and crack flags at the positions that came back; then the stage's own
         // volumes, centres and conductances from the device.
         f.network.refresh(m, &f.fluid);
-        let r = self.lanes.download(ctx, &mut f, self.stepped);
+        let mut r = Ok(Vec::new());
+        if let Some(h) = &self.heat {
+            r = h.download(ctx, m, &mut f).and_then(|_| h.excess_carry(ctx));
+        }
+        let r = r.and_then(|carry| self.lanes.download(ctx, &mut f, self.stepped, &carry));
         f.substeps = self.substeps;
         m.pores = Some(f);
         r
@@ -564,7 +624,7 @@ impl PoreFlowKernel {
     /// Uploads the network and fluid of `f` (its current volumes, conductances, boundary
     /// regions and masses) for sub-steps of length `h` (s).
     pub fn upload(ctx: &GpuContext, f: &PoreFlow, h: f64) -> Result<Self> {
-        let p = pipelines(&ctx.device, &[]);
+        let p = pipelines(&ctx.device, &[], false);
         let lanes = Lanes::upload(ctx, f, &[], &[], h, ctx.limits.max_storage_buffer_binding_size)?;
         let (pressure, mass) = flow_kernels(&ctx.device, &p, &lanes);
         Ok(PoreFlowKernel { lanes, pressure, mass })
@@ -589,6 +649,6 @@ impl PoreFlowKernel {
     /// Brings the masses back into `f` (the f64 mass at the upload plus the f32 change), the
     /// held pores at their pressure, and the pressures and flows from them.
     pub fn download(&self, ctx: &GpuContext, f: &mut PoreFlow) -> Result<()> {
-        self.lanes.download(ctx, f, false)
+        self.lanes.download(ctx, f, false, &[])
     }
 }

@@ -34,9 +34,15 @@ pub const MOISTURE: &str = concat!(
     include_str!("../../../../shaders/moisture.wgsl")
 );
 pub const PORE_FLOW: &str = include_str!("../../../../shaders/pore_flow.wgsl");
+/// The pore fluid's temperature: pore_flow.wgsl (its bindings and helpers), then its own file.
+pub const PORE_HEAT: &str = concat!(
+    include_str!("../../../../shaders/pore_flow.wgsl"),
+    "\n",
+    include_str!("../../../../shaders/pore_heat.wgsl")
+);
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 15] = [
+pub const STAGES: [(&str, &str); 16] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -52,6 +58,7 @@ pub const STAGES: [(&str, &str); 15] = [
     ("conduction", CONDUCTION),
     ("moisture", MOISTURE),
     ("pore_flow", PORE_FLOW),
+    ("pore_heat", PORE_HEAT),
 ];
 
 /// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and
