@@ -97,7 +97,8 @@ impl PoreFlowPlan {
         vec![
             if self.thermal {
                 "pore: tetrahedra row, volume, volume at upload, centre, excess mass, pressure, boundary, supplied \
-                 mass, throat row, fluid supply, temperature, next temperature, temperature carry, supplied heat"
+                 mass, throat row, fluid supply, temperature, next temperature, temperature carry, excess mass carry, \
+                 supplied heat"
             } else {
                 "pore: tetrahedra row, volume, volume at upload, centre, excess mass, pressure, boundary, supplied \
                  mass, throat row"
@@ -119,7 +120,7 @@ impl PoreFlowPlan {
     /// Bytes of the stage's buffers on the GPU backend (f32 values, u32 indices), about: the
     /// bonds across throats' faces (8 B each and a flag) not counted.
     pub fn device_bytes(&self) -> usize {
-        let (pore, tet, element) = if self.thermal { (100, 60, 24) } else { (64, 44, 20) };
+        let (pore, tet, element) = if self.thermal { (104, 60, 24) } else { (64, 44, 20) };
         self.pores * pore + self.tets * tet + self.throats * (8 + 32 + 4) + self.elements * element
     }
 }
