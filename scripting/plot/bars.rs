@@ -68,7 +68,7 @@ impl BarChart {
         let y_area = style::y_label_area_width(&style::sample_labels(&fmt_y, y0, y1));
         root.fill(&WHITE).map_err(draw_err)?;
         let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, (FONT, style::TITLE_SIZE))
+            .caption(&self.title, (FONT, style::title_size(root, &self.title)))
             .margin(style::MARGIN)
             .margin_right(style::MARGIN + 10)
             .x_label_area_size(style::X_LABEL_AREA)

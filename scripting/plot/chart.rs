@@ -209,7 +209,7 @@ impl LineChart {
 
         root.fill(&WHITE).map_err(draw_err)?;
         let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, (FONT, style::TITLE_SIZE))
+            .caption(&self.title, (FONT, style::title_size(root, &self.title)))
             .margin(style::MARGIN)
             .margin_right(style::MARGIN + 10)
             .x_label_area_size(style::X_LABEL_AREA)
@@ -374,6 +374,22 @@ mod tests {
         {
             assert!(svg.contains(text), "SVG lacks {text:?}");
         }
+    }
+
+    #[test]
+    fn a_long_title_is_shrunk_to_fit_the_chart_and_a_short_one_is_not() {
+        style::ensure_fonts().unwrap();
+        // The CPT study's qc–depth title, which at 24 px ran past both edges of the 800 px chart.
+        let long = "Cone penetration: qc against depth (paper 001 groups (mean of the packings run))";
+        let mut svg = String::new();
+        let root = SVGBackend::with_string(&mut svg, CHART_SIZE).into_drawing_area();
+        let size = style::title_size(&root, long);
+        let (w, _) = root.estimate_text_size(long, &(style::FONT, size).into()).unwrap();
+        let (full, _) = root.estimate_text_size(long, &(style::FONT, style::TITLE_SIZE).into()).unwrap();
+        assert!(full > CHART_SIZE.0, "the test title must overflow at full size ({full} px)");
+        assert!(size < style::TITLE_SIZE && size >= style::TITLE_MIN_SIZE, "size {size}");
+        assert!(w <= CHART_SIZE.0 - 2 * style::MARGIN, "{w} px at size {size} does not fit");
+        assert_eq!(style::title_size(&root, "Triaxial test"), style::TITLE_SIZE);
     }
 
     #[test]

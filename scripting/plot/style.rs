@@ -153,6 +153,25 @@ pub(crate) fn sample_labels(fmt: &impl Fn(&f64) -> String, lo: f64, hi: f64) -> 
     (0..=8).map(|k| fmt(&(lo + (hi - lo) * f64::from(k) / 8.0))).collect()
 }
 
+/// The smallest size a title is shrunk to; a title still wider than the figure at this size
+/// is clipped at its ends (the caption is centred).
+pub(crate) const TITLE_MIN_SIZE: u32 = 12;
+
+/// The title's font size on `area`: [`TITLE_SIZE`], or smaller until the title fits the
+/// area's width less its margins (a long title drawn at full size is clipped at both ends,
+/// as the CPT study's qc–depth chart's was).
+pub(crate) fn title_size<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str) -> u32 {
+    let room = area.dim_in_pixel().0.saturating_sub(2 * MARGIN);
+    let mut size = TITLE_SIZE;
+    while size > TITLE_MIN_SIZE {
+        match area.estimate_text_size(title, &(FONT, size).into()) {
+            Ok((w, _)) if w > room => size -= 1,
+            _ => break,
+        }
+    }
+    size
+}
+
 /// Width in pixels for a y label area holding `labels` and a rotated axis description.
 pub(crate) fn y_label_area_width(labels: &[String]) -> u32 {
     let chars = labels.iter().map(|s| s.chars().count()).max().unwrap_or(1);
