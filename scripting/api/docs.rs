@@ -287,6 +287,13 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
         "give each coarser zone the core's material scaled by d/d1 (paper 001's scaling law)",
     ),
     ("regions", "Zoned (read)", "the zones and mixing layers built: names and radii"),
+    (
+        "pack_report",
+        "Zoned (read)",
+        "how the last build's packing went: #{ steps, growth_steps, settle_steps, settled, capped (ran to its cap \
+         unsettled), ratio (unbalanced force ratio at the end), mean_speed (radii a step), deepest_stray (radii), \
+         grains: #{ zone1: n, … } }",
+    ),
     ("elements", "TestSample (read)", "elements in a test sample"),
     ("kn", "Material (read, set)", "normal stiffness Kn, N/m"),
     ("ks", "Material (read, set)", "shear stiffness Ks, N/m"),

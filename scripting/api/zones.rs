@@ -7,7 +7,7 @@ use super::field::to_numbers;
 use super::model::ModelHandle;
 use super::{err, raise, Host, RhaiResult};
 use matdem_engine::scaling::{scaled_material, scaled_model};
-use matdem_engine::zoned::{zone_report, ZoneRegion, ZoneSpec};
+use matdem_engine::zoned::{zone_report, PackReport, ZoneRegion, ZoneSpec};
 use matdem_engine::{Material, Vec3};
 use rhai::{Array, Dynamic, Engine, Map, FLOAT, INT};
 use std::cell::RefCell;
@@ -21,6 +21,8 @@ pub struct ZonedData {
     pub scale_stiffness: bool,
     pub regions: Vec<ZoneRegion>,
     pub model: Option<ModelHandle>,
+    /// How the last build's packing went, and the grains it put in each region.
+    pub pack: Option<(PackReport, Vec<(String, usize)>)>,
 }
 
 /// A zoned builder (shared: every variable holding it sees the same one, as a box's).
@@ -36,6 +38,7 @@ impl ZonedBuilder {
             scale_stiffness: true,
             regions: Vec::new(),
             model: None,
+            pack: None,
         })))
     }
 }
@@ -59,13 +62,37 @@ fn build(host: &Host, z: &mut ZonedBuilder) -> RhaiResult<ModelHandle> {
             scaled_material(&m, d1 / 6e-3).map_err(raise)?
         }
     };
-    let (model, regions) =
-        data.spec.build(&material, data.scale_stiffness, &host.control).map_err(|e| super::raise_build(host, e))?;
+    let (model, regions, pack) =
+        data.spec.pack(&material, data.scale_stiffness, &host.control).map_err(|e| super::raise_build(host, e))?;
+    let grains = regions.iter().map(|r| (r.name.clone(), model.groups.get(&r.name).map_or(0, |g| g.len()))).collect();
     let handle = host.adopt(&data.name, model);
     let mut d = z.0.borrow_mut();
     d.regions = regions;
     d.model = Some(handle.clone());
+    d.pack = Some((pack, grains));
     Ok(handle)
+}
+
+/// The last build's packing as a map (see the `pack_report` property).
+fn pack_report(z: &ZonedBuilder) -> RhaiResult<Map> {
+    let data = z.0.borrow();
+    let (r, grains) =
+        data.pack.as_ref().ok_or_else(|| err("the zoned model is not built yet: call build_initial_model() first"))?;
+    let mut m = Map::new();
+    m.insert("steps".into(), ((r.growth_steps + r.settle_steps) as INT).into());
+    m.insert("growth_steps".into(), (r.growth_steps as INT).into());
+    m.insert("settle_steps".into(), (r.settle_steps as INT).into());
+    m.insert("settled".into(), r.settled.into());
+    m.insert("capped".into(), (!r.settled).into());
+    m.insert("ratio".into(), r.unbalanced_ratio.into());
+    m.insert("mean_speed".into(), r.mean_speed.into());
+    m.insert("deepest_stray".into(), r.deepest_stray.into());
+    let mut per = Map::new();
+    for (name, n) in grains {
+        per.insert(name.as_str().into(), (*n as INT).into());
+    }
+    m.insert("grains".into(), per.into());
+    Ok(m)
 }
 
 fn report(z: &ZonedBuilder) -> RhaiResult<Array> {
@@ -159,6 +186,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 .clone()
                 .ok_or_else(|| err("the zoned model is not built yet: call build_initial_model() first"))
         })
+        .register_get("pack_report", |z: &mut ZonedBuilder| pack_report(z))
         .register_get("name", |z: &mut ZonedBuilder| z.0.borrow().name.clone())
         .register_get("regions", |z: &mut ZonedBuilder| -> Array {
             let d = z.0.borrow();
