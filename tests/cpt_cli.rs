@@ -23,7 +23,7 @@ fn cpt_package_quick_runs_groups_a_to_e_and_qc_rises_with_depth() {
     // thirds of the grains, so the test stays near 2 min on 2 cores; E arches at this height
     // (its residual is large), which this test does not judge.
     let o = bin()
-        .args(["run", example, "--set", "quick=true", "--set", "height_mm=36", "--out"])
+        .args(["run", example, "--set", "quick=true", "--set", "height_mm=36", "--set", "depth_mm=12", "--out"])
         .arg(&dir)
         .output()
         .unwrap();
@@ -93,4 +93,12 @@ fn cpt_package_over_two_packings_gives_the_mean_and_standard_deviation_of_its_ru
     assert!(m["residual_AA"] > 0.0, "two packings of A differ");
     assert!(out.contains("A against another packing of A"), "{out}");
     assert!(dir.join("study.svg").is_file());
+    // Each run's packing report (z.pack_report): its steps are part of the run's, and it says
+    // whether the packing settled; the summary counts the packings that ran to the cap.
+    let (pack, steps, settled) = (column(&runs, "pack_steps"), column(&runs, "steps"), column(&runs, "settled"));
+    assert!(pack.iter().zip(&steps).all(|(p, s)| *p >= 10_000.0 && p < s), "pack steps {pack:?} of {steps:?}");
+    assert!(settled.iter().all(|v| *v == 0.0 || *v == 1.0), "{settled:?}");
+    let capped: f64 = settled.iter().map(|v| 1.0 - v).sum();
+    assert_eq!(column(&summary, "capped").iter().sum::<f64>(), capped);
+    assert!(out.contains("group B: packed in ") && out.contains("grains zone1 "), "{out}");
 }
