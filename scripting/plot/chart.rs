@@ -387,7 +387,7 @@ mod tests {
         let (w, _) = root.estimate_text_size(long, &(style::FONT, size).into()).unwrap();
         let (full, _) = root.estimate_text_size(long, &(style::FONT, style::TITLE_SIZE).into()).unwrap();
         assert!(full > CHART_SIZE.0, "the test title must overflow at full size ({full} px)");
-        assert!(size < style::TITLE_SIZE && size >= style::TITLE_MIN_SIZE, "size {size}");
+        assert!((style::TITLE_MIN_SIZE..style::TITLE_SIZE).contains(&size), "size {size}");
         assert!(w <= CHART_SIZE.0 - 2 * style::MARGIN, "{w} px at size {size} does not fit");
         assert_eq!(style::title_size(&root, "Triaxial test"), style::TITLE_SIZE);
     }
