@@ -246,6 +246,26 @@ pub struct SlabLanes {
     pub wall_rolling: wgpu::Buffer,
 }
 
+/// Creates a storage buffer named `lane` holding `data`, adding its size to `bytes`. A binding
+/// may not be empty, so an empty lane gets `placeholder` zero bytes (at least the largest
+/// element a shader reads from it); a lane over `limit` bytes is refused.
+pub(super) fn storage_lane(
+    ctx: &GpuContext,
+    lane: &'static str,
+    data: &[u8],
+    placeholder: usize,
+    limit: u64,
+    bytes: &mut u64,
+) -> Result<wgpu::Buffer> {
+    let zeros = vec![0u8; placeholder];
+    let contents = if data.is_empty() { &zeros[..] } else { data };
+    if contents.len() as u64 > limit {
+        return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
+    }
+    *bytes += contents.len() as u64;
+    Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(lane), contents, usage: STORAGE }))
+}
+
 impl DeviceLanes {
     /// One kernel per slab of rows: `buffers(slab)` lists the bindings 0, 1, 2, … for it.
     pub fn per_slab<'a>(
@@ -310,21 +330,9 @@ impl DeviceLanes {
     /// plan has already split what can be split).
     pub fn upload(ctx: &GpuContext, h: &HostLanes, params: Params, plan: &MemoryPlan, limit: u64) -> Result<Self> {
         let mut bytes = 0u64;
-        let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
-            // An empty lane still needs a buffer to bind, as large as the largest element a
-            // shader reads from one (a wall, 128 bytes).
-            let zeros = [0u8; 128];
-            let contents = if data.is_empty() { &zeros[..] } else { data };
-            if contents.len() as u64 > limit {
-                return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
-            }
-            bytes += contents.len() as u64;
-            Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(lane),
-                contents,
-                usage: STORAGE,
-            }))
-        };
+        // An empty lane still needs a buffer to bind, as large as the largest element a shader
+        // reads from one (a wall, 128 bytes).
+        let mut make = |lane: &'static str, data: &[u8]| storage_lane(ctx, lane, data, 128, limit, &mut bytes);
         let n = h.origin.len();
         let (cap, nw) = (plan.cap, h.walls.len());
         let mut counters = [0u32; COUNTERS];

@@ -32,12 +32,12 @@
 //! The flow update alone is also driven by [`PoreFlowKernel`] (upload a network, run sub-steps,
 //! download the masses), for the flow's own parity test.
 
-use super::buffers::{read, DeviceLanes, HostLanes};
+use super::buffers::{read, storage_lane, DeviceLanes, HostLanes};
 use super::conduction;
 use super::device::GpuContext;
 use super::pore_heat::{self, PoreHeatSession};
 use super::shaders::{self, groups_for, Kernel};
-use crate::error::{GpuError, Result};
+use crate::error::Result;
 use crate::model::Model;
 use crate::plan::Stage;
 use crate::pores::network::{face_corners, VOLUME_FLOOR};
@@ -144,9 +144,6 @@ pub struct Lanes {
     pub bytes: u64,
 }
 
-const STORAGE: wgpu::BufferUsages =
-    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
-
 impl Lanes {
     /// Uploads the network and fluid of `f` for sub-steps of `h` (s); `built` is each
     /// element's position at the network's build less its origin on the device (empty for the
@@ -158,20 +155,7 @@ impl Lanes {
         let fl = &f.fluid;
         let (k, rho0) = (fl.bulk_modulus, fl.density);
         let mut bytes = 0u64;
-        let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
-            // A binding may not be empty: an empty lane gets a placeholder.
-            let zeros = [0u8; 32];
-            let contents = if data.is_empty() { &zeros[..] } else { data };
-            if contents.len() as u64 > limit {
-                return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
-            }
-            bytes += contents.len() as u64;
-            Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(lane),
-                contents,
-                usage: STORAGE,
-            }))
-        };
+        let mut make = |lane: &'static str, data: &[u8]| storage_lane(ctx, lane, data, 32, limit, &mut bytes);
         let tets: Vec<[u32; 4]> = net.tri.tets.iter().map(|t| t.v).collect();
         let sign: Vec<f32> = net.orient.iter().map(|&o| o as f32).collect();
         let volume: Vec<f32> = net.volume.iter().map(|&v| v as f32).collect();

@@ -20,12 +20,12 @@
 //!   f32 sum per pore, booked to its region), the elements' carries added to the temperatures
 //!   the conduction stage brought back.
 
-use super::buffers::{read, DeviceLanes};
+use super::buffers::{read, storage_lane, DeviceLanes};
 use super::conduction;
 use super::device::GpuContext;
 use super::pore_flow::Lanes as FlowLanes;
 use super::shaders::{self, groups_for, Kernel};
-use crate::error::{GpuError, Result};
+use crate::error::Result;
 use crate::model::Model;
 use crate::plan::Stage;
 use crate::pores::flow::BoundaryKind;
@@ -100,9 +100,6 @@ struct ExchangeKernels {
     eos: Kernel,
 }
 
-const STORAGE: wgpu::BufferUsages =
-    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
-
 impl PoreHeatSession {
     /// Uploads the fluid's temperature of `f` (fitted to the model) with `exchange` sub-steps
     /// of the mechanical step, and binds the thermal kernels to the flow's lanes `l`, the
@@ -123,19 +120,7 @@ impl PoreHeatSession {
         let n = m.len();
         let t0 = f.reference;
         let mut bytes = 0u64;
-        let mut make = |lane: &'static str, data: &[u8]| -> Result<wgpu::Buffer> {
-            let zeros = [0u8; 32];
-            let contents = if data.is_empty() { &zeros[..] } else { data };
-            if contents.len() as u64 > limit {
-                return Err(GpuError::BufferTooLarge { lane, bytes: contents.len() as u64, limit }.into());
-            }
-            bytes += contents.len() as u64;
-            Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(lane),
-                contents,
-                usage: STORAGE,
-            }))
-        };
+        let mut make = |lane: &'static str, data: &[u8]| storage_lane(ctx, lane, data, 32, limit, &mut bytes);
         let warmth: Vec<f32> = (0..np).map(|p| f.excess_temperature(p) as f32).collect();
         let fluid_bc: Vec<[f32; 4]> = (0..np)
             .map(|p| {
