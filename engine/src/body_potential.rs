@@ -30,14 +30,16 @@
 //! energy and heat it gains come out of it). The booking is made by the script's setters
 //! before the fields change and again after, and by every run before it steps, so a program
 //! that writes `settings` directly is booked at its next run or energy reading (at the
-//! positions then, which a run has not moved yet). Not saved in a checkpoint: a loaded model's
-//! account starts with no body work booked (the potentials themselves are recomputed).
+//! positions then, which a run has not moved yet). Saved in a checkpoint (format 8), the fields
+//! seen with the work, so that a loaded model's account closes as the saved one's would; an
+//! older file loads with no work booked and the fields it holds as the ones seen.
 
 use crate::model::Model;
 use crate::physics::Vec3;
+use serde::{Deserialize, Serialize};
 
 /// What the body forces' potential depends on: gravity and the water table.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BodyFields {
     pub gravity: Vec3,
     /// The table's level (m); `None`: no water.
@@ -48,9 +50,9 @@ pub struct BodyFields {
 
 /// The account of the body forces' fields: the fields the account last saw and the work done
 /// by changing them since (J).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct BodyWork {
-    /// `None`: not yet seen (a new or loaded model: the first look books nothing).
+    /// `None`: not yet seen (a new model: the first look books nothing).
     seen: Option<BodyFields>,
     /// Work done on the model by changing the fields (J): Σ over changes of the body potential
     /// with the new fields minus with the old, at the positions of the change.
@@ -102,6 +104,16 @@ impl BodyFields {
 
     fn potential(&self, m: &Model) -> f64 {
         self.gravity_potential(m) + self.buoyant_potential(m)
+    }
+}
+
+impl BodyWork {
+    /// The account of a model loaded from a checkpoint older than format 8, which did not
+    /// carry it: no work booked, and the fields the file holds taken as the ones seen (they
+    /// are those of its last run unless a program wrote `settings` directly after it; a later
+    /// change is then booked at the next run, which `None` would miss).
+    pub(crate) fn from_fields(fields: BodyFields) -> Self {
+        BodyWork { seen: Some(fields), work: 0.0 }
     }
 }
 

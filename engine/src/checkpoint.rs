@@ -8,7 +8,7 @@
 //! | 8 | magic `MDEMCKPT` |
 //! | 4 | format version ([`FORMAT_VERSION`]) |
 //! | 8 | payload length n |
-//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex, the model's parallel bonds, fields, provenance, strength shares, sections) |
+//! | n | payload: postcard encoding of (writer's engine version, [`Model`], host annex, the model's parallel bonds, fields, provenance, strength shares, sections, body work) |
 //! | 4 | CRC-32 (IEEE) of everything before it |
 //!
 //! The model is saved whole, derived rows included: positions, half-step velocities, forces,
@@ -20,13 +20,16 @@
 //! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
 //! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
 //! network and fluid, moisture with its water lanes, the pore fluid's heat (its temperatures,
-//! thermal properties, permeability factors, region temperatures and totals) — from format 7. The engine
+//! thermal properties, permeability factors, region temperatures and totals) — from format 7, and
+//! the energy account's body work with the body fields it last saw (format 8: an older file loads
+//! with no body work and the fields it holds as the ones seen, `BodyWork::from_fields`). The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
 //! builder's generator is spent once the box is built), so a loaded model steps exactly as
 //! the saved one would have. The annex is the host's own data (its record tables), opaque here.
 //!
 //! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
 
+use crate::body_potential::{BodyFields, BodyWork};
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
 use crate::moisture::MoistureSettings;
@@ -46,12 +49,12 @@ use std::collections::BTreeMap;
 pub const MAGIC: &[u8; 8] = b"MDEMCKPT";
 /// Bumped whenever the payload's layout changes; files of a version this build does not know
 /// are refused, not misread.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 /// The oldest format this build still reads: 2 lacks the parallel bonds (a model without them),
 /// 2 and 3 the fields (heat and water settings, thermal lanes: a model with heat off, no water),
 /// 2 to 4 the materials' provenance (their values then have none recorded), 2 to 5 the bonds'
 /// strength shares (every bond whole), 2 to 6 the optional stages' sections (rolling
-/// resistance and pore flow off).
+/// resistance and pore flow off), 2 to 7 the body work (none booked).
 pub const OLDEST_VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8;
 const TRAILER: usize = 4;
@@ -104,6 +107,7 @@ struct PayloadOut<'a> {
     provenance: Vec<&'a Provenance>,
     weakened: Vec<(u32, u16)>,
     sections: Vec<Section>,
+    body_work: &'a BodyWork,
 }
 
 /// The fields' settings and lanes (format 4), saved after the parallel bonds.
@@ -280,6 +284,11 @@ struct PayloadIn {
     /// whole. Kept out of the pair state's own encoding so formats 2 to 5 still read.
     weakened: Vec<(u32, u16)>,
     sections: Vec<Section>,
+    /// Format 8: the energy account's body work and the fields it last saw (`None`: an older
+    /// file, derived from the loaded fields in [`decode`]). Not a section: the account is not
+    /// an optional stage, and a build that does not know it must refuse the file by its
+    /// version rather than load a model whose account would not close.
+    body_work: Option<BodyWork>,
 }
 
 impl PayloadIn {
@@ -313,6 +322,7 @@ impl PayloadIn {
             provenance: since(rest, version, 5)?,
             weakened: since(rest, version, 6)?,
             sections: since(rest, version, 7)?,
+            body_work: if version >= 8 { Some(take(rest)?) } else { None },
         };
         if !rest.is_empty() {
             return Err(postcard::Error::DeserializeBadEncoding);
@@ -348,6 +358,7 @@ fn encode_sections(model: &Model, annex: &[u8], keep: impl Fn(&Section) -> bool)
         provenance,
         weakened,
         sections: Section::of(model).into_iter().filter(|s| keep(s)).collect(),
+        body_work: &model.body_work,
     };
     let payload = postcard::to_stdvec(&out)
         // NOTE: every type in the model serialises (no maps with non-string keys, no
@@ -406,6 +417,8 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.settings.heat = p.fields.heat;
     p.model.settings.water = p.fields.water;
     p.model.particles.thermal = p.fields.thermal;
+    // After the fields, whose water table an older file's derived account takes as seen.
+    p.model.body_work = p.body_work.unwrap_or_else(|| BodyWork::from_fields(BodyFields::of(&p.model)));
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
         m.provenance = prov;
     }

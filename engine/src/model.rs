@@ -181,7 +181,7 @@ pub struct Model {
     #[serde(skip)]
     pub pores: Option<Box<crate::pores::PoreFlow>>,
     /// The work done by changing gravity or the water table between runs, for the energy
-    /// account (`body_potential`). Not saved: a loaded model's account starts from none.
+    /// account (`body_potential`). Saved after a checkpoint's sections (format 8).
     #[serde(skip)]
     pub body_work: crate::body_potential::BodyWork,
 }

@@ -225,6 +225,53 @@ fn lowering_the_table_books_its_work_and_the_account_closes_as_the_ground_settle
     assert!(raised > 0.0 && (booked - raised).abs() < 1e-12 * raised, "raising books {booked} vs {raised}");
 }
 
+// The body work in a checkpoint (format 8). The column's table lowered as above; 10 000 steps
+// into the settling the model is saved, and the uninterrupted run and the loaded one go on for
+// 30 000 steps each: the loaded model continues bit for bit (its samples, positions and the
+// whole encoding, body work included) and its account, against the total at the change, closes
+// as the uninterrupted one's does — within 1e-3 of the settling's heat while it moves and 1e-9
+// at rest (the same tolerances as above; measured 2.2e-4 for both, and 2e-12). The body work
+// booked is −1 400 times that heat, so a loaded model that had lost it (formats 2 to 7) would
+// be off by all of it.
+#[test]
+fn a_loaded_model_keeps_the_body_work_of_a_lowered_table_and_its_account_closes() {
+    use matdem_engine::checkpoint::{decode, encode};
+    let top = 10.0 * R;
+    let mut straight = Simulation::new(column(top + 2.0 * R));
+    run(&mut straight, 40_000).unwrap();
+    straight.model.settings.water.level = Some(straight.model.particles.pos[2].z);
+    let lowered = straight.energies();
+    let before = sampled(&mut straight, 10_000, 50);
+    let bytes = encode(&straight.model, b"");
+    let after = sampled(&mut straight, 30_000, 50);
+
+    let loaded = decode(&bytes).unwrap().model;
+    assert_eq!(loaded.body_work, straight.model.body_work, "the booked work and the fields seen travel");
+    let mut resumed = Simulation::new(loaded);
+    let resumed_samples = sampled(&mut resumed, 30_000, 50);
+    let totals = |s: &[Energies]| s.iter().map(|e| e.total().to_bits()).collect::<Vec<_>>();
+    assert_eq!(totals(&resumed_samples), totals(&after), "the loaded account's samples differ");
+    assert_eq!(straight.model.particles.pos, resumed.model.particles.pos);
+    assert!(encode(&straight.model, b"") == encode(&resumed.model, b""), "the resumed model differs");
+
+    let end = *resumed_samples.last().unwrap();
+    let heat = end.heat() - lowered.heat();
+    let d_straight = drift(&before, lowered.total()).max(drift(&after, lowered.total()));
+    let d = drift(&before, lowered.total()).max(drift(&resumed_samples, lowered.total()));
+    let d_end = (end.total() - lowered.total()).abs();
+    eprintln!(
+        "checkpointed settling: body work {:.4e}, heat {heat:.4e}; drift {:.3e} (uninterrupted {:.3e}), at rest {:.3e}",
+        end.body_work,
+        d / heat,
+        d_straight / heat,
+        d_end / heat
+    );
+    assert!(end.body_work < -100.0 * heat, "the body work must weigh in the account: {:e}", end.body_work);
+    assert!(end.kinetic < 1e-12 * heat, "at rest: kinetic {:e}", end.kinetic);
+    assert!(d < 1e-3 * heat, "the loaded account moved by {:.3e} of the settling's heat", d / heat);
+    assert!(d_end < 1e-9 * heat, "at rest the loaded account is off by {:.3e} of the heat", d_end / heat);
+}
+
 // Changing gravity between runs is body work too (gravity's potential and the buoyant one where
 // the elements stand), and removing the water takes its potential away as work.
 #[test]

@@ -252,13 +252,15 @@ fn materials_keep_their_provenance_through_a_checkpoint() {
 
 // Formats 5 (before joints: the payload ends at the materials' provenance) and 6 (before the
 // optional stages' sections: it ends at the bonds' strength shares) still load, with whole
-// bonds and no optional stage; made from a format-7 file of a model without joints or optional
-// stages, whose payload ends with two empty lists (one byte each).
+// bonds and no optional stage; made from a format-8 file of a model without joints or optional
+// stages, whose payload, less its body work, ends with two empty lists (one byte each).
 #[test]
 fn format_5_and_6_checkpoints_still_load() {
     let model = loaded_sample().model;
-    let v7 = encode(&model, b"annex");
-    let payload = &v7[20..v7.len() - 4];
+    let v8 = encode(&model, b"annex");
+    // Format 8's body work ends the payload; without it, format 7's.
+    let account = postcard::to_stdvec(&model.body_work).unwrap();
+    let payload = &v8[20..v8.len() - 4 - account.len()];
     assert_eq!(&payload[payload.len() - 2..], &[0, 0], "no weakened bonds, no sections");
     for (version, cut) in [(5u32, 2), (6, 1)] {
         let loaded = decode(&framed(version, &payload[..payload.len() - cut])).unwrap();
@@ -382,4 +384,35 @@ fn a_model_with_pore_heat_continues_bitwise_after_a_checkpoint() {
     assert_eq!(fa.mass, fb.mass);
     assert_eq!(fa.region_mass, fb.region_mass);
     assert_eq!(fa.region_heat, fb.region_heat);
+}
+
+// Format 7 (before the body work: its payload ends at the sections) still loads, with no body
+// work booked and the water table it holds taken as the one the account last saw: a table
+// lowered after loading is booked (to 1e-12 of the change of the buoyant potential), as it
+// would be in the model that was saved. A format-8 file carries the work booked before it.
+#[test]
+fn a_format_7_checkpoint_loads_with_no_body_work_and_its_table_as_seen() {
+    let mut sim = loaded_sample();
+    let top = sim.model.particles.pos.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    sim.model.settings.water.density = 1000.0;
+    sim.model.settings.water.level = Some(top);
+    run(&mut sim, 50);
+    let flooded = sim.model.body_work();
+    sim.model.settings.water.level = Some(0.7 * top);
+    run(&mut sim, 50);
+    let booked = sim.model.body_work();
+    assert!(flooded > 0.0 && booked < flooded, "flooding is positive work, lowering negative: {flooded:e}, {booked:e}");
+    let v8 = encode(&sim.model, b"annex");
+    assert_eq!(decode(&v8).unwrap().model.body_work(), booked);
+
+    let account = postcard::to_stdvec(&sim.model.body_work).unwrap();
+    let v7 = framed(7, &v8[20..v8.len() - 4 - account.len()]);
+    let mut m = decode(&v7).unwrap().model;
+    assert_eq!(m.particles.pos, sim.model.particles.pos);
+    assert_eq!(m.body_work(), 0.0, "a format-7 file has no body work");
+    let buoyant = |m: &Model| matdem_engine::body_potential::BodyFields::of(m).buoyant_potential(m);
+    let high = buoyant(&m);
+    m.settings.water.level = Some(0.4 * top);
+    let change = buoyant(&m) - high;
+    assert!(change < 0.0 && (m.body_work() - change).abs() < 1e-12 * change.abs(), "{} vs {change}", m.body_work());
 }
