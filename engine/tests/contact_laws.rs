@@ -601,7 +601,10 @@ fn run_is_deterministic_across_thread_counts() {
 // integrates each particle in one pass; an observed step runs the same stages as separate
 // passes. Both must give the same bits (tolerance: none) for every lane a step writes: the
 // shaken box as above, and again with global and local damping, bonds (some break: heat of
-// breakage) and a moving wall (wall work).
+// breakage) and a moving wall (wall work). A third run takes the 300 steps as one chunk of
+// a simulation run, where the pair states stay in the pair records from step to step and
+// reach the rows only before a neighbour rebuild and at the end (contact_forces.rs,
+// `PairScratch`): the same bits again, through at least one rebuild.
 #[test]
 fn fused_step_matches_separate_passes_bit_for_bit() {
     use matdem_engine::backend::cpu::CpuBackend;
@@ -620,11 +623,20 @@ fn fused_step_matches_separate_passes_bit_for_bit() {
     };
     for variant in 0..2 {
         let mut lanes = Vec::new();
-        for observe in [false, true] {
+        for mode in ["fused", "observed", "one run"] {
             let mut m = scenes(variant);
-            let mut cpu = CpuBackend::prepare(&m);
-            for _ in 0..300 {
-                cpu.step(&mut m, observe);
+            let start = m.particles.pos.clone();
+            if mode == "one run" {
+                m.settings.guard_every = 1000;
+                let mut sim = Simulation::new(m);
+                run(&mut sim, 300).unwrap();
+                m = sim.model;
+                assert!(m.contacts.built_at != start, "variant {variant}: the rows must be rebuilt during the run");
+            } else {
+                let mut cpu = CpuBackend::prepare(&m);
+                for _ in 0..300 {
+                    cpu.step(&mut m, mode == "observed");
+                }
             }
             let p = &m.particles;
             let rot = p.rotation.as_ref().unwrap();
@@ -638,7 +650,7 @@ fn fused_step_matches_separate_passes_bit_for_bit() {
             let lane = (bits(&p.pos), bits(&p.vel), bits(&rot.ang_vel), bits(&p.force), bits(&rot.torque));
             lanes.push((lane, heat, states, walls, m.breakages.len()));
         }
-        let (fused, separate) = (&lanes[0], &lanes[1]);
+        let (fused, separate, one_run) = (&lanes[0], &lanes[1], &lanes[2]);
         let touching = separate.3.iter().filter(|f| f[0] != [0; 3]).count();
         eprintln!("fused vs separate, variant {variant}: {} breakages, {touching} walls loaded", separate.4);
         assert!(touching >= 3, "walls must carry load");
@@ -650,6 +662,7 @@ fn fused_step_matches_separate_passes_bit_for_bit() {
         assert!(fused.2 == separate.2, "variant {variant}: contact states differ");
         assert!(fused.3 == separate.3, "variant {variant}: wall loads differ");
         assert_eq!(fused.4, separate.4, "variant {variant}: breakages differ");
+        assert!(one_run == separate, "variant {variant}: a run of fused steps differs from separate passes");
     }
 }
 

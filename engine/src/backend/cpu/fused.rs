@@ -1,6 +1,7 @@
 //! The `contact_forces`, `wall_forces` and `integrate` stages of an unobserved step in two passes
 //! instead of four: the contacts' pair pass (contact_forces.rs), then one pass in which each
-//! particle gathers its row, meets the walls in its mask and moves (integrate.rs).
+//! particle gathers its row, meets the walls in its mask and moves (integrate.rs). The new
+//! pair states stay in the pair records until something reads the rows (`sync_rows`).
 //!
 //! Once the pair pass is done, what is left of the step reads nothing of any other particle
 //! (the pair results are in the scratch), so a particle can finish its step as soon as it has
@@ -16,7 +17,7 @@ use super::integrate::{advance, spin, Motion, Observed, Translation};
 use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
 use crate::model::Model;
-use crate::physics::contact_law::{NormalLaw, PairState, TangentialLaw};
+use crate::physics::contact_law::{NormalLaw, TangentialLaw};
 use crate::plan::StepPlan;
 
 /// Computes this step's contact and wall forces and advances the particles by the step, as
@@ -42,6 +43,9 @@ where
     scratch.fit::<T>(m.contacts.pair_count());
     let breaks = pair_pass::<N, T, DASHPOT, ROT>(m, plan, scratch);
     let loads = finish::<N, T, DASHPOT, ROT, DAMP, LOCAL>(m, plan, scratch, damping_c);
+    // The new pair states stay in the records, the rows' copies behind (contact_forces.rs,
+    // `PairScratch`): the next pair pass reads them there.
+    scratch.rows_behind = true;
     store_loads(&mut m.walls, &loads);
     breaks
 }
@@ -75,11 +79,10 @@ where
     let walls = &walls[..];
     for_blocks(
         0..radius.len(),
-        Rows::Csr(row_start),
+        Rows::None,
         (loads_lanes, motion_lanes),
-        &mut c.state[..],
-        &|range, ((force, mut torque, mut heat), (pos, vel, mut ang_vel, wall_state)), state: &mut [PairState]| {
-            let base = row_start[range.start] as usize;
+        (),
+        &|range, ((force, mut torque, mut heat), (pos, vel, mut ang_vel, wall_state)), ()| {
             let mut loads = WallLoads::default();
             let mut unobserved = Observed::default();
             for i in range.clone() {
@@ -95,8 +98,7 @@ where
                 // contact_forces: the row's forces.
                 let (start, end) = (row_start[i] as usize, row_start[i + 1] as usize);
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
-                let rows = &mut state[start - base..end - base];
-                let row = gather_row::<T, ROT>(scratch, &pair[start..end], own - start, ri, rows);
+                let row = gather_row::<T, ROT>(scratch, &pair[start..end], own - start, ri, None);
                 let (mut f, mut t) = (row.force, row.torque);
                 heat.book_row(li, &row);
                 // wall_forces: the walls in reach (most particles have none).

@@ -25,7 +25,7 @@ use crate::model::{Breakage, Model};
 use crate::neighbours;
 use crate::plan::{Stage, StepPlan};
 use crate::status::{potential_energies, Energies, EnergySample};
-use contact_forces::{compute_contact_forces, Breaks, PairScratch};
+use contact_forces::{compute_contact_forces, sync_rows, Breaks, PairScratch};
 use integrate::integrate;
 use wall_forces::compute_wall_forces;
 
@@ -78,6 +78,7 @@ impl CpuBackend {
     /// passes that dissipate, so its time is theirs.
     pub fn step_profiled(&mut self, m: &mut Model, times: &mut StageTimes) {
         use std::time::Instant;
+        self.pairs.forget_records();
         let dt = m.clock.dt;
         if self.plan.rotation && m.particles.rotation.is_none() {
             m.particles.enable_rotation();
@@ -142,11 +143,21 @@ impl CpuBackend {
     }
 
     /// Advances the model by one step. Returns the energies at the start of the step's
-    /// integer time when `observe`.
+    /// integer time when `observe`. The model may have been changed since the last step, and
+    /// its rows hold every pair state after this one.
+    pub fn step(&mut self, m: &mut Model, observe: bool) -> Option<Energies> {
+        self.pairs.forget_records();
+        let e = self.advance(m, observe);
+        sync_rows(m, &mut self.pairs);
+        e
+    }
+
+    /// One step of a run of steps, in which nothing but this backend touches the model: the
+    /// pair states may stay in the pair records (`sync_rows` after the last).
     ///
     /// Order follows the physics: walls move first so contacts see this step's walls;
     /// forces are complete before integration.
-    pub fn step(&mut self, m: &mut Model, observe: bool) -> Option<Energies> {
+    fn advance(&mut self, m: &mut Model, observe: bool) -> Option<Energies> {
         let dt = m.clock.dt;
         if self.plan.rotation && m.particles.rotation.is_none() {
             // `settings.rotation` was switched on without the angular lanes: allocate them,
@@ -160,6 +171,9 @@ impl CpuBackend {
             w.advance(dt);
         }
         if neighbours::is_stale(&m.contacts, &m.particles.pos) {
+            // The rebuild carries each pair's state over from the rows.
+            sync_rows(m, &mut self.pairs);
+            self.pairs.forget_records();
             neighbours::rebuild(m);
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
@@ -237,6 +251,13 @@ impl CpuBackend {
     /// The optional field stages after integration, each when the plan has it: heat
     /// conduction, then moisture (their field steps).
     fn field_stages(&mut self, m: &mut Model) {
+        if self.plan.conduction.is_none() && self.plan.moisture.is_none() {
+            return;
+        }
+        // Their conductances read the bonds in the rows, and moisture writes the bonds'
+        // strength shares there: the rows are the pair states' source again.
+        sync_rows(m, &mut self.pairs);
+        self.pairs.forget_records();
         if let Some(c) = &self.plan.conduction {
             conduction::conduction(m, c, &mut self.next_temperature);
         }
@@ -257,10 +278,12 @@ impl Backend for CpuBackend {
         let mut samples = Vec::new();
         // Step the chunk on a pool thread: the stages' parallel loops then join within the
         // pool instead of waking it from outside several times per step.
+        // The model may have changed between chunks: the first step reads the rows.
+        self.pairs.forget_records();
         rayon::scope(|_| {
             for k in 0..steps {
                 let (step, time) = (m.clock.step, m.clock.time);
-                if let Some(energies) = self.step(m, sampling.at(k)) {
+                if let Some(energies) = self.advance(m, sampling.at(k)) {
                     samples.push(EnergySample { step, time, energies });
                 }
                 if self.pore_error.is_some() {
@@ -268,6 +291,7 @@ impl Backend for CpuBackend {
                 }
             }
         });
+        sync_rows(m, &mut self.pairs);
         samples.into_iter().for_each(sample);
         if let Some(e) = self.pore_error.take() {
             return Err(m.pore_fluid_cause(e, true));
