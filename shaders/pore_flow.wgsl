@@ -21,7 +21,11 @@
 //
 // Each pore keeps its excess mass e, the mass it gained since the upload plus its excess at the
 // upload (m − ρ0·V then), not m: in f32 the small changes of a nearly incompressible fluid
-// would be lost against m. Its volume then is `volume0` as this file computes it, so the
+// would be lost against m. Even so, in a steady flow a pore's net inflow per sub-step is far
+// under the ulp of its excess and the same every sub-step: rounded away, the same mass would be
+// lost every sub-step while the reservoirs book the full flux (2.8e-3 of the throughput of a
+// column at 1 MPa with a 1 kPa head). Each pore keeps what its updates rounded away
+// (`excess_carry`, two-sum), adds it to its next increment, and the download adds it back. Its volume then is `volume0` as this file computes it, so the
 // pressure p = K_f·(e − ρ0·(V − V0))/(ρ0·V) sees only the change of the volume as this same code
 // measures it (its f32 bias cancels). No float atomics: both pores of a throat compute the same
 // g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own row.
@@ -100,6 +104,18 @@ struct Throat {
 @group(0) @binding(28) var<storage, read> row_len: array<u32>;
 @group(0) @binding(29) var<storage, read> other: array<u32>;
 @group(0) @binding(30) var<storage, read> state: array<vec4<f32>>;
+// Binding 31–40: pore_heat.wgsl's.
+// Per pore: what its excess mass updates rounded away (kg).
+@group(0) @binding(41) var<storage, read_write> excess_carry: array<f32>;
+
+// w + inc as a sum and its rounding error (two-sum: exact whatever the magnitudes; each step
+// multiplied by `pp.one`, which no real-arithmetic rewrite can cancel, as in ledger_add).
+fn carried_sum(w: f32, inc: f32) -> vec2<f32> {
+    let s = (w + inc) * pp.one;
+    let b = (s - w) * pp.one;
+    let err = (w - (s - b) * pp.one) * pp.one + (inc - b) * pp.one;
+    return vec2<f32>(s, err);
+}
 
 // x_j − x_i from the two parts of the positions (each subtracted first: they differ little).
 fn between(i: u32, j: u32) -> vec3<f32> {
@@ -272,9 +288,11 @@ fn pore_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let grown = pp.density * (v - volume0[p]);
     let bc = boundary[p];
     if bc.z > 0.5 {
-        // Held: the excess that gives the fixed pressure at the current volume.
+        // Held: the excess that gives the fixed pressure at the current volume; what the
+        // pore had is its excess plus its carry.
         let held = grown + pp.density * v * bc.x / pp.bulk_modulus;
-        supplied[p] = ledger_add(supplied[p], held - excess[p], pp.one);
+        supplied[p] = ledger_add(supplied[p], (held - excess[p]) - excess_carry[p], pp.one);
+        excess_carry[p] = 0.0;
         excess[p] = held;
     }
     pressure[p] = pp.bulk_modulus * (excess[p] - grown) / (pp.density * v);
@@ -295,7 +313,9 @@ fn pore_mass(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         inflow += conductance[t] * (pressure[other_pore] - own);
     }
     let source = boundary[p].y;
-    excess[p] += pp.density * pp.h * (inflow + source);
+    let added = carried_sum(excess[p], pp.density * pp.h * (inflow + source) + excess_carry[p]);
+    excess[p] = added.x;
+    excess_carry[p] = added.y;
     if source != 0.0 {
         supplied[p] = ledger_add(supplied[p], pp.density * pp.h * source, pp.one);
     }

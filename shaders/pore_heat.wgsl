@@ -24,9 +24,9 @@
 //   sizes the next batch's sub-steps with it); then `pore_eos_thermal` (pressures with the new
 //   w, no holds, as the CPU's `update_pressure` after the exchange).
 //
-// The excess masses likewise: in a steady flow a pore's net inflow per sub-step is far under the
-// ulp of its excess (~1e-9 kg for a 0.02 kg excess) and the same every sub-step, so rounding it
-// away loses the same mass every sub-step; `excess_carry` keeps it (mass conserved to ~1e-12).
+// The excess masses keep their rounding carry as pore_flow.wgsl's `pore_mass` does (its
+// `excess_carry` lane and `carried_sum`): in a steady flow a pore's net inflow per sub-step is far
+// under the ulp of its excess (~1e-9 kg for a 0.02 kg excess) and the same every sub-step.
 //
 // Temperatures in f32 lose an increment under half their ulp: ~3e-5 K for an element's absolute
 // temperature (the conduction stage's lane, ~300 K), ~4e-6 K for a pore's 60 K excess, while a
@@ -47,9 +47,7 @@ struct PoreHeat {
     // (Nu/2)·k_f (W/(m·K)).
     film: f32,
     tets: u32,
-    // 1.0, opaque to the shader compiler (ledger_add).
-    one: f32,
-    pad: f32,
+    pad: vec2<f32>,
 }
 
 const THERMAL_FIXED: u32 = 1u;
@@ -73,18 +71,6 @@ const THERMAL_INSULATED: u32 = 2u;
 @group(0) @binding(39) var<storage, read_write> carry: array<f32>;
 // Per pore: what its temperature updates rounded away (K), paired with `warmth_next`.
 @group(0) @binding(40) var<storage, read_write> warmth_carry: array<f32>;
-// Per pore: what its excess mass updates rounded away (kg).
-@group(0) @binding(41) var<storage, read_write> excess_carry: array<f32>;
-
-// w + inc as a sum and its rounding error (two-sum: exact whatever the magnitudes; each step
-// multiplied by `ph.one`, which no real-arithmetic rewrite can cancel, as in ledger_add).
-fn carried_sum(w: f32, inc: f32) -> vec2<f32> {
-    let s = (w + inc) * ph.one;
-    let b = (s - w) * ph.one;
-    let err = (w - (s - b) * ph.one) * ph.one + (inc - b) * ph.one;
-    return vec2<f32>(s, err);
-}
-
 fn fluid_mass(p: u32) -> f32 {
     return fluid_bc[p].w + excess[p];
 }

@@ -23,6 +23,7 @@ mod moisture;
 mod parallel_bond;
 mod pore_coupling;
 mod pore_flow;
+mod pore_flow_balance;
 mod pore_flow_parity;
 mod pore_heat;
 mod pore_heat_parity;

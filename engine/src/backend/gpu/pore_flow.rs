@@ -126,6 +126,8 @@ pub struct Lanes {
     pub(super) boundary: wgpu::Buffer,
     /// Per pore: the mass its boundary region supplied since the upload (compensated f32 sum).
     pub(super) supplied: wgpu::Buffer,
+    /// Per pore: what its excess mass updates rounded away (kg), added back on download.
+    pub(super) excess_carry: wgpu::Buffer,
     pub(super) row_start: wgpu::Buffer,
     pub(super) row: wgpu::Buffer,
     pub(super) throats: wgpu::Buffer,
@@ -217,6 +219,7 @@ impl Lanes {
             pressure: make("pore pressure", bytemuck::cast_slice(&vec![0f32; np]))?,
             boundary: make("pore boundary", bytemuck::cast_slice(&boundary))?,
             supplied: make("pore supplied mass", bytemuck::cast_slice(&vec![[0f32; 2]; np]))?,
+            excess_carry: make("pore excess mass carry", bytemuck::cast_slice(&vec![0f32; np]))?,
             row_start: make("pore rows", bytemuck::cast_slice(&net.row_start))?,
             row: make("pore row throats", bytemuck::cast_slice(&net.row))?,
             throats: make("throats", bytemuck::cast_slice(&throats))?,
@@ -244,9 +247,7 @@ impl Lanes {
     /// Brings the fluid back into `f`: each pore's mass is its f64 mass at the upload plus the
     /// f32 change, the mass the boundary regions supplied is booked to them, the held pores
     /// are set to their pressure at the host's volume, and the pressures and flows follow.
-    /// `carry`: what the excess masses' updates rounded away (the thermal kernels keep it), or
-    /// empty.
-    fn download(&self, ctx: &GpuContext, f: &mut PoreFlow, geometry: bool, carry: &[f32]) -> Result<()> {
+    fn download(&self, ctx: &GpuContext, f: &mut PoreFlow, geometry: bool) -> Result<()> {
         let np = self.mass0.len();
         if geometry {
             // The geometry of the last step's stage (before that step's integration), as the
@@ -268,8 +269,9 @@ impl Lanes {
         }
         let e: Vec<f32> = read(ctx, &self.excess, np)?;
         let s: Vec<[f32; 2]> = read(ctx, &self.supplied, np)?;
+        let carry: Vec<f32> = read(ctx, &self.excess_carry, np)?;
         for p in 0..np {
-            let rest = carry.get(p).map_or(0.0, |&c| f64::from(c));
+            let rest = f64::from(carry[p]);
             f.mass[p] = self.mass0[p] + (f64::from(e[p]) - f64::from(self.excess0[p])) + rest;
             let dm = f64::from(s[p][0]) + f64::from(s[p][1]);
             if dm != 0.0 {
@@ -454,11 +456,11 @@ impl PoreSession {
         // Openings and crack flags at the positions that came back; then the stage's own
         // volumes, centres and conductances from the device.
         f.network.refresh(m, &f.fluid);
-        let mut r = Ok(Vec::new());
+        let mut r = Ok(());
         if let Some(h) = &self.heat {
-            r = h.download(ctx, m, &mut f).and_then(|_| h.excess_carry(ctx));
+            r = h.download(ctx, m, &mut f);
         }
-        let r = r.and_then(|carry| self.lanes.download(ctx, &mut f, self.stepped, &carry));
+        let r = r.and_then(|_| self.lanes.download(ctx, &mut f, self.stepped));
         f.substeps = self.substeps;
         m.pores = Some(f);
         r
@@ -560,7 +562,7 @@ fn kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes, d: &DeviceLanes) -> 
 }
 
 /// The two kernels of one flow sub-step: pressures from the excess masses, then each pore's
-/// excess from its row of throats.
+/// excess from its row of throats (with what its updates rounded away carried to the next).
 fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Kernel) {
     let groups = groups_for(l.uniform.pores as usize);
     let pressure = Kernel::bind_at(
@@ -574,6 +576,7 @@ fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Ker
             (13, &l.pressure),
             (14, &l.boundary),
             (15, &l.supplied),
+            (41, &l.excess_carry),
         ],
         groups,
     );
@@ -590,6 +593,7 @@ fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Ker
             (17, &l.row),
             (18, &l.throats),
             (19, &l.conductance),
+            (41, &l.excess_carry),
         ],
         groups,
     );
@@ -633,6 +637,6 @@ impl PoreFlowKernel {
     /// Brings the masses back into `f` (the f64 mass at the upload plus the f32 change), the
     /// held pores at their pressure, and the pressures and flows from them.
     pub fn download(&self, ctx: &GpuContext, f: &mut PoreFlow) -> Result<()> {
-        self.lanes.download(ctx, f, false, &[])
+        self.lanes.download(ctx, f, false)
     }
 }

@@ -43,8 +43,7 @@ struct PoreHeatParams {
     h: f32,
     film: f32,
     tets: u32,
-    one: f32,
-    pad: f32,
+    pad: [f32; 2],
 }
 
 /// The thermal kernels' pipelines.
@@ -77,7 +76,6 @@ pub struct PoreHeatSession {
     uniform: PoreHeatParams,
     warmth: wgpu::Buffer,
     warmth_carry: wgpu::Buffer,
-    excess_carry: wgpu::Buffer,
     heat_supplied: wgpu::Buffer,
     carry: wgpu::Buffer,
     pressure: Kernel,
@@ -148,8 +146,7 @@ impl PoreHeatSession {
             h: (m.clock.dt / f64::from(exchange)) as f32,
             film: film as f32,
             tets: tets as u32,
-            one: 1.0,
-            pad: 0.0,
+            pad: [0.0; 2],
         };
         let params = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("pore heat parameters"),
@@ -164,7 +161,6 @@ impl PoreHeatSession {
         let carry_lane = make("exchange carry", bytemuck::cast_slice(&carry))?;
         let rest: Vec<f32> = (0..np).map(|p| (f.excess_temperature(p) - f64::from(warmth[p])) as f32).collect();
         let warmth_carry = make("pore fluid temperature carry", bytemuck::cast_slice(&rest))?;
-        let excess_carry = make("pore excess mass carry", bytemuck::cast_slice(&vec![0f32; np]))?;
         let device = &ctx.device;
         let (thermal, mode) = (c.thermal(), c.mode());
         let pressure = Kernel::bind_at(
@@ -184,7 +180,7 @@ impl PoreHeatSession {
                 (34, &warmth_next),
                 (35, &heat_supplied),
                 (40, &warmth_carry),
-                (41, &excess_carry),
+                (41, &l.excess_carry),
             ],
             groups_for(np),
         );
@@ -201,13 +197,12 @@ impl PoreHeatSession {
                 (17, &l.row),
                 (18, &l.throats),
                 (19, &l.conductance),
-                (31, &params),
                 (32, &fluid_bc),
                 (33, &warmth_lane),
                 (34, &warmth_next),
                 (35, &heat_supplied),
                 (40, &warmth_carry),
-                (41, &excess_carry),
+                (41, &l.excess_carry),
             ],
             groups_for(np),
         );
@@ -299,7 +294,6 @@ impl PoreHeatSession {
             uniform,
             warmth: warmth_lane,
             warmth_carry,
-            excess_carry,
             heat_supplied,
             carry: carry_lane,
             pressure,
@@ -310,11 +304,6 @@ impl PoreHeatSession {
             elements: n,
             bytes: bytes + std::mem::size_of::<PoreHeatParams>() as u64,
         })
-    }
-
-    /// What each pore's excess mass updates rounded away (kg), for the download of the masses.
-    pub fn excess_carry(&self, ctx: &GpuContext) -> Result<Vec<f32>> {
-        read(ctx, &self.excess_carry, self.pores)
     }
 
     /// Whether the fluid exchanges heat with the grains (Nu·k_f > 0).
