@@ -21,14 +21,16 @@
 //
 // Each pore keeps its excess mass e, the mass it gained since the upload plus its excess at the
 // upload (m − ρ0·V then), not m: in f32 the small changes of a nearly incompressible fluid
-// would be lost against m. Even so, in a steady flow a pore's net inflow per sub-step is far
-// under the ulp of its excess and the same every sub-step: rounded away, the same mass would be
-// lost every sub-step while the reservoirs book the full flux (2.8e-3 of the throughput of a
-// column at 1 MPa with a 1 kPa head). Each pore keeps what its updates rounded away
-// (`excess_carry`, two-sum), adds it to its next increment, and the download adds it back. Its volume then is `volume0` as this file computes it, so the
-// pressure p = K_f·(e − ρ0·(V − V0))/(ρ0·V) sees only the change of the volume as this same code
-// measures it (its f32 bias cancels). No float atomics: both pores of a throat compute the same
-// g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own row.
+// would be lost against m. Its pressure p = K_f·(e − ρ0·(V − V0))/(ρ0·(V_h + V − V0)), V0 its
+// volume at the upload as this file computes it and V_h the host's (f64, rounded): it sees only
+// the change of the volume as this same code measures it (its f32 bias cancels). Even so, in a
+// steady flow a pore's net inflow per sub-step is far under the ulp of its excess and the same
+// every sub-step: rounded away, the same mass would be lost every sub-step while the reservoirs
+// book the full flux (2.8e-3 of the throughput of a column at 1 MPa with a 1 kPa head). Each
+// pore keeps what its updates rounded away (`excess_carry`, two-sum), adds it to its next
+// increment, and the download adds it back. No float atomics: both pores of a throat compute the
+// same g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own
+// row.
 // CPU twins: pores/network.rs (`refresh`), pores/flow.rs (`substep`),
 // pores/pressure_forces.rs, run by backend/cpu/pore_flow.rs. With the heat field on, the
 // kernels of pore_heat.wgsl (appended to this file) replace `pore_pressure` and `pore_mass`.
@@ -107,6 +109,8 @@ struct Throat {
 // Binding 31–40: pore_heat.wgsl's.
 // Per pore: what its excess mass updates rounded away (kg).
 @group(0) @binding(41) var<storage, read_write> excess_carry: array<f32>;
+// Per pore: the host's (f64) volume at the upload, rounded to f32.
+@group(0) @binding(42) var<storage, read> volume_host: array<f32>;
 
 // w + inc as a sum and its rounding error (two-sum: exact whatever the magnitudes; each step
 // multiplied by `pp.one`, which no real-arithmetic rewrite can cancel, as in ledger_add).
@@ -115,6 +119,14 @@ fn carried_sum(w: f32, inc: f32) -> vec2<f32> {
     let b = (s - w) * pp.one;
     let err = (w - (s - b) * pp.one) * pp.one + (inc - b) * pp.one;
     return vec2<f32>(s, err);
+}
+
+// The pore's volume for its equation of state: the host's at the upload plus the change this
+// code measured since. The device's own volume (a tetrahedron less four sphere sectors in f32)
+// is off by up to ~1e-5 of itself, which at 1 MPa and K_f = 1e7 is ~10 Pa of pressure: as much
+// as the head across a pore in a slow flow. Its change is not (the same code's error cancels).
+fn eos_volume(p: u32) -> f32 {
+    return volume_host[p] + (volume[p] - volume0[p]);
 }
 
 // x_j − x_i from the two parts of the positions (each subtracted first: they differ little).
@@ -284,8 +296,8 @@ fn pore_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     if p >= pp.pores {
         return;
     }
-    let v = volume[p];
-    let grown = pp.density * (v - volume0[p]);
+    let grown = pp.density * (volume[p] - volume0[p]);
+    let v = eos_volume(p);
     let bc = boundary[p];
     if bc.z > 0.5 {
         // Held: the excess that gives the fixed pressure at the current volume; what the

@@ -87,8 +87,8 @@ fn pore_pressure_thermal(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
         return;
     }
     var w = warmth_next[p];
-    let v = volume[p];
-    let grown = pp.density * (v - volume0[p]);
+    let grown = pp.density * (volume[p] - volume0[p]);
+    let v = eos_volume(p);
     let bc = boundary[p];
     let hb = fluid_bc[p];
     if bc.z > 0.5 {
@@ -271,7 +271,7 @@ fn pore_eos_thermal(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if p >= pp.pores {
         return;
     }
-    let v = volume[p];
-    let grown = pp.density * (v - volume0[p]);
+    let grown = pp.density * (volume[p] - volume0[p]);
+    let v = eos_volume(p);
     pressure[p] = pp.bulk_modulus * ((excess[p] - grown) / (pp.density * v) + ph.expansion * warmth[p]);
 }

@@ -106,9 +106,10 @@ fn steady_flow_on_the_device_books_every_kilogram() {
 // The same steady flow in the coupled stage (a 3 × 3 × 12 column of touching spheres, every
 // element held, reservoirs in the pores of the bottom and top layers, 1500 steps of 21 flow
 // sub-steps): the store's change is what the reservoirs booked within 1e-5 of the supply
-// (measured on lavapipe: 8.9e-2 without the carry, 5.1e-9 with it), and the inlet supplied the
-// host's steady flux within 1e-2 (measured 2.0e-3: the device's pressures see its f32 pore
-// volumes, ~1e-5 off the host's, i.e. ~10 Pa at 1 MPa against ~90 Pa of head per layer).
+// (measured on lavapipe: 8.9e-2 without the carry, 2.5e-8 with it), and the inlet supplied the
+// host's steady flux within 1e-3 (measured 5.5e-5; 2.0e-3 while the device's equation of state
+// used its own f32 pore volumes, ~1e-5 off the host's: ~10 Pa at 1 MPa against ~90 Pa of head
+// across a layer).
 #[test]
 fn steady_flow_in_the_coupled_stage_books_every_kilogram() {
     let Some(ctx) = gpu("pore_flow_coupled_balance") else { return };
@@ -148,7 +149,7 @@ fn steady_flow_in_the_coupled_stage_books_every_kilogram() {
     assert_eq!(f.rebuilds, 0, "held elements rebuilt the network");
     assert!(off < 1e-5, "the fluid's store departs its books by {off:e} of the supply");
     assert!(
-        (supplied / steady - 1.0).abs() < 1e-2,
+        (supplied / steady - 1.0).abs() < 1e-3,
         "the inlet supplied {supplied:e} kg, the steady flux {steady:e} kg"
     );
 }

@@ -119,6 +119,9 @@ pub struct Lanes {
     pub(super) pore_tets: wgpu::Buffer,
     pub(super) volume: wgpu::Buffer,
     pub(super) volume0: wgpu::Buffer,
+    /// The host's volume at the upload (f32 of the f64): the equation of state's volume is it
+    /// plus the device's change since, not the device's own (~1e-5 off).
+    pub(super) volume_host: wgpu::Buffer,
     pub(super) centre: wgpu::Buffer,
     /// Per pore: the excess mass at the upload (m − ρ0·V) plus the mass gained since.
     pub(super) excess: wgpu::Buffer,
@@ -214,6 +217,7 @@ impl Lanes {
             pore_tets: make("pore tetrahedra ids", bytemuck::cast_slice(&net.pore_tets))?,
             volume: make("pore volume", bytemuck::cast_slice(&volume))?,
             volume0: make("pore volume at upload", bytemuck::cast_slice(&volume))?,
+            volume_host: make("pore volume at upload (host)", bytemuck::cast_slice(&volume))?,
             centre: make("pore centre", bytemuck::cast_slice(&vec![[0f32; 4]; np]))?,
             excess: make("pore excess mass", bytemuck::cast_slice(&excess0))?,
             pressure: make("pore pressure", bytemuck::cast_slice(&vec![0f32; np]))?,
@@ -577,6 +581,7 @@ fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Ker
             (14, &l.boundary),
             (15, &l.supplied),
             (41, &l.excess_carry),
+            (42, &l.volume_host),
         ],
         groups,
     );

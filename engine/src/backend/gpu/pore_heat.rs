@@ -181,6 +181,7 @@ impl PoreHeatSession {
                 (35, &heat_supplied),
                 (40, &warmth_carry),
                 (41, &l.excess_carry),
+                (42, &l.volume_host),
             ],
             groups_for(np),
         );
@@ -285,6 +286,7 @@ impl PoreHeatSession {
                     (13, &l.pressure),
                     (31, &params),
                     (33, &warmth_lane),
+                    (42, &l.volume_host),
                 ],
                 groups_for(np),
             ),
