@@ -31,4 +31,11 @@ fn hydraulic_fracture_quick_mode_breaks_bonds_at_the_well_and_writes_its_charts(
     // The fracture starts at the well: the nearest broken bond is within two grains of it.
     assert!(get("nearest_break") < 2.0, "{m:?}");
     assert!(get("broken_bonds") >= 3.0 && get("crack_count") >= 1.0, "{m:?}");
+    // The crack measures: distinct cracks (clusters of directions), the angles between the
+    // leading ones (0 with fewer than two), and the largest pore pressure over the well's (at
+    // least the well's own).
+    assert!(out.join("cracks.csv").is_file(), "cracks.csv missing");
+    let gaps = (get("leading_gap_min_deg"), get("leading_gap_max_deg"));
+    assert!(get("distinct_cracks") >= 0.0 && gaps.0 <= gaps.1 && gaps.1 <= 360.0, "{m:?}");
+    assert!(get("pressure_overshoot") >= 1.0 - 1e-9, "{m:?}");
 }
