@@ -750,3 +750,21 @@ fn switching_rotation_off_freezes_spin() {
     run(&mut sim, 50).unwrap();
     assert_eq!(spin(&sim), before);
 }
+
+// A model with no particles (a script that deleted them all) steps as a no-op on the CPU,
+// stepped by the backend (the fused pass, its pair records synced into empty rows) and run
+// by a simulation: no panic, nothing appears.
+#[test]
+fn a_model_without_particles_runs_and_stays_empty() {
+    let mut model = Model::new();
+    model.add_material(material("rock", 2650.0, 1e6, 1e6, 0.0)).unwrap();
+    model.set_dt(1e-6).unwrap();
+    let mut cpu = matdem_engine::backend::cpu::CpuBackend::prepare(&model);
+    for _ in 0..10 {
+        cpu.step(&mut model, false);
+    }
+    assert_eq!((model.len(), model.clock.step), (0, 10));
+    let mut sim = Simulation::new(model);
+    run(&mut sim, 10).unwrap();
+    assert_eq!(sim.model.len(), 0);
+}

@@ -108,7 +108,7 @@ pub fn sync_rows(m: &mut Model, scratch: &mut PairScratch) {
     let (row_start, pair_start, pair) = (&c.row_start[..], &c.pair_start[..], &c.pair[..]);
     let sc = &scratch.out[..];
     for_blocks(
-        0..row_start.len() - 1,
+        0..row_start.len().saturating_sub(1),
         Rows::Csr(row_start),
         (),
         &mut c.state[..],
