@@ -49,6 +49,10 @@ pub enum Command {
         /// A parameter the script reads as `params.NAME`; repeatable.
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
+        /// Parameters from a file, as a RON list of (name, value) pairs (a sweep passes its
+        /// points' values this way: no value is too long for a command line).
+        #[arg(long, value_name = "FILE")]
+        set_file: Option<PathBuf>,
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
         #[command(flatten)]

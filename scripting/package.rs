@@ -490,6 +490,22 @@ pub fn pack(dir: &Path, out: &Path) -> Result<usize, String> {
     let mut names = Vec::new();
     collect_files(dir, Path::new(""), &mut names)?;
     let out_abs = std::path::absolute(out).ok();
+    // The limits `run` and `info` apply to an archive, applied before anything is read: an
+    // archive they would refuse is never written.
+    let mut total = 0u64;
+    for rel in &names {
+        let full = dir.join(rel);
+        total += std::fs::metadata(&full).map_err(|e| format!("cannot read {}: {e}", full.display()))?.len();
+        if total > MAX_ARCHIVE_BYTES {
+            return Err(format!(
+                "{} holds more than {MAX_ARCHIVE_BYTES} bytes of files (first past it: {}), more than `run` and \
+                 `info` take from an archive; a package is scripts and data, not a model dump: leave large files \
+                 out (build the model in the script) or share them apart",
+                dir.display(),
+                rel.display()
+            ));
+        }
+    }
     let mut builder = tar::Builder::new(Vec::new());
     let mut count = 0;
     for rel in &names {

@@ -17,6 +17,7 @@
 
 use crate::api::field::{Field, Mask};
 use crate::api::Host;
+use crate::run_record::sha256_hex;
 use matdem_engine::simulation::Balance;
 use rhai::{Array, Dynamic, EvalAltResult, Map};
 use serde::{Deserialize, Serialize};
@@ -161,6 +162,13 @@ pub struct JournalFile {
     pub params: Vec<(String, String)>,
     pub entries: Vec<Entry>,
     pub interrupted: Interrupted,
+    /// The backend the run stepped on (`run.ron`'s words): a resume continues on the same one.
+    #[serde(default)]
+    pub backend: String,
+    /// SHA-256 of each `model_<n>.mdem`, in the order of `interrupted.models`: a model file
+    /// from another run (or another point of this one) is refused, not continued.
+    #[serde(default)]
+    pub model_sha256: Vec<String>,
 }
 
 /// The host's side of journaling: the entries so far and, while replaying, where it is.
@@ -169,6 +177,8 @@ pub struct Session {
     /// What a resume checks and reuses: the script's hash and the parameters as given.
     pub script_sha256: String,
     pub params: Vec<(String, String)>,
+    /// The backend the run steps on, as `run.ron` words it.
+    pub backend: String,
     pub entries: Vec<Entry>,
     /// Entries handed back so far while replaying.
     pub cursor: usize,
@@ -238,13 +248,14 @@ pub fn run_folder(dir: &Path) -> PathBuf {
 /// the journal. Returns the folder.
 pub fn write_resume(host: &Host, call: &str, how: SavedBalance, done: u64) -> Result<PathBuf, String> {
     let dir = resume_dir(&host.out_dir);
-    let mut numbers = Vec::new();
+    let (mut numbers, mut digests) = (Vec::new(), Vec::new());
     for (n, weak) in host.models.borrow().iter().enumerate() {
         if let Some(data) = weak.upgrade() {
             let path = model_file(&dir, n);
             let bytes = crate::api::checkpoint::checkpoint_bytes(&data.borrow());
             crate::atomic::write(&path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
             numbers.push(n);
+            digests.push(sha256_hex(&bytes));
         }
     }
     let s = host.session.borrow();
@@ -253,14 +264,17 @@ pub fn write_resume(host: &Host, call: &str, how: SavedBalance, done: u64) -> Re
         params: s.params.clone(),
         entries: s.entries.clone(),
         interrupted: Interrupted { call: call.to_string(), index: s.entries.len(), how, done, models: numbers },
+        backend: s.backend.clone(),
+        model_sha256: digests,
     };
     write_journal(&dir, &journal).map_err(|e| format!("cannot write {}: {e}", dir.join(JOURNAL_FILE).display()))?;
     Ok(dir)
 }
 
 /// At the interrupted call of a resumed run: puts every saved model back and ends the
-/// replay. Returns what remains to run of that call.
-pub fn restore(host: &Host, call: &str) -> Result<(Balance, u64), Box<EvalAltResult>> {
+/// replay. Returns what remains to run of that call. `asked` is what the script asks of the
+/// call now: a run of a given length or tolerance must be the one the journal says was cut.
+pub fn restore(host: &Host, call: &str, asked: Balance) -> Result<(Balance, u64), Box<EvalAltResult>> {
     let pending = {
         let mut s = host.session.borrow_mut();
         let Some(p) = s.pending.take() else {
@@ -268,6 +282,20 @@ pub fn restore(host: &Host, call: &str) -> Result<(Balance, u64), Box<EvalAltRes
         };
         if p.interrupted.call != call || s.cursor != p.interrupted.index {
             return Err(diverged(s.cursor, call, &p.interrupted.call));
+        }
+        // A standard balance's count came from the model as it was then; the sealed journal
+        // vouches for it (see `load`).
+        let same = match asked {
+            Balance::Standard { .. } => matches!(p.interrupted.how, SavedBalance::Steps(_)),
+            other => SavedBalance::from_balance(other) == Some(p.interrupted.how),
+        };
+        if !same {
+            return Err(format!(
+                "cannot resume: the script asks its `{call}` for {asked:?}, the interrupted run's was {:?}; resume \
+                 only with the script and parameters that were interrupted, or start a fresh run",
+                p.interrupted.how
+            )
+            .into());
         }
         p
     };
@@ -302,13 +330,56 @@ pub fn load(dir: &Path) -> Result<(JournalFile, Vec<(usize, matdem_engine::check
     let journal: JournalFile = ron::from_str(&text).map_err(|e| {
         format!("error: {} is damaged ({e}); the interrupted run cannot be resumed, start a fresh run", jpath.display())
     })?;
+    let refuse = |what: String| {
+        format!(
+            "error: cannot resume from {}: {what}; the resume folder was changed after the run wrote it (or comes \
+             from another run): start a fresh run",
+            dir.display()
+        )
+    };
+    let sealed = sealed_journal_sha256(&run_folder(dir)).map_err(&refuse)?;
+    if sealed != sha256_hex(text.as_bytes()) {
+        return Err(refuse(format!("{} is not the journal its run.ron seals", jpath.display())));
+    }
+    let it = &journal.interrupted;
+    let total = match it.how {
+        SavedBalance::Steps(n) => n,
+        SavedBalance::Tolerance { max_steps, .. } => max_steps,
+    };
+    if it.done > total || it.index > journal.entries.len() {
+        return Err(refuse(format!("its interrupted `{}` did {} of {total} step(s)", it.call, it.done)));
+    }
+    if journal.model_sha256.len() != it.models.len() {
+        return Err(refuse(format!("{} model file(s) for {} digest(s)", it.models.len(), journal.model_sha256.len())));
+    }
     let mut models = Vec::new();
-    for &n in &journal.interrupted.models {
+    for (&n, digest) in it.models.iter().zip(&journal.model_sha256) {
         let path = model_file(&rdir, n);
         let bytes = std::fs::read(&path).map_err(|e| format!("error: cannot read {}: {e}", path.display()))?;
+        if sha256_hex(&bytes) != *digest {
+            return Err(refuse(format!("{} is not the model its journal names", path.display())));
+        }
         let ck = matdem_engine::checkpoint::decode(&bytes)
             .map_err(|e| format!("error: cannot resume from {}: {e}", path.display()))?;
         models.push((n, ck));
     }
     Ok((journal, models))
+}
+
+/// The journal digest `run.ron` keeps for an interrupted run (see [`crate::run_record`]).
+fn sealed_journal_sha256(run_dir: &Path) -> Result<String, String> {
+    #[derive(Deserialize)]
+    struct Seal {
+        #[serde(default)]
+        resume_journal_sha256: Option<String>,
+    }
+    let path = run_dir.join(crate::run_record::RUN_RECORD);
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let seal: Seal = ron::from_str(&text).map_err(|e| format!("{} is damaged ({e})", path.display()))?;
+    seal.resume_journal_sha256.ok_or_else(|| format!("{} seals no resume journal", path.display()))
+}
+
+/// The digest [`load`] checks against the journal, for `run.ron` of an interrupted run.
+pub fn journal_sha256(out_dir: &Path) -> Option<String> {
+    std::fs::read(resume_dir(out_dir).join(JOURNAL_FILE)).ok().map(|b| sha256_hex(&b))
 }

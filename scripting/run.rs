@@ -122,7 +122,8 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let sha = sha256_hex(text.as_bytes());
     // The journal and the run record keep parameters as text; a resume types them again.
     let params = cfg.params.iter().map(|(k, v)| (k.clone(), v.to_string())).collect();
-    let mut session = Session { script_sha256: sha.clone(), params, ..Session::default() };
+    let mut session =
+        Session { script_sha256: sha.clone(), params, backend: cfg.backend.clone(), ..Session::default() };
     if let Some(dir) = &cfg.resume {
         let (journal, models) = resume::load(dir).map_err(RunError::Setup)?;
         if journal.script_sha256 != sha {
@@ -130,6 +131,17 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
                 "error: {} has changed since the run was interrupted (its SHA-256 differs): resume with the script \
                  as it was, or start a fresh run",
                 cfg.script.display()
+            )));
+        }
+        // f64 on the CPU, f32 on a GPU: a run continued on the other would change precision
+        // half-way without a word. (The device may differ: only the backend's kind is kept.)
+        let kind = |b: &str| b.split(" on ").next().unwrap_or_default().to_string();
+        if !journal.backend.is_empty() && kind(&journal.backend) != kind(&cfg.backend) {
+            return Err(RunError::Setup(format!(
+                "error: the interrupted run stepped on {}, this one would on {}: resume with --backend {}",
+                kind(&journal.backend),
+                kind(&cfg.backend),
+                journal.backend.split_whitespace().next().unwrap_or("cpu")
             )));
         }
         session.params = journal.params;
@@ -163,12 +175,15 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         status: "running".into(),
         exit_code: None,
         resumed_from: cfg.resume.as_ref().map(|d| d.display().to_string()),
+        resume_journal_sha256: None,
     };
     if !cfg.plan_only {
         record.write(&cfg.out_dir).map_err(|e| {
             RunError::Setup(format!("error: cannot write the run record in {}: {e}", cfg.out_dir.display()))
         })?;
     }
+    // Verified against run.ron's seal by `resume::load` above.
+    let loaded_journal = cfg.resume.as_ref().and_then(|_| resume::journal_sha256(&cfg.out_dir));
     let started = std::time::Instant::now();
     let (result, plans) = evaluate(cfg, &text, &path, read_root, session);
     if !cfg.plan_only {
@@ -181,6 +196,14 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         };
         record.finished = Some(now_utc());
         record.status = status.into();
+        // An interrupted run seals its new journal; a resume that failed (a changed path, a
+        // refused journal) keeps the seal of the journal it loaded, so it can be tried again.
+        let journal_now = resume::journal_sha256(&cfg.out_dir);
+        record.resume_journal_sha256 = match &result {
+            Err(RunError::Interrupted(_)) => journal_now,
+            Err(_) if journal_now.is_some() && journal_now == loaded_journal => journal_now,
+            _ => None,
+        };
         record.exit_code = Some(code);
         // The outputs are what matter; a record that cannot be rewritten is only reported.
         if let Err(e) = record.write(&cfg.out_dir) {

@@ -26,6 +26,10 @@ pub struct RunRecord {
     pub exit_code: Option<u8>,
     /// The resume folder this run continued from, if it is a resumed run.
     pub resumed_from: Option<String>,
+    /// SHA-256 of `resume/journal.ron` when the run was interrupted: a resume refuses a journal
+    /// that is not this one (and the journal holds its models' digests).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resume_journal_sha256: Option<String>,
 }
 
 impl RunRecord {

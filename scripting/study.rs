@@ -12,7 +12,7 @@ use crate::api::metrics::METRICS_FILE;
 use crate::api::write_atomic;
 use crate::plot::LineChart;
 use crate::sweep::collect::{PointResult, PointState};
-use crate::sweep::plan::{grid, plan_grid, Design, PlanRequest, StudySpec};
+use crate::sweep::plan::{grid, Design, PlanRequest, StudySpec};
 use crate::sweep::LocalOptions;
 use std::path::{Path, PathBuf};
 
@@ -120,10 +120,12 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
         study: Some(spec.clone()),
         replace: true,
     };
-    let plan = plan_grid(request, as_grid(&cfg.vary))?;
+    // Locked before anything is written, and held from the plan to the study's own table.
+    let lock = crate::out_lock::OutLock::acquire(&cfg.out_dir, &format!("study {}", cfg.script.display()))?;
+    let plan = crate::sweep::plan::plan_held(&lock, crate::sweep::plan::with_grid(request, as_grid(&cfg.vary)))?;
     progress(&format!("study: {} setting(s), one run each, in {}/runNN", plan.points.len(), cfg.out_dir.display()));
     let opts = LocalOptions { jobs: cfg.jobs, retry_failed: true, exe: cfg.exe.clone(), control: cfg.control.clone() };
-    crate::sweep::run_local(&cfg.out_dir, &plan, &opts, &progress)?;
+    crate::sweep::run_local_held(&lock, &plan, &opts, &progress)?;
     let results = crate::sweep::results(&cfg.out_dir, &plan)?;
     for (r, run) in results.iter().zip(study_runs(&spec, &results)) {
         let shown = match &run.outcome {

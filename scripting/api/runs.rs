@@ -89,19 +89,26 @@ fn run_points(host: &Host, runs: &Array, opts: &Map) -> RhaiResult<Array> {
     // The run's own parameters go to every point, except those some point sets itself.
     let fixed: Vec<(String, String)> =
         me.params.iter().filter(|(n, _)| !sets.iter().any(|s| s.iter().any(|(m, _)| m == n))).cloned().collect();
-    let plan = sweep::plan::plan(sweep::PlanRequest {
-        source: me.source.clone(),
-        dir: dir.clone(),
-        backend: me.backend.clone(),
-        fixed,
-        design: sweep::Design::Runs { from: "run_points".into() },
-        runs: sets,
-        study: None,
-        replace: true,
-    })
+    let lock = crate::out_lock::OutLock::acquire(&dir, &format!("run_points {}", dir.display()))
+        .map_err(|e| err(format!("run_points: {e}")))?;
+    let plan = sweep::plan::plan_held(
+        &lock,
+        sweep::PlanRequest {
+            source: me.source.clone(),
+            dir: dir.clone(),
+            backend: me.backend.clone(),
+            fixed,
+            design: sweep::Design::Runs { from: "run_points".into() },
+            runs: sets,
+            study: None,
+            replace: true,
+        },
+    )
     .map_err(|e| err(format!("run_points: {e}")))?;
     let options = LocalOptions { jobs, retry_failed: true, exe: me.exe.clone(), control: host.control.clone() };
-    sweep::run_local(&dir, &plan, &options, |line| eprintln!("{line}")).map_err(|e| err(format!("run_points: {e}")))?;
+    sweep::run_local_held(&lock, &plan, &options, |line| eprintln!("{line}"))
+        .map_err(|e| err(format!("run_points: {e}")))?;
+    drop(lock);
     if host.control.is_cancelled() {
         return Err(crate::stop::Stop::Stopped.unwind());
     }

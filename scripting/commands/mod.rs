@@ -41,7 +41,10 @@ pub type Outcome = Result<ExitCode, Failure>;
 
 pub fn dispatch(command: Command) -> Outcome {
     match command {
-        Command::Run { script, out, resume, set, backend, limits } => {
+        Command::Run { script, out, resume, mut set, set_file, backend, limits } => {
+            if let Some(file) = set_file {
+                set.extend(run::read_set_file(&file)?);
+            }
             run::run(script, out, resume, &set, backend, limits.resolve())
         }
         Command::Plan { script, set, limits } => run::plan(script, &set, limits.resolve()),

@@ -64,9 +64,13 @@ pub fn run(
 
 pub fn plan(script: PathBuf, set: &[String], limits: Limits) -> Outcome {
     let (package, params) = resolve_source(&script, set)?;
+    // `plan` runs the script up to its first step, and what it saves on the way goes to a
+    // folder of its own that is removed after: plan writes nothing the user keeps, and no
+    // folder a run may be using.
+    let scratch = Scratch::new().map_err(Failure::error)?;
     let cfg = RunConfig {
         script,
-        out_dir: PathBuf::from("out/plan"),
+        out_dir: scratch.0.clone(),
         params,
         progress: false,
         plan_only: true,
@@ -78,6 +82,34 @@ pub fn plan(script: PathBuf, set: &[String], limits: Limits) -> Outcome {
         limits,
     };
     finish(&cfg, run_script(&cfg))
+}
+
+/// A fresh private folder under the system's temporary folder, removed on drop.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new() -> Result<Scratch, String> {
+        use std::os::unix::fs::DirBuilderExt;
+        let base = std::env::temp_dir();
+        for k in 0..100u32 {
+            let nanos =
+                std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+            let dir = base.join(format!("matdem-rs-plan-{}-{nanos}-{k}", std::process::id()));
+            // create, not create_all: a folder (or link) already there is never used.
+            match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
+                Ok(()) => return Ok(Scratch(dir)),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(format!("cannot create a scratch folder in {}: {e}", base.display())),
+            }
+        }
+        Err(format!("cannot create a scratch folder in {}", base.display()))
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 fn finish(cfg: &RunConfig, result: Result<Vec<PathBuf>, RunError>) -> Outcome {
@@ -102,6 +134,16 @@ pub fn doc() -> Outcome {
     let host = std::rc::Rc::new(matdem_rs::api::Host::new(PathBuf::from("out/doc")));
     print!("{}", matdem_rs::api::reference::markdown(&matdem_rs::new_engine(host)));
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--set-file FILE`: each (name, value) pair as a `NAME=VALUE` of `--set`.
+pub fn read_set_file(file: &Path) -> Result<Vec<String>, Failure> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| Failure::error(format!("--set-file: cannot read {}: {e}", file.display())))?;
+    let pairs: Vec<(String, String)> = ron::from_str(&text).map_err(|e| {
+        Failure::error(format!("--set-file {}: {e}; write a list of pairs: [(\"n\", \"10\"), …]", file.display()))
+    })?;
+    Ok(pairs.into_iter().map(|(n, v)| format!("{n}={v}")).collect())
 }
 
 /// The package `script` names, if it is one, and the script's parameters: a package's

@@ -3,7 +3,9 @@
 use super::{backend_name, own_exe, stop_on_signals};
 use crate::cli::SweepCommand;
 use matdem_engine::backend::RunControl;
+use matdem_rs::out_lock::OutLock;
 use matdem_rs::package::Package;
+use matdem_rs::sweep::point::PointRun;
 
 pub fn sweep(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
@@ -86,6 +88,7 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
         } => {
             let planned = plan::load(&dir)?;
             let exe = own_exe()?;
+            let _sweep = OutLock::acquire_shared(&dir, "sweep slurm")?;
             let opts = slurm::SlurmOptions { partition, time, cpus_per_task, mem, account, max_parallel, retry_failed };
             let Some((script, tasks)) = slurm::write_script(&dir, &planned, &exe, &opts)? else {
                 eprintln!("every point of {} is finished; nothing to submit", dir.display());
@@ -114,6 +117,8 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
         }
         SweepCommand::Collect { dir } => {
             let planned = plan::load(&dir)?;
+            // Its tables are written beside the points: not while a plan or a run holds the folder.
+            let _sweep = OutLock::acquire_shared(&dir, "sweep collect")?;
             let results = collect::results(&dir, &planned)?;
             let written = collect::write_collect(&dir, &planned, &results)?;
             print!("{}", collect::status_text(&dir, &planned, &results));
@@ -134,7 +139,13 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             let control = RunControl::default();
             stop_on_signals(&control, "the point without letting it save");
             let exe = own_exe()?;
-            let outcome = matdem_rs::sweep::point::run_point(&dir, &planned, index, &exe, None, &control)?;
+            // Shared with the sweep's other points, exclusive of a plan that would replace it.
+            let _sweep = OutLock::acquire_shared(&dir, &format!("sweep point {index}"))?;
+            let run = matdem_rs::sweep::point::run_point(&dir, &planned, index, &exe, None, &control)?;
+            let PointRun::Ran(outcome) = run else {
+                eprintln!("{name} is running in another process; left alone (see `matdem-rs sweep status`)");
+                return Ok(());
+            };
             eprintln!(
                 "{name}: {:?} in {:.1} s{}",
                 outcome.status,

@@ -57,7 +57,11 @@ pub fn results(dir: &Path, plan: &SweepPlan) -> Result<Vec<PointResult>, String>
     plan.points
         .iter()
         .map(|p| {
-            let run_dir = dir.join(&p.name);
+            // As `sweep run` does: a point folder (or its metrics) that is a link leading out
+            // of the sweep folder is refused, never read — a received sweep folder is untrusted.
+            let run_dir = crate::sandbox::output_path(dir, &p.name).map_err(|e| format!("point {}: {e}", p.name))?;
+            let metrics_path = crate::sandbox::output_path(dir, &format!("{}/{METRICS_FILE}", p.name))
+                .map_err(|e| format!("point {}: {e}", p.name))?;
             let outcome = read_outcome(dir, &p.name)?;
             let state = match &outcome {
                 Some(o) => match o.status {
@@ -70,7 +74,7 @@ pub fn results(dir: &Path, plan: &SweepPlan) -> Result<Vec<PointResult>, String>
                 None => PointState::Pending,
             };
             let (metrics, metrics_error) = if state == PointState::Ok {
-                match std::fs::read_to_string(run_dir.join(METRICS_FILE)) {
+                match std::fs::read_to_string(&metrics_path) {
                     Ok(text) => match parse_metrics(&text) {
                         Ok(m) => (m, None),
                         Err(e) => (vec![], Some(format!("{}/{METRICS_FILE}: {e}", p.name))),
@@ -96,8 +100,16 @@ pub fn results(dir: &Path, plan: &SweepPlan) -> Result<Vec<PointResult>, String>
 }
 
 /// Whether a run holds the lock on its folder now.
-fn is_locked(run_dir: &Path) -> bool {
-    let Ok(file) = std::fs::File::open(run_dir.join(crate::out_lock::LOCK_FILE)) else { return false };
+pub fn is_locked(run_dir: &Path) -> bool {
+    use std::os::unix::fs::OpenOptionsExt;
+    // Neither through a link nor blocking on a planted FIFO: only a lock file can be held.
+    let Ok(file) = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
+        .open(run_dir.join(crate::out_lock::LOCK_FILE))
+    else {
+        return false;
+    };
     match file.try_lock_shared() {
         Ok(()) => {
             let _ = file.unlock();

@@ -3,7 +3,7 @@
 //! go on; Ctrl-C stops the running points so that they resume on the next run.
 
 use super::plan::SweepPlan;
-use super::point::{check_source, is_pending, run_point, Outcome, PointStatus};
+use super::point::{check_source, is_pending, run_point, Outcome, PointRun, PointStatus};
 use matdem_engine::backend::RunControl;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -37,11 +37,28 @@ pub fn run_local(
     opts: &LocalOptions,
     progress: impl Fn(&str) + Sync,
 ) -> Result<LocalSummary, String> {
+    check_options(opts)?;
+    let lock = crate::out_lock::OutLock::acquire(dir, &format!("sweep run {}", dir.display()))?;
+    run_local_held(&lock, plan, opts, progress)
+}
+
+fn check_options(opts: &LocalOptions) -> Result<(), String> {
     if opts.jobs == 0 {
         return Err("-j 0 would run nothing; give at least 1".into());
     }
+    Ok(())
+}
+
+/// [`run_local`] in the folder `held` locks (a study, which planned it under the same lock).
+pub fn run_local_held(
+    held: &crate::out_lock::OutLock,
+    plan: &SweepPlan,
+    opts: &LocalOptions,
+    progress: impl Fn(&str) + Sync,
+) -> Result<LocalSummary, String> {
+    check_options(opts)?;
+    let dir = held.dir();
     check_source(plan)?;
-    let _lock = crate::out_lock::OutLock::acquire(dir, &format!("sweep run {}", dir.display()))?;
     let mut pending = Vec::new();
     for (k, p) in plan.points.iter().enumerate() {
         if is_pending(dir, &p.name, opts.retry_failed)? {
@@ -75,9 +92,12 @@ pub fn run_local(
                 }
                 let Some(&k) = pending.get(next.fetch_add(1, Ordering::SeqCst)) else { return };
                 match run_point(dir, plan, k, &opts.exe, threads, &opts.control) {
-                    Ok(outcome) => {
+                    Ok(PointRun::Ran(outcome)) => {
                         progress(&line(plan, k, &outcome));
                         ran.lock().unwrap().push((k, outcome));
+                    }
+                    Ok(PointRun::Busy) => {
+                        progress(&format!("{} is running in another process; left alone", plan.points[k].name))
                     }
                     Err(e) => {
                         failure.lock().unwrap().get_or_insert(e);

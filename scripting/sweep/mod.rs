@@ -27,6 +27,6 @@ pub mod point;
 pub mod slurm;
 
 pub use collect::{results, PointResult};
-pub use local::{run_local, LocalOptions};
+pub use local::{run_local, run_local_held, LocalOptions};
 pub use plan::{load, plan, plan_grid, plan_runs, read_runs_csv, Design, PlanRequest, PlannedPoint, SweepPlan};
 pub use point::{Outcome, PointStatus};

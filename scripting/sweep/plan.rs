@@ -83,10 +83,15 @@ pub fn grid(vary: &[(String, Vec<String>)]) -> Vec<Vec<(String, String)>> {
 }
 
 /// Plans the grid of `vary` into `dir`; see [`plan`].
-pub fn plan_grid(mut req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> Result<SweepPlan, String> {
+pub fn plan_grid(req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> Result<SweepPlan, String> {
+    plan(with_grid(req, vary))
+}
+
+/// `req` with the grid of `vary` as its points.
+pub fn with_grid(mut req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> PlanRequest {
     req.runs = grid(&vary);
     req.design = Design::Grid(vary);
-    plan(req)
+    req
 }
 
 /// Plans parameter sets given one by one (a calibration design's runs) into `dir`: the
@@ -114,15 +119,20 @@ pub fn plan_runs(
 /// Writes `sweep.ron` and one run folder per point into `req.dir`. The same plan already
 /// there is kept as it is, with its finished points (planning again is how a sweep resumes
 /// after a change of machine); a different one is refused unless `req.replace`.
+/// Holds the sweep folder's lock while it writes: a run, study or sweep using the folder
+/// refuses the plan instead of having it swapped under it.
 pub fn plan(req: PlanRequest) -> Result<SweepPlan, String> {
-    if req.runs.is_empty() {
-        return Err("a sweep needs at least one point; give --vary NAME=v1,v2,... or --runs FILE.csv".into());
-    }
+    check_request(&req)?;
+    let lock = crate::out_lock::OutLock::acquire(&req.dir, &format!("sweep plan {}", req.dir.display()))?;
+    plan_held(&lock, req)
+}
+
+/// [`plan`] into the folder `held` locks (a study or `run_points`, which go on to run it).
+pub fn plan_held(held: &crate::out_lock::OutLock, req: PlanRequest) -> Result<SweepPlan, String> {
+    debug_assert_eq!(held.dir(), req.dir.as_path());
+    check_request(&req)?;
     let source =
         std::path::absolute(&req.source).map_err(|e| format!("cannot resolve {}: {e}", req.source.display()))?;
-    if !source.exists() {
-        return Err(format!("cannot read {}: no such file or folder", req.source.display()));
-    }
     let width = req.runs.len().to_string().len().max(2);
     let points: Vec<PlannedPoint> = req
         .runs
@@ -163,6 +173,17 @@ pub fn plan(req: PlanRequest) -> Result<SweepPlan, String> {
     }
     save(&req.dir, &plan)?;
     Ok(plan)
+}
+
+/// What can be refused before the folder is touched (or locked).
+fn check_request(req: &PlanRequest) -> Result<(), String> {
+    if req.runs.is_empty() {
+        return Err("a sweep needs at least one point; give --vary NAME=v1,v2,... or --runs FILE.csv".into());
+    }
+    if !req.source.exists() {
+        return Err(format!("cannot read {}: no such file or folder", req.source.display()));
+    }
+    Ok(())
 }
 
 fn forget_outcomes(dir: &Path) -> Result<(), String> {

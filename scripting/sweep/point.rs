@@ -46,6 +46,8 @@ pub fn outcome_path(dir: &Path, name: &str) -> PathBuf {
 /// The recorded outcome of point `name`; `None` when it has none yet.
 pub fn read_outcome(dir: &Path, name: &str) -> Result<Option<Outcome>, String> {
     let path = outcome_path(dir, name);
+    // Not through a link leading out of the sweep folder (a received folder is untrusted).
+    crate::sandbox::output_path(dir, &format!("{OUTCOMES_DIR}/{name}.ron"))?;
     match std::fs::read_to_string(&path) {
         Ok(text) => ron::from_str(&text).map(Some).map_err(|e| format!("{}: {e}", path.display())),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
@@ -85,6 +87,16 @@ fn short(sha: &str) -> &str {
     &sha[..sha.len().min(12)]
 }
 
+/// What became of a point asked to run.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PointRun {
+    /// It ran; how it ended is recorded in `outcomes/NAME.ron`.
+    Ran(Outcome),
+    /// Another process runs it now (its folder is locked): left alone, nothing recorded, its
+    /// log untouched.
+    Busy,
+}
+
 /// Runs point `index` of the sweep in `dir` with the `matdem-rs` at `exe` and records its
 /// outcome. `threads` (if given) becomes the run's RAYON_NUM_THREADS. Errors are the
 /// sweep's own (a folder it cannot write), not the point's: those are in the outcome.
@@ -95,9 +107,12 @@ pub fn run_point(
     exe: &Path,
     threads: Option<usize>,
     control: &RunControl,
-) -> Result<Outcome, String> {
+) -> Result<PointRun, String> {
     let point = &plan.points[index];
     let run_dir = crate::sandbox::output_path(dir, &point.name)?;
+    if super::collect::is_locked(&run_dir) {
+        return Ok(PointRun::Busy);
+    }
     let resume = matches!(read_outcome(dir, &point.name)?, Some(Outcome { status: PointStatus::Interrupted, .. }))
         && crate::resume::resume_dir(&run_dir).join(crate::resume::JOURNAL_FILE).is_file();
     let mut cmd = Command::new(exe);
@@ -107,14 +122,23 @@ pub fn run_point(
         // A resumed run keeps the parameters of its first start (its run.ron).
         cmd.arg("--resume").arg(&run_dir);
     }
+    let mut set = Vec::new();
     for (name, value) in point.parameters.iter().chain(&plan.fixed) {
         // The backend is a command-line choice, not a script parameter.
         if name == "backend" {
             backend = value.clone();
         } else if !resume {
-            // One token: a value can never be read as an option of its own.
-            cmd.arg(format!("--set={name}={value}"));
+            set.push((name.clone(), value.clone()));
         }
+    }
+    // Through a file beside the point's folder: a value may be longer than one argument can
+    // be (128 kB), and a value can never be read as an option.
+    let set_file = dir.join(format!(".{}.set.ron", point.name));
+    let _removed = RemoveOnDrop(&set_file);
+    if !set.is_empty() {
+        let text = ron::to_string(&set).map_err(|e| format!("cannot write the parameters of {}: {e}", point.name))?;
+        write_atomic(&set_file, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", set_file.display()))?;
+        cmd.arg("--set-file").arg(&set_file);
     }
     cmd.arg(format!("--backend={backend}"));
     if let Some(n) = threads {
@@ -126,8 +150,30 @@ pub fn run_point(
     }
     let started = crate::run_record::now_utc();
     let clock = Instant::now();
-    let (status, stdout, stderr) = run_until_cancelled(cmd, control, &run_dir)?;
+    let (status, stdout, stderr) = match run_until_cancelled(cmd, control, &run_dir) {
+        Ok(ended) => ended,
+        // The point could not start (too many processes, a binary gone): that point failed,
+        // the sweep goes on.
+        Err(why) if why.starts_with(NOT_STARTED) => {
+            let outcome = Outcome {
+                status: PointStatus::Failed,
+                error: Some(why),
+                exit_code: None,
+                wall_s: clock.elapsed().as_secs_f64(),
+                host: hostname(),
+                started,
+                finished: crate::run_record::now_utc(),
+            };
+            return record(dir, &point.name, outcome);
+        }
+        Err(why) => return Err(why),
+    };
     let wall_s = clock.elapsed().as_secs_f64();
+    // Locked between the check above and the child's start: the holder's log and outcome
+    // are its own.
+    if status.code() == Some(2) && String::from_utf8_lossy(&stderr).contains(crate::out_lock::IN_USE) {
+        return Ok(PointRun::Busy);
+    }
     let mut log = stdout;
     log.extend_from_slice(&stderr);
     let log_path = run_dir.join("log.txt");
@@ -149,12 +195,28 @@ pub fn run_point(
         started,
         finished: crate::run_record::now_utc(),
     };
-    let text = ron::ser::to_string_pretty(&outcome, ron::ser::PrettyConfig::default())
-        .map_err(|e| format!("cannot write the outcome of {}: {e}", point.name))?;
-    let path = outcome_path(dir, &point.name);
-    write_atomic(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    Ok(outcome)
+    record(dir, &point.name, outcome)
 }
+
+/// Writes `outcomes/NAME.ron`.
+fn record(dir: &Path, name: &str, outcome: Outcome) -> Result<PointRun, String> {
+    let text = ron::ser::to_string_pretty(&outcome, ron::ser::PrettyConfig::default())
+        .map_err(|e| format!("cannot write the outcome of {name}: {e}"))?;
+    let path = outcome_path(dir, name);
+    write_atomic(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(PointRun::Ran(outcome))
+}
+
+struct RemoveOnDrop<'a>(&'a Path);
+
+impl Drop for RemoveOnDrop<'_> {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(self.0);
+    }
+}
+
+/// How [`run_until_cancelled`]'s error begins when the child never started.
+const NOT_STARTED: &str = "cannot start";
 
 fn hostname() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname").map_or_else(|_| "unknown".into(), |h| h.trim().to_string())
@@ -172,7 +234,7 @@ pub fn run_until_cancelled(
     let (out_path, err_path) = (parent.join(format!(".{name}.stdout")), parent.join(format!(".{name}.stderr")));
     let file = |p: &Path| std::fs::File::create(p).map_err(|e| format!("cannot create {}: {e}", p.display()));
     cmd.stdout(file(&out_path)?).stderr(file(&err_path)?).stdin(std::process::Stdio::null());
-    let mut child = cmd.spawn().map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+    let mut child = cmd.spawn().map_err(|e| format!("{NOT_STARTED} {:?}: {e}", cmd.get_program()))?;
     let mut told = false;
     let status = loop {
         match child.try_wait() {

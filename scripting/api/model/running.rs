@@ -27,7 +27,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         match &s.pending {
             Some(p) if s.cursor == p.interrupted.index => {
                 drop(s);
-                resume::restore(host, call)?
+                resume::restore(host, call, how)?
             }
             _ if s.replaying() => {
                 drop(s);
