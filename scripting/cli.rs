@@ -153,7 +153,7 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
         /// Settings run at once, each in its own process (they share the cores).
-        #[arg(short = 'j', long, default_value_t = 1, value_parser = positive::<usize>)]
+        #[arg(short = 'j', long, default_value_t = 1, value_parser = at_least_one)]
         jobs: usize,
     },
     /// Parameter sweeps as folders: plan the points, run them here or as a Slurm job array,
@@ -202,7 +202,7 @@ pub enum SweepCommand {
         #[arg(long, required = true)]
         local: bool,
         /// Points run at once (they share the cores).
-        #[arg(short = 'j', long, default_value_t = 1, value_parser = positive::<usize>)]
+        #[arg(short = 'j', long, default_value_t = 1, value_parser = at_least_one)]
         jobs: usize,
         /// Run the points that failed again too.
         #[arg(long)]
@@ -270,7 +270,24 @@ fn positive<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> Result<T
             Err("0 would switch the limit off; give at least 1 (or leave the option out for the default)".into())
         }
         Ok(v) => Ok(v),
-        Err(_) => Err(format!("`{text}` is not a whole number")),
+        Err(_) => Err(not_a_count(text)),
+    }
+}
+
+/// A count of at least 1 (processes at once): 0 would run nothing.
+fn at_least_one(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(0) => Err("0 would run nothing; give at least 1".into()),
+        Ok(v) => Ok(v),
+        Err(_) => Err(not_a_count(text)),
+    }
+}
+
+fn not_a_count(text: &str) -> String {
+    if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) {
+        format!("`{text}` is too large: give at most {}", u64::MAX.min(usize::MAX as u64))
+    } else {
+        format!("`{text}` is not a whole number")
     }
 }
 

@@ -44,6 +44,15 @@ impl OutLock {
     }
 
     fn lock(out_dir: &Path, what: &str, shared: bool) -> Result<OutLock, String> {
+        // create_dir_all would say only "File exists".
+        if let (Ok(link), Err(_)) = (std::fs::read_link(out_dir), std::fs::metadata(out_dir)) {
+            return Err(format!(
+                "output folder {} is a symbolic link to {}, which does not exist: create that folder, or give \
+                 another --out",
+                out_dir.display(),
+                link.display()
+            ));
+        }
         std::fs::create_dir_all(out_dir)
             .map_err(|e| format!("cannot create output folder {}: {e}", out_dir.display()))?;
         let path = out_dir.join(LOCK_FILE);

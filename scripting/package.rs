@@ -377,6 +377,15 @@ impl Package {
 /// Refuses a parameter name the script could not write as `params.NAME` (a Rhai keyword
 /// or reserved word such as `case`, `fn` or `match`).
 pub fn check_param_name(name: &str) -> Result<(), String> {
+    let identifier = name.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !identifier {
+        return Err(format!(
+            "parameter name `{}` is not a name a script can write as `params.NAME`: use letters, digits and `_`, \
+             starting with a letter (e.g. `load_mpa`)",
+            name.escape_debug()
+        ));
+    }
     if rhai::Engine::new_raw().compile_expression(format!("params.{name}")).is_ok() {
         return Ok(());
     }
@@ -576,6 +585,16 @@ mod tests {
         let i = param(r#"(name: "seed", type: int, default: 3, range: (0, 10))"#);
         assert_eq!(i.parse("7").unwrap().as_int().unwrap(), 7);
         assert!(i.parse("7.5").unwrap_err().contains("not an integer"));
+    }
+
+    #[test]
+    fn a_parameter_name_that_is_no_identifier_is_called_so_and_a_keyword_reserved() {
+        for bad in ["a b", "../x", "a,b", "", "1a", "a.b", "a-b"] {
+            let e = check_param_name(bad).unwrap_err();
+            assert!(e.contains("is not a name a script can write"), "{bad:?}: {e}");
+        }
+        assert!(check_param_name("match").unwrap_err().contains("a word Rhai reserves"));
+        assert!(check_param_name("_load2").is_ok());
     }
 
     #[test]

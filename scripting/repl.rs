@@ -115,6 +115,9 @@ impl Session {
                     },
                     Err(e) => Reply::Err(format!("error: cannot load: {e}")),
                 },
+                "load" => {
+                    Reply::Err("error: :load needs a file: `:load FILE` (a script in this session's folder)".into())
+                }
                 _ => Reply::Err(format!("error: unknown command `:{cmd}`; try :help")),
             };
         }

@@ -140,6 +140,8 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
 }
 
 fn check_config(cfg: &StudyConfig) -> Result<(), String> {
+    // Before any point runs: a name no script can report would be found only at the end.
+    crate::api::metrics::check_metric_name(&cfg.metric).map_err(|e| format!("--metric: {e}"))?;
     if cfg.vary.is_empty() {
         return Err("give at least one --vary NAME=v1,v2,...".into());
     }

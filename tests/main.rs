@@ -20,6 +20,7 @@ mod geometry_objects;
 mod guard;
 mod hardening;
 mod hardening_locks;
+mod hardening_messages;
 mod hot_cold_injection_cli;
 mod hydraulic_fracture_cli;
 mod land_subsidence_cli;

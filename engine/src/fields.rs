@@ -351,6 +351,13 @@ impl Model {
         if let Some(k) = t.iter().position(|v| !v.is_finite()) {
             return Err(Error::InvalidScene(format!("temperature of element {k} is {}: give a finite value", t[k])));
         }
+        if let Some(k) = t.iter().position(|&v| v < 0.0) {
+            return Err(Error::InvalidScene(format!(
+                "temperature of element {k} is {} K, below absolute zero: temperatures are in kelvin (20 °C is \
+                 293.15 K)",
+                t[k]
+            )));
+        }
         self.thermal_lanes("set temperatures")?.temperature.copy_from_slice(t);
         Ok(())
     }

@@ -39,6 +39,31 @@ pub fn check_time_step(m: &Model) -> Result<()> {
     m.check_moisture()
 }
 
+/// Refuses elements that sit at exactly the same place (a geometry or group added twice):
+/// their contact has no normal, and the run would stop later on a non-finite position that
+/// names no cause. Sorted by position, so equal centres are neighbours: O(n log n), run when a
+/// changed model is prepared, not every chunk.
+pub fn check_coincident(m: &Model) -> Result<()> {
+    let pos = &m.particles.pos;
+    let mut order: Vec<usize> = (0..pos.len()).collect();
+    let key = |i: usize| (pos[i].x, pos[i].y, pos[i].z);
+    order.sort_unstable_by(|&a, &b| {
+        let (ka, kb) = (key(a), key(b));
+        ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1)).then(ka.2.total_cmp(&kb.2))
+    });
+    for w in order.windows(2) {
+        let (i, j) = (w[0].min(w[1]), w[0].max(w[1]));
+        if pos[i] == pos[j] {
+            return Err(Error::InvalidScene(format!(
+                "elements {i} and {j} sit at the same place ({:.6e}, {:.6e}, {:.6e}) m: a geometry or group added \
+                 twice? Delete one copy (d.delete) before running",
+                pos[i].x, pos[i].y, pos[i].z
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses a gravity that by itself moves a free particle more than
 /// [`GRAVITY_STEP_FRACTION`] of its radius further each step: the cause is gravity's value,
 /// not dt, and the message says so.

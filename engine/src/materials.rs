@@ -201,6 +201,9 @@ impl Material {
     }
 }
 
+/// The Young's moduli, in Pa, the lattice conversion takes: from a soft gel to beyond diamond.
+pub const YOUNG_RANGE: (f64, f64) = (1.0, 1e14);
+
 /// Micro parameters as the conversion formulas produce them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MicroParameters {
@@ -217,6 +220,29 @@ pub fn macro_to_micro(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
     check_positive("Tu", p.tensile, true)?;
     check_positive("Cu", p.compressive, true)?;
     check_positive("d", d, false)?;
+    // Outside these the conversion's products under- or overflow (E = 1e-300 gave Xb = inf,
+    // E = 1e300 gave Xb = 0) and the error would name a derived value instead of the input.
+    if !(YOUNG_RANGE.0..=YOUNG_RANGE.1).contains(&p.young) {
+        return Err(Error::param(
+            "E",
+            p.young,
+            format!(
+                "is outside {:e} to {:e} Pa, where no rock or soil lies; give E in Pa",
+                YOUNG_RANGE.0, YOUNG_RANGE.1
+            ),
+        ));
+    }
+    if p.tensile > p.compressive {
+        return Err(Error::param(
+            "Tu",
+            p.tensile,
+            format!(
+                "is above Cu = {:e} Pa: a rock or soil is weaker in tension than in compression (Tu is typically \
+                 Cu/8 to Cu/20); check that the two are not swapped",
+                p.compressive
+            ),
+        ));
+    }
     if !p.poisson.is_finite() || p.poisson < 0.0 || p.poisson > 0.2 {
         return Err(Error::param(
             "nu",
@@ -244,6 +270,15 @@ pub fn macro_to_micro(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
     let i = ((1.0 + mui * mui).sqrt() + mui).powi(2);
     let mu_p = ((-2.0 * SQRT_2 + SQRT_2 * i) / (2.0 + 2.0 * i)).max(0.0);
     let fs0 = (1.0 - SQRT_2 * mu_p) * p.compressive * d * d / 6.0;
+    for (name, v) in [("Kn", kn), ("Ks", ks), ("Xb", xb), ("Fs0", fs0)] {
+        if !v.is_finite() {
+            return Err(Error::param(
+                "d",
+                d,
+                format!("with E = {:e} Pa gives {name} = {v}: give d in metres (the element diameter)", p.young),
+            ));
+        }
+    }
     Ok(MicroParameters { kn, ks, xb, fs0, mu_p })
 }
 

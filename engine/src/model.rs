@@ -667,12 +667,25 @@ impl Model {
 
     /// MatDEM's standard step: 1/50 of the smallest element period.
     pub fn standard_dt(&self) -> Result<f64> {
-        (0..self.len())
-            .map(|i| element_period(self.particles.mass[i], self.element_stiffness(i)) * STANDARD_FRACTION)
-            .min_by(f64::total_cmp)
+        let (i, dt) = (0..self.len())
+            .map(|i| (i, element_period(self.particles.mass[i], self.element_stiffness(i)) * STANDARD_FRACTION))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
             .ok_or_else(|| {
                 Error::InvalidScene("the model has no particles: add some before choosing a time step".into())
-            })
+            })?;
+        // A radius of 5e-321 m or 1e300 m gives a zero or infinite step: name its cause.
+        if !(dt.is_finite() && dt > 0.0) {
+            let p = &self.particles;
+            return Err(Error::InvalidScene(format!(
+                "the standard time step comes out as {dt} s, set by particle {i} (radius {:e} m, mass {:e} kg, \
+                 stiffness {:e} N/m): its size or material is far outside physical values; give radii in metres \
+                 and the material's Kn in N/m",
+                p.radius[i],
+                p.mass[i],
+                self.element_stiffness(i)
+            )));
+        }
+        Ok(dt)
     }
 
     pub fn set_dt(&mut self, dt: f64) -> Result<()> {

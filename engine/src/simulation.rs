@@ -136,7 +136,10 @@ impl Simulation {
         let p = prepared(cache, model);
         let backend = match &mut p.backend {
             Some(b) => b,
-            slot => slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?),
+            slot => {
+                crate::guard::check_coincident(model)?;
+                slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?)
+            }
         };
         let observer = observer.as_mut();
         run_loop(backend.as_mut(), model, observer, stiff_warned, steps, every, ctl, progress, sample)

@@ -79,6 +79,15 @@ fn material_micro(name: &str, map: Map) -> RhaiResult<Material> {
         }
     };
     let radius = opt(&v, "r");
+    // Checked as given: a Kn derived from a negative E would be blamed on `kn`.
+    if let Some((e, nu)) = hertz {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(err(format!("{what}: `young` = {e} Pa: Young's modulus must be a finite number > 0")));
+        }
+        if !(0.0..0.5).contains(&nu) {
+            return Err(err(format!("{what}: `poisson` = {nu}: Poisson's ratio must be in [0, 0.5)")));
+        }
+    }
     let (kn, kn_derived) = match (opt(&v, "kn"), hertz, radius) {
         (Some(kn), _, _) => (kn, false),
         (None, Some((e, _)), Some(r)) => (std::f64::consts::PI * e * r, true),

@@ -41,11 +41,16 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
 
 /// Names become CSV cells and `--metric` arguments: keep them to one plain word.
 fn check_name(name: &str) -> RhaiResult<()> {
+    check_metric_name(name).map_err(|e| err(format!("report: {e}")))
+}
+
+/// A metric name: one plain word of letters, digits, `_` or `.`.
+pub fn check_metric_name(name: &str) -> Result<(), String> {
     let ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.');
     if ok {
         Ok(())
     } else {
-        Err(err(format!("report: metric name `{name}` must be letters, digits, `_` or `.` (e.g. \"strain_no1\")")))
+        Err(format!("metric name `{}` must be letters, digits, `_` or `.` (e.g. \"strain_no1\")", name.escape_debug()))
     }
 }
 

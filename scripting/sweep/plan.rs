@@ -250,6 +250,11 @@ fn check_names(params: &[(String, String)]) -> Result<(), String> {
     for (k, (name, value)) in params.iter().enumerate() {
         if name != "backend" {
             crate::package::check_param_name(name)?;
+        } else if !matches!(value.as_str(), "auto" | "cpu" | "gpu") {
+            return Err(format!(
+                "backend `{}` is not one: give auto, cpu or gpu (e.g. --vary backend=cpu,gpu)",
+                value.escape_debug()
+            ));
         }
         let plain = !name.is_empty()
             && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')

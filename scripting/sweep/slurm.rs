@@ -60,6 +60,12 @@ pub fn write_script(
             ));
         }
     }
+    if opts.cpus_per_task == Some(0) {
+        return Err("--cpus-per-task 0 gives each point no CPU; give at least 1".into());
+    }
+    if let Some(t) = &opts.time {
+        check_time(t)?;
+    }
     let mut array = ranges(&pending);
     if let Some(n) = opts.max_parallel {
         if n == 0 {
@@ -149,6 +155,29 @@ fn check_word(flag: &str, v: &str) -> Result<(), String> {
     }
 }
 
+/// Slurm's time formats: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`, or `UNLIMITED`.
+/// Refused here, a typo is not first found by sbatch after the array was written.
+fn check_time(t: &str) -> Result<(), String> {
+    let numbers = |s: &str, most: usize| {
+        let parts: Vec<&str> = s.split(':').collect();
+        parts.len() <= most
+            && parts.iter().all(|p| !p.is_empty() && p.len() <= 6 && p.bytes().all(|b| b.is_ascii_digit()))
+    };
+    let ok = matches!(t, "UNLIMITED" | "INFINITE")
+        || match t.split_once('-') {
+            Some((days, rest)) => numbers(days, 1) && numbers(rest, 3),
+            None => numbers(t, 3),
+        };
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "--time `{}` is not a Slurm time: give minutes (`90`), `H:M:S` (`2:00:00`) or `D-H:M:S` (`1-12:00:00`)",
+            t.escape_debug()
+        ))
+    }
+}
+
 /// `path` in single quotes for the shell.
 fn quote(path: &Path) -> String {
     format!("'{}'", path.to_string_lossy().replace('\'', "'\\''"))
@@ -168,6 +197,12 @@ mod tests {
     #[test]
     fn an_option_that_would_add_an_sbatch_line_is_refused() {
         assert!(check_word("time", "2:00:00").is_ok());
+        for good in ["90", "2:00:00", "1-12", "1-12:00:00", "30:00", "UNLIMITED"] {
+            assert!(check_time(good).is_ok(), "{good}");
+        }
+        for bad in ["abc", "", "1:2:3:4", "-5", "1-", "2h"] {
+            assert!(check_time(bad).unwrap_err().contains("is not a Slurm time"), "{bad}");
+        }
         assert!(check_word("partition", "gpu\n#SBATCH --uid=0").is_err());
         assert!(check_word("partition", "a b").is_err());
     }

@@ -245,6 +245,19 @@ impl Model {
         }
         let s = &self.settings.pores;
         let mut f = PoreFlow::new(self, s.fluid.clone())?;
+        // Elements on one plane (or a line) make pores without volume, whose pressure would
+        // turn non-finite at the first step: say so now.
+        let vol = &f.network.volume;
+        if vol.is_empty() || vol.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            let which = vol
+                .iter()
+                .position(|v| !(v.is_finite() && *v > 0.0))
+                .map_or("no pore".into(), |p| format!("pore {p} has a fluid volume of {:e} m³", vol[p]));
+            return Err(Error::InvalidScene(format!(
+                "pore flow needs elements that enclose pores in 3D, but {which}: the elements' centres lie on one \
+                 plane or coincide; build a packing several elements deep in every direction"
+            )));
+        }
         f.set_boundaries(s.boundaries.clone())?;
         self.pores = Some(Box::new(f));
         self.settings.pores.enabled = true;

@@ -16,7 +16,17 @@ fn thermal_update(props: &Map, call: &str) -> RhaiResult<ThermalUpdate> {
         match k.as_str() {
             "conductivity" | "k" => u.conductivity = Some(x),
             "specific_heat" | "c" => u.specific_heat = Some(x),
-            "expansion" | "alpha" => u.expansion = Some(x),
+            "expansion" | "alpha" => {
+                // 1000× a rock's (1e-2 /K) stopped later as "loaded contacts are stiffer":
+                // refuse the cause where it is given.
+                if !(x.is_finite() && x.abs() <= MAX_EXPANSION) {
+                    return Err(err(format!(
+                        "{call}: `{k}` = {x} /K is outside ±{MAX_EXPANSION:e} /K: it is the linear expansion \
+                         coefficient (rock 5e-6 to 1.5e-5 /K, plastics up to 2e-4 /K), not a percentage"
+                    )));
+                }
+                u.expansion = Some(x)
+            }
             other => {
                 return Err(raise(matdem_engine::Error::unknown(
                     "thermal property",
@@ -28,6 +38,9 @@ fn thermal_update(props: &Map, call: &str) -> RhaiResult<ThermalUpdate> {
     }
     Ok(u)
 }
+
+/// The largest linear thermal expansion coefficient taken, 1/K: five times a soft plastic's.
+const MAX_EXPANSION: f64 = 1e-3;
 
 /// A count ≥ 1 from a script integer.
 fn count(name: &str, v: INT) -> RhaiResult<u32> {
@@ -95,7 +108,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().set_thermal_mode(group, ThermalMode::Fixed(None)).map_err(raise)
         })
         .register_fn("fix_temperature", |d: &mut ModelHandle, group: &str, t: FLOAT| -> RhaiResult<()> {
-            let t = finite("the fixed temperature", t)?;
+            let t = kelvin("the fixed temperature", t)?;
             d.model().set_thermal_mode(group, ThermalMode::Fixed(Some(t))).map_err(raise)
         })
         .register_fn("insulate", |d: &mut ModelHandle, group: &str| {
@@ -109,7 +122,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         })
         .register_get("reference_temperature", |d: &mut ModelHandle| d.model().settings.heat.reference)
         .register_set("reference_temperature", |d: &mut ModelHandle, t: FLOAT| -> RhaiResult<()> {
-            d.model().settings.heat.reference = finite("reference_temperature", t)?;
+            d.model().settings.heat.reference = kelvin("reference_temperature", t)?;
             Ok(())
         })
         .register_get("heat_every", |d: &mut ModelHandle| INT::from(d.model().settings.heat.every))
@@ -168,4 +181,15 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().settings.water.viscosity = mu;
             Ok(())
         });
+}
+
+/// A temperature as scripts give it: finite and absolute (K), never below absolute zero.
+fn kelvin(what: &str, t: FLOAT) -> RhaiResult<FLOAT> {
+    let t = finite(what, t)?;
+    if t < 0.0 {
+        return Err(err(format!(
+            "{what} = {t} K is below absolute zero: temperatures are in kelvin (20 °C is 293.15 K)"
+        )));
+    }
+    Ok(t)
 }
