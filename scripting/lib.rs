@@ -23,6 +23,7 @@ pub mod stdlib;
 pub mod stop;
 pub mod study;
 pub mod sweep;
+pub mod terminal_text;
 
 use api::Host;
 use rhai::Engine;
@@ -41,9 +42,24 @@ pub fn new_engine(host: Rc<Host>) -> Engine {
     host.limits.apply(&mut engine);
     engine.set_module_resolver(SandboxModules { root: host.read_root.clone(), stdlib });
     // A resumed run replays the script's start silently: it printed that the first time.
+    // What a script prints reaches a terminal: its control characters are shown, not obeyed.
+    let h = host.clone();
     engine.on_print(move |text| {
-        if !host.replaying() {
-            println!("{text}");
+        if !h.replaying() {
+            println!("{}", terminal_text::lines(text));
+        }
+    });
+    // Rhai's own `debug` output, the same way (source and position as Rhai prints them).
+    engine.on_debug(move |text, source, pos| {
+        if host.replaying() {
+            return;
+        }
+        let text = terminal_text::lines(text);
+        match (source.map(terminal_text::one_line), pos.is_none()) {
+            (Some(source), true) => println!("{source} | {text}"),
+            (Some(source), false) => println!("{source} @ {pos:?} | {text}"),
+            (None, true) => println!("{text}"),
+            (None, false) => println!("{pos:?} | {text}"),
         }
     });
     engine

@@ -12,7 +12,9 @@ fn main() -> ExitCode {
     match commands::dispatch(cli.command) {
         Ok(code) => code,
         Err(failure) => {
-            eprint!("{}", failure.text);
+            // Errors quote scripts, manifests, CSV cells and sweep folders: show their control
+            // characters rather than let the terminal obey them.
+            eprint!("{}", matdem_rs::terminal_text::lines(&failure.text));
             ExitCode::from(failure.code)
         }
     }

@@ -334,10 +334,18 @@ impl Package {
         )
     }
 
-    /// The manifest for people: description, a table of parameters, outputs.
+    /// The manifest for people: description, a table of parameters, outputs. Text for a
+    /// terminal: every field a manifest brings is shown with its control characters escaped.
     pub fn describe(&self) -> String {
         let m = &self.manifest;
-        let mut s = format!("{} {} — {}\nentry: {}\n\n", m.name, m.version, m.description, m.entry);
+        let shown = |t: &str| crate::terminal_text::one_line(t).into_owned();
+        let mut s = format!(
+            "{} {} — {}\nentry: {}\n\n",
+            shown(&m.name),
+            shown(&m.version),
+            shown(&m.description),
+            shown(&m.entry)
+        );
         let rows: Vec<[String; 6]> = m
             .parameters
             .iter()
@@ -354,6 +362,7 @@ impl Package {
                     },
                     p.help.clone(),
                 ]
+                .map(|cell| shown(&cell))
             })
             .collect();
         let header = ["parameter", "type", "default", "unit", "range", "help"].map(String::from);
@@ -366,7 +375,7 @@ impl Package {
         if !m.outputs.is_empty() {
             let _ = writeln!(s, "\noutputs:");
             for o in &m.outputs {
-                let _ = writeln!(s, "  {o}");
+                let _ = writeln!(s, "  {}", shown(o));
             }
         }
         let _ = writeln!(s, "\nrun: matdem-rs run {} --set NAME=VALUE", self.location.display());

@@ -278,11 +278,11 @@ fn report(reply: Reply) -> bool {
     match reply {
         Reply::Out(s) if s.is_empty() => true,
         Reply::Out(s) => {
-            println!("{s}");
+            println!("{}", crate::terminal_text::lines(&s));
             true
         }
         Reply::Err(e) => {
-            eprint!("{e}");
+            eprint!("{}", crate::terminal_text::lines(&e));
             if !e.ends_with('\n') {
                 eprintln!();
             }

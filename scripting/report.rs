@@ -1,6 +1,9 @@
 //! Renders script errors the way compilers do: the message, then file:line:column, the
 //! source line and a caret under the column; calls into the stdlib are listed below.
+//! Reports go to a terminal: what they quote (the message, the source line, names) has its
+//! control characters shown as escapes ([`crate::terminal_text`]).
 
+use crate::terminal_text;
 use rhai::{EvalAltResult, Position};
 
 /// Where the script's text came from, to quote lines in reports.
@@ -79,7 +82,7 @@ fn size_flag(what: &str) -> &'static str {
 /// A full report: `error: …`, the location with a caret, then the call chain.
 pub fn render(e: &EvalAltResult, sources: &Sources<'_>) -> String {
     let (inner, chain) = unwind(e);
-    let mut out = format!("error: {}\n", message(inner));
+    let mut out = format!("error: {}\n", terminal_text::lines(&message(inner)));
     // The innermost position belongs to the innermost call's source (a stdlib module or the
     // script); the outer calls are in the script that made them.
     let inner_source = chain.last().map(|(_, s, _)| s.clone()).unwrap_or_default();
@@ -94,7 +97,7 @@ pub fn render(e: &EvalAltResult, sources: &Sources<'_>) -> String {
     out.push_str(&snippet(sources, &inner_source, pos));
     for (k, (name, _, pos)) in chain.iter().enumerate().rev() {
         let caller_src = if k == 0 { String::new() } else { chain[k - 1].1.clone() };
-        out.push_str(&format!("  = in call to `{name}`\n"));
+        out.push_str(&format!("  = in call to `{}`\n", terminal_text::one_line(name)));
         out.push_str(&snippet(sources, &caller_src, *pos));
     }
     out
@@ -128,8 +131,18 @@ fn snippet(sources: &Sources<'_>, source: &str, pos: Position) -> String {
     let (code, caret) = window(full, col.saturating_sub(1), SNIPPET_WIDTH);
     let w = line.to_string().len();
     let pad = " ".repeat(w);
-    // Keep the caret under the character even when the line has tabs.
-    let lead: String = code.chars().take(caret).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
+    // Keep the caret under the character even when the line has tabs, or characters shown
+    // as escapes (several columns each).
+    let mut lead = String::new();
+    for c in code.chars().take(caret) {
+        match c {
+            '\t' => lead.push('\t'),
+            c => {
+                lead.extend(std::iter::repeat_n(' ', terminal_text::lines(c.encode_utf8(&mut [0; 4])).chars().count()))
+            }
+        }
+    }
+    let (path, code) = (terminal_text::one_line(&path), terminal_text::lines(&code));
     format!("{pad} ┌─ {path}:{line}:{col}\n{pad} │\n{line} │ {code}\n{pad} │ {lead}^\n")
 }
 

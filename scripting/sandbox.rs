@@ -104,27 +104,39 @@ fn relative_parts(name: &str) -> Result<Vec<String>, &'static str> {
     Ok(parts)
 }
 
-/// What the host keeps at the top of an output folder, which no script may write over or
-/// read back: the run record, the resume point and the folder's lock.
-pub const HOST_OWNED: &[&str] = &[crate::run_record::RUN_RECORD, crate::resume::RESUME_DIR, crate::out_lock::LOCK_FILE];
+/// What the host writes at the top of an output folder, with what each is: no script may
+/// write over it or read it back, and a script's file of that name would be replaced without
+/// a word. A sweep point's folder is a run's output folder, so its log is reserved in every
+/// run (the same script runs alone and in a sweep).
+pub const HOST_OWNED: &[(&str, &str)] = &[
+    (crate::run_record::RUN_RECORD, "the run record"),
+    (crate::resume::RESUME_DIR, "the resume point"),
+    (crate::out_lock::LOCK_FILE, "the folder's lock"),
+    (crate::report_page::PAGE_FILE, "the run's report page"),
+    (crate::api::metrics::METRICS_FILE, "what `report` writes"),
+    (crate::sweep::point::LOG_FILE, "a sweep point's log"),
+];
 
-/// Where output `name` goes inside `out_dir`. Refuses `..`, absolute paths and any existing
-/// part of the path that is a symbolic link leading out of the output folder.
+/// Where output `name` of a script goes inside `out_dir`. Refuses `..`, absolute paths, any
+/// existing part of the path that is a symbolic link leading out of the output folder, and
+/// the names the host writes there itself ([`HOST_OWNED`]).
 pub fn output_path(out_dir: &Path, name: &str) -> Result<PathBuf, String> {
-    let outside = |why: &str| {
-        format!(
-            "output path `{name}` is outside the allowed folders ({why}): give a relative name without `..`; \
-             it is written under the run's output folder {}",
-            out_dir.display()
-        )
-    };
-    let parts = relative_parts(name).map_err(outside)?;
-    if let Some(reserved) = HOST_OWNED.iter().find(|r| parts[0].eq_ignore_ascii_case(r)) {
+    let parts = relative_parts(name).map_err(|why| outside(out_dir, name, why))?;
+    if let Some((reserved, what)) = HOST_OWNED.iter().find(|(r, _)| parts[0].eq_ignore_ascii_case(r)) {
         return Err(format!(
-            "output path `{name}` is refused: `{reserved}` in the output folder belongs to matdem-rs (the run \
-             record, the resume point and the folder lock); choose another name"
+            "output path `{name}` is refused: `{reserved}` in the output folder belongs to matdem-rs ({what}), \
+             which writes it itself; choose another name, e.g. `my_{}`",
+            parts.join("/")
         ));
     }
+    host_output_path(out_dir, name)
+}
+
+/// Where the host's own output `name` (one of [`HOST_OWNED`]) goes: the checks of
+/// [`output_path`] but the reservation.
+pub(crate) fn host_output_path(out_dir: &Path, name: &str) -> Result<PathBuf, String> {
+    let outside = |why: &str| outside(out_dir, name, why);
+    let parts = relative_parts(name).map_err(outside)?;
     let real_out = std::fs::canonicalize(out_dir).unwrap_or_else(|_| out_dir.to_path_buf());
     let mut path = out_dir.to_path_buf();
     for part in &parts {
@@ -138,6 +150,14 @@ pub fn output_path(out_dir: &Path, name: &str) -> Result<PathBuf, String> {
         }
     }
     Ok(path)
+}
+
+fn outside(out_dir: &Path, name: &str, why: &str) -> String {
+    format!(
+        "output path `{name}` is outside the allowed folders ({why}): give a relative name without `..`; it is \
+         written under the run's output folder {}",
+        out_dir.display()
+    )
 }
 
 /// Limits on what a script may consume; the defaults let the oedometer's full run through.

@@ -14,6 +14,7 @@ use crate::plot::LineChart;
 use crate::sweep::collect::{PointResult, PointState};
 use crate::sweep::plan::{grid, Design, PlanRequest, StudySpec};
 use crate::sweep::LocalOptions;
+use crate::terminal_text::one_line;
 use std::path::{Path, PathBuf};
 
 /// One `--vary NAME=v1,v2,...`.
@@ -130,9 +131,10 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
     for (r, run) in results.iter().zip(study_runs(&spec, &results)) {
         let shown = match &run.outcome {
             Ok(m) => format!("{} = {m:.6e}", cfg.metric),
-            Err(why) => format!("no result: {why}"),
+            Err(why) => format!("no result: {}", one_line(why)),
         };
-        progress(&format!("{}: {}  {:.1} s, {shown}", r.name, describe(&run.setting), run.wall_s));
+        // A terminal line: the values and the error are escaped.
+        progress(&format!("{}: {}  {:.1} s, {shown}", r.name, one_line(&describe(&run.setting)), run.wall_s));
     }
     let study = from_results(&spec, &results)?;
     let written = crate::sweep::collect::write_collect(&cfg.out_dir, &plan, &results)?;
@@ -316,7 +318,7 @@ pub fn write_outputs(study: &Study, spec: &StudySpec, dir: &Path) -> Result<Vec<
     Ok(written)
 }
 
-/// A short table for the terminal.
+/// A short table for the terminal (values escaped).
 pub fn summary(study: &Study, metric: &str) -> String {
     let mut s = format!("{:<40} {:>9} {:>14} {:>10}\n", "setting", "wall [s]", metric, "error");
     for (i, r) in study.runs.iter().enumerate() {
@@ -326,7 +328,7 @@ pub fn summary(study: &Study, metric: &str) -> String {
             Some(e) => format!("{:.3} %", e * 100.0),
             None => "failed".to_string(),
         };
-        s.push_str(&format!("{:<40} {:>9.1} {:>14} {:>10}\n", describe(&r.setting), r.wall_s, m, e));
+        s.push_str(&format!("{:<40} {:>9.1} {:>14} {:>10}\n", one_line(&describe(&r.setting)), r.wall_s, m, e));
     }
     s
 }

@@ -139,6 +139,16 @@ fn design_of_values(names: Vec<String>, values: Vec<Vec<f64>>) -> RhaiResult<Des
     if names.len() != values.len() || names.is_empty() {
         return Err(err(format!("orthogonal_design: {} name(s) for {} list(s) of levels", names.len(), values.len())));
     }
+    // Factors are found by name (a run's point, the ANOVA's effects): one name, one factor.
+    for (j, name) in names.iter().enumerate() {
+        if let Some(first) = names[..j].iter().position(|n| n == name) {
+            return Err(err(format!(
+                "orthogonal_design: factor `{name}` is named twice (factors {} and {}); give each factor its own name",
+                first + 1,
+                j + 1
+            )));
+        }
+    }
     let q = values[0].len();
     if let Some(j) = values.iter().position(|v| v.len() != q) {
         return Err(err(format!(
@@ -409,10 +419,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_fn("predict", |r: &mut Regression, x: Field| {
             Field::new(x.0.iter().map(|v| r.fits[0].predict(*v)).collect())
         })
-        .register_fn("invert", |r: &mut Regression, y: FLOAT| {
-            let f = &r.fits[0];
-            f.form.invert(f.a, f.b, y)
-        })
+        .register_fn("invert", |r: &mut Regression, y: FLOAT| r.fits[0].invert(y).map_err(cal("invert")))
         .register_fn("to_string", |r: &mut Regression| format!("{} (R² = {:.4})", r.fits[0].formula(), r.fits[0].r2));
     let h = host.clone();
     engine.register_fn(

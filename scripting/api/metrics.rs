@@ -13,6 +13,14 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     let metrics: Rc<RefCell<Vec<(String, f64)>>> = Rc::default();
     let report = move |name: &str, value: f64| -> RhaiResult<()> {
         check_name(name)?;
+        // A study or sweep compares metrics across runs: NaN or inf there is a failed
+        // computation, better stopped here than found as a gap in a table later.
+        if !value.is_finite() {
+            return Err(err(format!(
+                "report: `{name}` is {value}; a metric must be a finite number — check what computed it (a mean of \
+                 nothing, a division by zero), or leave it unreported"
+            )));
+        }
         {
             let mut m = metrics.borrow_mut();
             match m.iter_mut().find(|(n, _)| n == name) {
@@ -25,7 +33,8 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             return Ok(());
         }
         // Rewritten whole at each report, so an interrupted run keeps what it reported.
-        let path = host.out_path(METRICS_FILE)?;
+        // The host's own file, which a script's save may not name.
+        let path = crate::sandbox::host_output_path(&host.out_dir, METRICS_FILE).map_err(err)?;
         let text = to_csv(&metrics.borrow());
         write_atomic(&path, text.as_bytes()).map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
         if !host.written.borrow().contains(&path) {

@@ -175,7 +175,8 @@ impl Host {
     pub fn warn(&self, key: &str, message: String) {
         let mut warnings = self.warnings.borrow_mut();
         if !warnings.iter().any(|(k, _)| k == key) {
-            eprintln!("warning: {message}");
+            // Warnings quote the script's names and values: escaped for the terminal.
+            eprintln!("warning: {}", crate::terminal_text::lines(&message));
             warnings.push((key.to_string(), message));
         }
     }

@@ -54,6 +54,16 @@ impl TableData {
             Some(r) => r.map_err(|e| format!("cannot read the header: {e}"))?,
         };
         let names: Vec<String> = header.iter().map(|c| c.trim().to_string()).collect();
+        // Columns are found by name: a second one of a name would be dropped without a word.
+        for (k, name) in names.iter().enumerate() {
+            if let Some(first) = names[..k].iter().position(|n| n == name) {
+                return Err(format!(
+                    "column `{name}` is given twice (columns {} and {}); rename one in the header",
+                    first + 1,
+                    k + 1
+                ));
+            }
+        }
         let mut table = TableData::default();
         for record in records {
             let record = record.map_err(|e| format!("cannot read the file as CSV: {e}"))?;
@@ -66,10 +76,15 @@ impl TableData {
                 .zip(record.iter().map(str::trim))
                 .map(|(name, cell)| match cell {
                     "" => Ok((name.clone(), f64::NAN)),
-                    _ => cell
-                        .parse::<f64>()
-                        .map(|x| (name.clone(), x))
-                        .map_err(|_| format!("line {k}, column `{name}`: `{cell}` is not a number")),
+                    _ => match cell.parse::<f64>() {
+                        // A number too large for f64 reads as inf: say so rather than keep it.
+                        Ok(x) if x.is_infinite() && !is_infinity_word(cell) => Err(format!(
+                            "line {k}, column `{name}`: `{cell}` is beyond the range of a 64-bit float \
+                             (±1.8e308); give it in other units"
+                        )),
+                        Ok(x) => Ok((name.clone(), x)),
+                        Err(_) => Err(format!("line {k}, column `{name}`: `{cell}` is not a number")),
+                    },
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             table.push(&row);
@@ -98,6 +113,12 @@ impl TableData {
         let bytes = w.into_inner().expect("flushing a CSV writer into memory cannot fail");
         String::from_utf8(bytes).expect("CSV of UTF-8 names and numbers is UTF-8")
     }
+}
+
+/// `inf` or `infinity` (any case, any sign): an infinity written as one, not an overflow.
+fn is_infinity_word(cell: &str) -> bool {
+    let word = cell.trim_start_matches(['+', '-']).to_ascii_lowercase();
+    word == "inf" || word == "infinity"
 }
 
 /// A row from a script map of numbers.
@@ -187,6 +208,11 @@ mod tests {
         assert!(t.column("y").unwrap()[1].is_nan());
         let e = TableData::from_csv("x,y\n1,2,3\n").unwrap_err();
         assert!(e.contains("line 2 has 3 cells; the header has 2"), "{e}");
+        let e = TableData::from_csv("x,y,x\n1,2,3\n").unwrap_err();
+        assert!(e.contains("column `x` is given twice (columns 1 and 3)"), "{e}");
+        let e = TableData::from_csv("x\n-1e400\n").unwrap_err();
+        assert!(e.contains("line 2, column `x`: `-1e400` is beyond the range"), "{e}");
+        assert_eq!(TableData::from_csv("x\n-inf\n").unwrap().column("x").unwrap(), [f64::NEG_INFINITY]);
         let e = TableData::from_csv("x\nabc\n").unwrap_err();
         assert!(e.contains("line 2, column `x`: `abc` is not a number"), "{e}");
         assert!(TableData::from_csv("").unwrap_err().contains("empty"));

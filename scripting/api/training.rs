@@ -256,7 +256,7 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
     host.out_path(&out)?;
     let mut on_round = |r: &Round| {
         if !quiet {
-            println!("{}", round_line(&name, r, &t));
+            println!("{}", crate::terminal_text::lines(&round_line(&name, r, &t)));
         }
     };
     let training = matdem_engine::training::train(&name, &t, &opts, &host.control, &mut on_round).map_err(raise)?;
@@ -269,7 +269,8 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
             format!("did NOT converge in {} rounds; closest is round {}", training.rounds.len(), best.round)
         };
         println!(
-            "train {name}: {verdict} ({} elements, d = {:.3e} m); saved {}",
+            "train {}: {verdict} ({} elements, d = {:.3e} m); saved {}",
+            crate::terminal_text::one_line(&name),
             training.elements,
             training.diameter,
             file.display()

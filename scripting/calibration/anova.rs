@@ -136,6 +136,23 @@ pub fn anova(design: &[Vec<u8>], levels: usize, names: &[String], y: &[f64], poo
     })?;
     let grand = y.iter().sum::<f64>() / n as f64;
     let ss_total: f64 = y.iter().map(|v| (v - grand).powi(2)).sum();
+    // Sums of squares of responses near ±1e308 overflow to inf (or NaN), and F = inf/inf
+    // then has no p; the statistics are the same in other units.
+    if !(grand.is_finite() && ss_total.is_finite()) {
+        let largest = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        return Err(CalibrationError::new(format!(
+            "the responses are too large to square (|y| up to {largest:e}): scale them (e.g. divide by 1e6, or \
+             give them in MPa rather than Pa) and analyse again; F and p do not change with the scale"
+        )));
+    }
+    // Nothing varies: every sum of squares is 0 and F = 0/0 has no p.
+    if ss_total == 0.0 {
+        return Err(CalibrationError::new(format!(
+            "all {n} responses are {}: nothing varies, so no factor has an effect to test; check that the \
+             runs report the response they should (a metric that never changes)",
+            y[0]
+        )));
+    }
     let per_level = (n / levels) as f64;
     let mut effects: Vec<Effect> = (0..m)
         .map(|j| {
@@ -202,7 +219,15 @@ pub fn anova(design: &[Vec<u8>], levels: usize, names: &[String], y: &[f64], poo
         } else {
             f64::NAN
         };
-        e.p = if e.f.is_infinite() { 0.0 } else { dist.sf(e.f) };
+        // F is NaN only when both mean squares are 0 (a factor without effect and no error):
+        // no p then, rather than asking the distribution for one (statrs panics on NaN).
+        e.p = if e.f.is_nan() {
+            f64::NAN
+        } else if e.f.is_infinite() {
+            0.0
+        } else {
+            dist.sf(e.f)
+        };
         e.f_crit_05 = dist.inverse_cdf(0.95);
         e.f_crit_01 = dist.inverse_cdf(0.99);
     }
@@ -312,7 +337,19 @@ mod tests {
         let mut y = vec![1.0; 9];
         y[4] = f64::NAN;
         assert!(anova(&oa.rows, 3, &names(4), &y, &Pooling::Weakest(1)).unwrap_err().to_string().contains("run 5"));
-        assert!(anova(&oa.rows, 3, &names(4), &[1.0; 9], &Pooling::Factors(vec!["x".into()]))
+        let e = anova(&oa.rows, 3, &names(4), &[2.5; 9], &Pooling::Weakest(1)).unwrap_err().to_string();
+        assert!(e.contains("all 9 responses are 2.5"), "{e}");
+        let huge: Vec<f64> = (0..9).map(|i| if i % 2 == 0 { 1e308 } else { -1e308 }).collect();
+        let e = anova(&oa.rows, 3, &names(4), &huge, &Pooling::Weakest(1)).unwrap_err().to_string();
+        assert!(e.contains("too large to square") && e.contains("scale"), "{e}");
+        // A factor without effect and no error left: F and p are NaN, not a panic.
+        let oa = OrthogonalArray::with_runs(9, 3).unwrap();
+        let design: Vec<Vec<u8>> = oa.rows.iter().map(|r| r[..2].to_vec()).collect();
+        let y: Vec<f64> = oa.rows.iter().map(|r| f64::from(r[0])).collect();
+        let a = anova(&design, 3, &names(2), &y, &Pooling::None).unwrap();
+        assert!(a.effects[1].p.is_nan() && a.effects[0].p == 0.0, "{}", a.to_text());
+        let y: Vec<f64> = (0..9).map(f64::from).collect();
+        assert!(anova(&oa.rows, 3, &names(4), &y, &Pooling::Factors(vec!["x".into()]))
             .unwrap_err()
             .to_string()
             .contains("cannot pool `x`"));

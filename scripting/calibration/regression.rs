@@ -69,6 +69,33 @@ impl Fit {
         self.form.eval(self.a, self.b, x)
     }
 
+    /// The x at which the fit gives `y` (the single-factor inversion of paper 002 Table 5);
+    /// an error that says why where no finite x does (a flat fit, a y the form never reaches).
+    pub fn invert(&self, y: f64) -> Result<f64> {
+        if !y.is_finite() {
+            return Err(CalibrationError::new(format!("the target y = {y} is not a finite number")));
+        }
+        let flat = self.a == 0.0 || (matches!(self.form, Form::Exponential | Form::Power) && self.b == 0.0);
+        if flat {
+            return Err(CalibrationError::new(format!(
+                "the fit {} is flat: it gives the same y for every x, so no x gives y = {y}; the response does not \
+                 change with this factor — invert with a response that does",
+                self.formula()
+            )));
+        }
+        let x = self.form.invert(self.a, self.b, y);
+        if x.is_finite() {
+            return Ok(x);
+        }
+        let why = match self.form {
+            Form::Exponential | Form::Power if y / self.a <= 0.0 => {
+                format!("the {} fit only reaches values of the sign of a = {}, never 0", self.form.name(), fmt(self.a))
+            }
+            _ => "x would be beyond the range of a 64-bit float".to_string(),
+        };
+        Err(CalibrationError::new(format!("no x gives y = {y} on {}: {why}", self.formula())))
+    }
+
     /// The formula with its numbers, e.g. `y = 2.5·e^(0.3·x)`.
     pub fn formula(&self) -> String {
         let (a, b) = (fmt(self.a), fmt(self.b));
@@ -208,7 +235,7 @@ mod tests {
             let best = &fit_all(&x, &y).unwrap()[0];
             assert_eq!(best.form, form, "best of {:?}", fit_all(&x, &y).unwrap());
             // The inversion gives x back.
-            assert!((form.invert(f.a, f.b, y[3]) - x[3]).abs() < 1e-9);
+            assert!((f.invert(y[3]).unwrap() - x[3]).abs() < 1e-9);
         }
     }
 
@@ -233,6 +260,11 @@ mod tests {
         let all = fit_all(&x, &y).unwrap();
         assert_eq!(all.len(), 1);
         assert!(Form::parse("cubic").unwrap_err().to_string().contains("linear, exponential"));
+        // A flat fit and a y the form never reaches have no inversion.
+        let flat = fit(Form::Linear, &[1.0, 2.0, 3.0], &[5.0; 3]).unwrap();
+        assert!(flat.invert(6.0).unwrap_err().to_string().contains("is flat"));
+        let exp = fit(Form::Exponential, &[1.0, 2.0, 3.0], &[2.0, 4.0, 8.0]).unwrap();
+        assert!(exp.invert(-1.0).unwrap_err().to_string().contains("no x gives y = -1"));
         assert!(fit(Form::Linear, &[1.0, 1.0, 1.0], &[1.0, 2.0, 3.0])
             .unwrap_err()
             .to_string()

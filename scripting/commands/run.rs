@@ -165,7 +165,15 @@ fn params(set: &[String]) -> Result<Params, Failure> {
             Some((k, v)) if !k.trim().is_empty() => {
                 matdem_rs::package::check_param_name(k.trim())
                     .map_err(|e| Failure::error(format!("--set {s}: {e}")))?;
-                Ok((k.trim().to_string(), parse_value(v.trim())))
+                let value = parse_value(v.trim());
+                // `1e400` reads as inf (and `nan` as NaN): no script means that by a number.
+                if value.as_float().is_ok_and(|x| !x.is_finite()) {
+                    return Err(Failure::error(format!(
+                        "--set {s}: `{}` is not a finite number (a 64-bit float reaches ±1.8e308); give a finite value",
+                        v.trim()
+                    )));
+                }
+                Ok((k.trim().to_string(), value))
             }
             _ => Err(Failure::error(format!("--set expects NAME=VALUE, got `{s}`"))),
         })

@@ -6,6 +6,7 @@ use matdem_engine::backend::RunControl;
 use matdem_rs::out_lock::OutLock;
 use matdem_rs::package::Package;
 use matdem_rs::sweep::point::PointRun;
+use matdem_rs::terminal_text::one_line;
 
 pub fn sweep(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
@@ -150,7 +151,7 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
                 "{name}: {:?} in {:.1} s{}",
                 outcome.status,
                 outcome.wall_s,
-                outcome.error.map(|e| format!(": {e}")).unwrap_or_default()
+                outcome.error.map(|e| format!(": {}", one_line(&e))).unwrap_or_default()
             );
             Ok(())
         }
@@ -170,7 +171,7 @@ fn warn_refused_values(planned: &matdem_rs::sweep::SweepPlan) {
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
         if let Err(e) = package.params(&set) {
-            eprintln!("warning: {} will fail: {e}", p.name);
+            eprintln!("warning: {} will fail: {}", p.name, one_line(&e));
         }
     }
 }

@@ -38,8 +38,11 @@ pub fn write_sweep_page(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -
         }
     }
     body.push_str("<h2>Points</h2>\n<table>\n<tr><th>point</th><th>status</th>");
-    for n in params.iter().chain(&metrics) {
+    for n in &params {
         let _ = write!(body, "<th>{}</th>", escape(n));
+    }
+    for n in &metrics {
+        let _ = write!(body, "<th>{}</th>", escape(&crate::sweep::collect::metric_column(n, &params)));
     }
     body.push_str("<th>wall s</th><th>host</th><th>error</th></tr>\n");
     for r in results {

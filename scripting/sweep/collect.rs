@@ -3,15 +3,31 @@
 //! parameters and metrics. Read from the sweep folder alone, wherever the points ran.
 
 use super::plan::SweepPlan;
-use super::point::{read_outcome, PointStatus};
+use super::point::{read_outcome, PointStatus, LOG_FILE};
 use crate::api::metrics::{parse_metrics, METRICS_FILE};
 use crate::api::write_atomic;
+use crate::terminal_text::one_line;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The merged table's file name; `timings.csv` holds what differs from machine to machine.
 pub const TABLE_FILE: &str = "sweep.csv";
 pub const TIMINGS_FILE: &str = "timings.csv";
+
+/// The merged table's own columns besides parameters and metrics: a parameter may not take
+/// one of these names (the plan refuses it), a metric that does is prefixed.
+pub const OWN_COLUMNS: [&str; 3] = ["run", "status", "note"];
+
+/// A metric's column in the merged table: `metric:NAME` where NAME is one of the table's own
+/// columns or a parameter's, so that every header names one column. Metric names are words
+/// (`report` checks them), so the prefixed name cannot be another metric's.
+pub fn metric_column(name: &str, params: &[impl AsRef<str>]) -> String {
+    if OWN_COLUMNS.contains(&name) || params.iter().any(|p| p.as_ref() == name) {
+        format!("metric:{name}")
+    } else {
+        name.to_string()
+    }
+}
 
 /// Where a point stands.
 #[derive(Debug, Clone, PartialEq)]
@@ -149,7 +165,7 @@ pub fn table_csv(plan: &SweepPlan, results: &[PointResult]) -> String {
     let header: Vec<String> = std::iter::once("run".to_string())
         .chain(params.iter().cloned())
         .chain(["status".to_string()])
-        .chain(metrics.iter().cloned())
+        .chain(metrics.iter().map(|m| metric_column(m, &params)))
         .chain(["note".to_string()])
         .collect();
     w.write_record(&header).expect("a CSV record written to memory cannot fail");
@@ -195,7 +211,8 @@ pub fn timings_csv(results: &[PointResult]) -> String {
         .expect("CSV of UTF-8 text is UTF-8")
 }
 
-/// Counts, then one line per point that failed or is not finished.
+/// Counts, then one line per point that failed or is not finished: text for a terminal, so
+/// the values and errors it quotes (from the plan and the outcome files) are escaped.
 pub fn status_text(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> String {
     let count = |label: &str| results.iter().filter(|r| r.state.label() == label).count();
     let mut s = format!(
@@ -209,11 +226,16 @@ pub fn status_text(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Str
         count("pending"),
     );
     for r in results {
-        let setting = r.parameters.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ");
+        let setting = one_line(&setting_text(&r.parameters)).into_owned();
         match &r.state {
             PointState::Failed(why) => {
-                let _ =
-                    writeln!(s, "  {} {setting}: failed: {why} (log: {}/log.txt)", r.name, dir.join(&r.name).display());
+                let why = one_line(why);
+                let _ = writeln!(
+                    s,
+                    "  {} {setting}: failed: {why} (log: {})",
+                    r.name,
+                    dir.join(&r.name).join(LOG_FILE).display()
+                );
             }
             PointState::Ok => {}
             other => {
@@ -222,6 +244,11 @@ pub fn status_text(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Str
         }
     }
     s
+}
+
+/// A point's parameters as `a=1 b=2`.
+pub fn setting_text(parameters: &[(String, String)]) -> String {
+    parameters.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")
 }
 
 /// Writes the merged table and the timings (and, for a study, its table and chart);

@@ -123,12 +123,14 @@ pub fn run_local_held(
     Ok(LocalSummary { skipped, ran })
 }
 
+/// The progress line of a finished point, for a terminal: its values and error escaped.
 fn line(plan: &SweepPlan, k: usize, o: &Outcome) -> String {
+    use crate::terminal_text::one_line;
     let p = &plan.points[k];
-    let setting = p.parameters.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ");
+    let setting = one_line(&super::collect::setting_text(&p.parameters)).into_owned();
     let how = match o.status {
         PointStatus::Ok => "ok".to_string(),
-        PointStatus::Failed => format!("failed: {}", o.error.as_deref().unwrap_or("?")),
+        PointStatus::Failed => format!("failed: {}", one_line(o.error.as_deref().unwrap_or("?"))),
         PointStatus::Interrupted => "interrupted (resumes on the next run)".to_string(),
     };
     format!("{} {setting}  {:.1} s, {how}", p.name, o.wall_s)

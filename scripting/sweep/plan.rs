@@ -232,6 +232,14 @@ impl SweepPlan {
             }
             check_names(&p.parameters).map_err(|e| format!("point {}: {e}", p.name))?;
             for (name, _) in &p.parameters {
+                // Varied parameters are columns of sweep.csv beside its own.
+                if super::collect::OWN_COLUMNS.contains(&name.as_str()) {
+                    return Err(format!(
+                        "parameter `{name}` would be ambiguous: the sweep's table (sweep.csv) has a `{name}` column \
+                         of its own (as it has {}); give the parameter another name in the script or package",
+                        super::collect::OWN_COLUMNS.map(|c| format!("`{c}`")).join(", ")
+                    ));
+                }
                 if self.fixed.iter().any(|(f, _)| f == name) {
                     return Err(format!("{name} is both varied and set for every point (--set); drop one"));
                 }

@@ -10,6 +10,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
+/// A point's output (stdout, then stderr) in its run folder.
+pub const LOG_FILE: &str = "log.txt";
+
 /// The folder of outcomes at the top of the sweep folder.
 pub const OUTCOMES_DIR: &str = "outcomes";
 
@@ -176,7 +179,7 @@ pub fn run_point(
     }
     let mut log = stdout;
     log.extend_from_slice(&stderr);
-    let log_path = run_dir.join("log.txt");
+    let log_path = run_dir.join(LOG_FILE);
     write_atomic(&log_path, &log).map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
     let code = status.code();
     let (status_kind, error) = match code {

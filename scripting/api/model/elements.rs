@@ -167,6 +167,7 @@ fn add_elements(m: &mut Model, t: &Table, mat: &Dynamic, group: &str) -> RhaiRes
 /// Adds elements at checked centres and radii with material `mat` (a name the model knows,
 /// or a material value) to group `group` (created, or extended). Returns the number added.
 fn add_checked(m: &mut Model, pos: &[Vec3], r: &[f64], mat: &Dynamic, group: &str) -> RhaiResult<INT> {
+    super::groups::check_group_name("add_elements", group)?;
     let material = if let Some(name) = mat.clone().try_cast::<rhai::ImmutableString>() {
         m.material_index(&name).map_err(|e| {
             err(format!(

@@ -5,6 +5,7 @@ use super::*;
 pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
     engine
         .register_fn("add_group", |d: &mut ModelHandle, name: &str, sel: Dynamic| -> RhaiResult<INT> {
+            check_group_name("add_group", name)?;
             let mut m = d.model();
             let ids = resolve_ids(&m, &sel)?;
             let n = ids.len();
@@ -12,6 +13,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             Ok(n as INT)
         })
         .register_fn("group_where", |d: &mut ModelHandle, name: &str, mask: Mask| -> RhaiResult<INT> {
+            check_group_name("group_where", name)?;
             let mut m = d.model();
             let ids = resolve_ids(&m, &Dynamic::from(mask))?;
             let n = ids.len();
@@ -140,4 +142,12 @@ fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::physics::paralle
         cohesion: get("c")?,
         phi: get("phi")?.to_radians(),
     })
+}
+
+/// A group made by a script needs a name it can be found by (and shown under) again.
+pub(super) fn check_group_name(what: &str, name: &str) -> RhaiResult<()> {
+    if name.trim().is_empty() {
+        return Err(err(format!("{what}: a group needs a name (got {name:?}); give one such as \"top\"")));
+    }
+    Ok(())
 }

@@ -1,6 +1,8 @@
 //! Running and balancing the model, journaled so an interrupted run can resume.
 
 use super::*;
+// Model names come from the script and are printed: escaped for the terminal.
+use crate::terminal_text::one_line;
 
 /// Runs or balances the model (`call` names the script function), with progress and
 /// cancellation; in plan mode prints the plan instead. Journaled like every observation: a
@@ -13,7 +15,13 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         if !data.plan_noted {
             let plan = data.sim.plan_text();
             if host.plan_only {
-                println!("model `{}` ({} particles):\n{plan}", data.name, data.sim.model.len());
+                // The plan names the script's groups and materials: escaped like the name.
+                println!(
+                    "model `{}` ({} particles):\n{}",
+                    one_line(&data.name),
+                    data.sim.model.len(),
+                    crate::terminal_text::lines(&plan)
+                );
             }
             host.plans.borrow_mut().push((data.name.clone(), plan));
             data.plan_noted = true;
@@ -80,7 +88,11 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         if let (false, Ok(r)) = (host.progress, &rep) {
             if secs >= LOG_BALANCE_AFTER_S {
                 let rate = r.steps as f64 * data.sim.model.len() as f64 / secs;
-                eprintln!("{}: {call} of {} steps in {secs:.1} s ({rate:.3e} particle-steps/s)", data.name, r.steps);
+                eprintln!(
+                    "{}: {call} of {} steps in {secs:.1} s ({rate:.3e} particle-steps/s)",
+                    one_line(&data.name),
+                    r.steps
+                );
             }
         }
         let rep = match rep {
@@ -105,7 +117,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         host.session.borrow_mut().entries.pop();
         let saved = SavedBalance::from_balance(how).expect("standard balances were turned into steps above");
         let dir = resume::write_resume(host, call, saved, completed).map_err(err)?;
-        let name = d.data().name.clone();
+        let name = one_line(&d.data().name).into_owned();
         eprintln!(
             "interrupted: `{name}` stopped after {completed} step(s) of its {call}; resume data in {}",
             dir.display()
