@@ -336,3 +336,34 @@ fn pack_refuses_what_run_would_refuse_before_writing() {
     assert!(stderr(&o).contains("more than 536870912 bytes") && stderr(&o).contains("dump.bin"), "{}", stderr(&o));
     assert!(!tar.exists());
 }
+
+// Before: after a point was resumed by hand and finished, `sweep status` still said
+// `interrupted` and `sweep point` ran it again from scratch.
+#[test]
+fn a_point_resumed_by_hand_and_finished_counts_as_done() {
+    let dir = temp_dir("resumed_by_hand");
+    let script = dir.join("w.rhai");
+    std::fs::write(&script, REPORT).unwrap();
+    let sw = dir.join("sw");
+    ok(&sweep_plan(&script, &sw, &["--vary", "x=1,2"]));
+    std::fs::create_dir_all(sw.join("outcomes")).unwrap();
+    std::fs::write(
+        sw.join("outcomes/run01.ron"),
+        "(status: Interrupted, error: None, exit_code: Some(130), wall_s: 1.0, host: \"h\", started: \
+         \"2026-12-04T00:00:00Z\", finished: \"2026-12-04T00:00:01Z\")",
+    )
+    .unwrap();
+    // What `matdem-rs run w.rhai --resume sw/run01` leaves when it finishes.
+    std::fs::write(
+        sw.join("run01/run.ron"),
+        "(script: \"w.rhai\", script_sha256: \"x\", parameters: [], backend: \"cpu (f64)\", matdem_rs_version: \
+         \"0.1.0\", started: \"2026-12-04T00:01:00Z\", finished: Some(\"2026-12-04T00:02:00Z\"), status: \"ok\", \
+         exit_code: Some(0), resumed_from: Some(\"sw/run01\"))",
+    )
+    .unwrap();
+    std::fs::write(sw.join("run01/metrics.csv"), "name,value\nm,2.0\n").unwrap();
+    let o = sweep(&["status"], &sw);
+    assert!(stdout(&o).contains("2 point(s): 1 ok, 0 failed, 0 running, 0 interrupted, 1 pending"), "{}", stdout(&o));
+    let o = bin().args(["sweep", "point"]).arg(&sw).arg("0").output().unwrap();
+    assert!(stderr(&o).contains("run01 finished already; skipped"), "{}", stderr(&o));
+}

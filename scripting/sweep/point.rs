@@ -51,10 +51,37 @@ pub fn read_outcome(dir: &Path, name: &str) -> Result<Option<Outcome>, String> {
     let path = outcome_path(dir, name);
     // Not through a link leading out of the sweep folder (a received folder is untrusted).
     crate::sandbox::output_path(dir, &format!("{OUTCOMES_DIR}/{name}.ron"))?;
-    match std::fs::read_to_string(&path) {
-        Ok(text) => ron::from_str(&text).map(Some).map_err(|e| format!("{}: {e}", path.display())),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(format!("cannot read {}: {e}", path.display())),
+    let outcome: Outcome = match std::fs::read_to_string(&path) {
+        Ok(text) => ron::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("cannot read {}: {e}", path.display())),
+    };
+    Ok(Some(finished_by_hand(dir, name, outcome)))
+}
+
+/// An interrupted point that a user resumed by hand (`matdem-rs run … --resume DIR/runNN`) and
+/// that finished: its run.ron says so, and the point is done (not rerun from scratch).
+fn finished_by_hand(dir: &Path, name: &str, outcome: Outcome) -> Outcome {
+    #[derive(Deserialize)]
+    struct Record {
+        status: String,
+        finished: Option<String>,
+        resumed_from: Option<String>,
+    }
+    if outcome.status != PointStatus::Interrupted {
+        return outcome;
+    }
+    let Ok(path) = crate::sandbox::output_path(dir, &format!("{name}/{}", crate::run_record::RUN_RECORD)) else {
+        return outcome;
+    };
+    match std::fs::read_to_string(path).ok().and_then(|t| ron::from_str::<Record>(&t).ok()) {
+        Some(r) if r.status == "ok" && r.resumed_from.is_some() => Outcome {
+            status: PointStatus::Ok,
+            exit_code: Some(0),
+            finished: r.finished.unwrap_or(outcome.finished.clone()),
+            ..outcome
+        },
+        _ => outcome,
     }
 }
 
