@@ -577,9 +577,9 @@ fn check_walls(m: &Model) -> Result<(), String> {
     Ok(())
 }
 
-/// Rows of ids in CSR form in which every pair appears in both rows: `items` entries, ids
-/// below `n`, none the row's own, each row increasing, each entry mirrored in its partner's
-/// row. The error names `what` and the first entry that is wrong.
+/// `n` rows of ids in CSR form in which every pair appears in both rows: as many states as
+/// entries, ids below `n`, none the row's own, each row increasing, each entry mirrored in its
+/// partner's row. The error names `what` and the first entry that is wrong.
 fn check_symmetric_rows(what: &str, start: &[u32], other: &[u32], states: usize, n: usize) -> Result<(), String> {
     check_row_starts(what, start, n, other.len())?;
     if states != other.len() {
@@ -590,7 +590,7 @@ fn check_symmetric_rows(what: &str, start: &[u32], other: &[u32], states: usize,
         for (k, &j) in row(i).iter().enumerate() {
             let at = start[i] as usize + k;
             if j as usize >= n {
-                return Err(format!("{what}: entry {at} of particle {i} is particle {j}, and the model has {n}"));
+                return Err(format!("{what}: entry {at} of particle {i} is particle {j}, and the rows cover {n}"));
             }
             if j as usize == i {
                 return Err(format!("{what}: entry {at} of particle {i} is the particle itself"));
@@ -631,18 +631,25 @@ fn check_neighbour_rows(m: &Model) -> Result<(), String> {
         }
         return Ok(());
     }
-    check_symmetric_rows("neighbour rows", &c.row_start, &c.other, c.state.len(), n)?;
+    // Rows built before particles were added cover the first ones only, and are stale: the
+    // next step, observer or surgery rebuilds them for all (`Model::add_particle`).
+    let rows = c.row_start.len() - 1;
+    if rows > n || (rows < n && !c.stale) {
+        let starts = c.row_start.len();
+        return Err(format!("neighbour rows: {starts} row starts for {n} particles (need {})", n + 1));
+    }
+    check_symmetric_rows("neighbour rows", &c.row_start, &c.other, c.state.len(), rows)?;
     if c.pair.is_empty() && c.pair_start.is_empty() {
         // Not derived yet: the next step rebuilds the rows, reading only what is checked above.
         return Ok(());
     }
     if !c.has_pair_ids() {
         let (ids, starts) = (c.pair.len(), c.pair_start.len());
-        return Err(format!("pair ids: {ids} for {e} row entries, {starts} pair row starts for {n} particles"));
+        return Err(format!("pair ids: {ids} for {e} row entries, {starts} pair row starts for {rows} rows"));
     }
     // Each pair is in both rows (checked above), so the entries come two by two.
-    check_row_starts("pair rows", &c.pair_start, n, e / 2)?;
-    for i in 0..n {
+    check_row_starts("pair rows", &c.pair_start, rows, e / 2)?;
+    for i in 0..rows {
         let row = c.row(i);
         // The pairs particle i owns are those with its higher-id neighbours: its row's tail.
         let owned = c.pair_start[i + 1] - c.pair_start[i];
