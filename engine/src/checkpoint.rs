@@ -30,18 +30,22 @@
 //! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
 
 use crate::body_potential::{BodyFields, BodyWork};
+use crate::element_values::MAX_MATERIALS;
 use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
 use crate::moisture::MoistureSettings;
+use crate::physics::moisture::Table;
 use crate::physics::rolling_resistance::RollingResistance;
 use crate::physics::Vec3;
 use crate::pores::coupling::PoreSettings;
 use crate::pores::flow::{PoreBoundary, PoreFlow};
 use crate::pores::{Fluid, FluidHeat};
 use crate::provenance::Provenance;
+use crate::state::check_row_starts;
 use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
-use crate::state::thermal::ThermalLanes;
+use crate::state::thermal::{ThermalLanes, FIXED, FREE, INSULATED};
+use crate::walls::{WallMotion, WallShape, MAX_WALLS};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -240,6 +244,16 @@ impl Section {
                 if !lanes.consistent(m.len()) {
                     return Err("water lanes do not match the particles".into());
                 }
+                check_radii("radius at which the shrinkage table is 1", &lanes.radius0)?;
+                // The tables are read at their first point and searched in order: as the setters
+                // make them (Table::new), or refused.
+                let tables =
+                    [(&settings.radius_table, "radius", f64::MAX), (&settings.strength_table, "strength", 1.0)];
+                for (table, what, hi) in tables {
+                    if let Some(t) = table {
+                        Table::new(t.points.clone(), &format!("the moisture {what} table"), 0.0, hi)?;
+                    }
+                }
                 m.settings.moisture = settings;
                 m.particles.moisture = lanes;
             }
@@ -407,11 +421,23 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
         });
     }
     let payload = &bytes[HEADER..body];
+    // A payload that does not decode or a model that does not hold together: written by this
+    // engine version in this format, the file was altered after it was written (its checksum
+    // recomputed: damaged in a way the CRC missed, or forged); by another, it may be a layout
+    // this build misreads.
+    let refuse = |writer: String, reason: String| match writer == WRITER && version == FORMAT_VERSION {
+        true => CheckpointError::Corrupt { reason },
+        false => CheckpointError::Incompatible { writer, reason },
+    };
+    // A forged length prefix (a Vec of 2⁶⁰ elements) costs no allocation: serde preallocates
+    // at most 1 MiB of a sequence (`size_hint::cautious`), and postcard gives no size hint
+    // beyond the bytes left, so the read fails at the payload's end instead.
     let mut p = PayloadIn::read(payload, version).map_err(|e| {
         // The writer's version leads the payload, so it can usually be read even when the
         // model that follows cannot.
-        let writer = postcard::take_from_bytes::<String>(payload).map(|(w, _)| w).unwrap_or_else(|_| "?".into());
-        CheckpointError::Incompatible { writer, reason: e.to_string() }
+        let writer = postcard::take_from_bytes::<String>(payload).map(|(w, _)| w).unwrap_or_default();
+        let writer = if writer.is_empty() { "?".into() } else { writer };
+        refuse(writer, format!("its payload does not decode: {e}"))
     })?;
     p.model.parallel_bonds = p.parallel_bonds;
     p.model.settings.heat = p.fields.heat;
@@ -422,33 +448,54 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
         m.provenance = prov;
     }
+    let writer = p.writer;
+    let refuse = |reason: String| refuse(writer.clone(), reason);
     let state = &mut p.model.contacts.state;
     for &(e, w) in &p.weakened {
         match state.get_mut(e as usize) {
             Some(s) if s.bonded => s.weakened = w,
-            _ => {
-                let reason = format!("a bond strength share refers to row entry {e}, not a bond");
-                return Err(CheckpointError::Incompatible { writer: p.writer, reason });
-            }
+            _ => return Err(refuse(format!("a bond strength share refers to row entry {e}, not a bond"))),
         }
     }
-    check_consistent(&p.model).map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
+    check_consistent(&p.model).map_err(refuse)?;
     for section in p.sections {
-        section
-            .apply(&mut p.model)
-            .map_err(|reason| CheckpointError::Incompatible { writer: p.writer.clone(), reason })?;
+        section.apply(&mut p.model).map_err(refuse)?;
     }
     Ok(Checkpoint { model: p.model, annex: p.annex })
 }
 
-/// Lane lengths that must agree before the model is stepped (a well-formed but inconsistent
-/// payload would otherwise index out of bounds).
+/// What must hold before the model is stepped: a well-formed but inconsistent payload (a
+/// damaged writer, or a file forged with its checksum recomputed: a shared package may ship
+/// one) would otherwise index out of bounds, or hand `f64::clamp` bounds it panics on. Every
+/// lane length, every index and every cross-reference the steppers and the hosts read with a
+/// loaded value is checked here, and the values the steppers would panic on; the sections'
+/// lanes in [`Section::apply`]. The error names the first thing that is wrong.
 fn check_consistent(m: &Model) -> Result<(), String> {
+    check_particles(m)?;
+    check_walls(m)?;
+    check_neighbour_rows(m)?;
+    let pb = &m.parallel_bonds;
+    if !(pb.row_start.is_empty() && pb.other.is_empty() && pb.state.is_empty()) {
+        check_symmetric_rows("parallel bond rows", &pb.row_start, &pb.other, pb.state.len(), m.len())?;
+    }
+    m.groups.check(m.len())
+}
+
+/// The particle lanes, the materials they name and the radii.
+fn check_particles(m: &Model) -> Result<(), String> {
     let p = &m.particles;
     let n = p.len();
-    let lanes = [p.radius.len(), p.vel.len(), p.mass.len(), p.force.len(), p.material.len(), p.fixed.len()];
-    if lanes.iter().chain([&p.origin.len()]).any(|&l| l != n) {
-        return Err("particle lanes of different lengths".into());
+    let lanes = [
+        ("radii", p.radius.len()),
+        ("velocities", p.vel.len()),
+        ("masses", p.mass.len()),
+        ("forces", p.force.len()),
+        ("materials", p.material.len()),
+        ("fixities", p.fixed.len()),
+        ("origins", p.origin.len()),
+    ];
+    if let Some((what, l)) = lanes.iter().find(|(_, l)| *l != n) {
+        return Err(format!("particle lanes of different lengths: {l} {what} for {n} positions"));
     }
     // A ledger lane is allocated (one entry per particle) or absent (empty) until a plan books it.
     if p.heat.lanes().iter().any(|l| !l.is_empty() && l.len() != n) {
@@ -457,33 +504,172 @@ fn check_consistent(m: &Model) -> Result<(), String> {
     if !p.thermal.consistent(n) {
         return Err("thermal lanes do not match the particles".into());
     }
+    if let Some((i, k)) = p.thermal.mode.iter().enumerate().find(|(_, &k)| ![FREE, FIXED, INSULATED].contains(&k)) {
+        return Err(format!("thermal mode {k} of particle {i} is none of free (0), fixed (1), insulated (2)"));
+    }
     if let Some(rot) = &p.rotation {
         if rot.ang_vel.len() != n || rot.torque.len() != n {
             return Err("rotation lanes do not match the particles".into());
         }
     }
-    if p.material.iter().any(|&k| k as usize >= m.materials.len()) {
-        return Err("a particle refers to a missing material".into());
+    let materials = m.materials.len();
+    // The plan's table of pair constants is materials²: bounded as `add_material` bounds it.
+    if materials > MAX_MATERIALS {
+        return Err(format!("{materials} materials, more than the {MAX_MATERIALS} a scene may have"));
     }
-    if m.wall_contacts.len() != n * m.walls.len() {
-        return Err("wall contact states do not match particles × walls".into());
+    if let Some((i, &k)) = p.material.iter().enumerate().find(|(_, &k)| k as usize >= materials) {
+        return Err(format!("particle {i} refers to material {k}, and the model has {materials}"));
     }
-    let c = &m.contacts;
-    if !c.row_start.is_empty() {
-        let rows_ok = c.row_start.len() == n + 1
-            && c.row_start.windows(2).all(|w| w[0] <= w[1])
-            && c.row_start[n] as usize == c.other.len()
-            && c.state.len() == c.other.len()
-            && c.other.iter().all(|&j| (j as usize) < n);
-        if !rows_ok {
-            return Err("neighbour rows do not match the particles".into());
+    // Contacts, cell lists and the submerged cap read the radius; thermal expansion makes it
+    // from radius0.
+    check_radii("radius", &p.radius)?;
+    check_radii("radius at the reference temperature", &p.thermal.radius0)
+}
+
+/// Radii (of the particles, or at a reference) are finite numbers > 0.
+fn check_radii(what: &str, radii: &[f64]) -> Result<(), String> {
+    match radii.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
+        Some((i, r)) => Err(format!("particle {i} has {what} {r} m: a radius is a finite number > 0")),
+        None => Ok(()),
+    }
+}
+
+/// The walls, their contact states and what a step clamps with their values.
+fn check_walls(m: &Model) -> Result<(), String> {
+    let (n, nw) = (m.len(), m.walls.len());
+    // Wall loads are summed in arrays of MAX_WALLS, and wall masks are bytes.
+    if nw > MAX_WALLS {
+        return Err(format!("{nw} walls, more than the {MAX_WALLS} a scene may have"));
+    }
+    if m.wall_contacts.len() != n * nw {
+        let states = m.wall_contacts.len();
+        return Err(format!("wall contact states: {states} for {n} particles × {nw} walls"));
+    }
+    for w in &m.walls {
+        // `Wall::advance` clamps a servo's speed to ±max_speed, and a cone's distance clamps
+        // along its profile: bounds as the constructors and setters leave them.
+        if let WallMotion::Servo { max_speed, .. } = w.motion {
+            if !(max_speed.is_finite() && max_speed >= 0.0) {
+                return Err(format!("wall `{}`: servo max_speed {max_speed} m/s is not a finite number ≥ 0", w.name));
+            }
+        }
+        if let WallShape::Cone { half_angle, radius, rod_length, .. } = w.shape {
+            let ok = half_angle > 0.0
+                && half_angle < std::f64::consts::FRAC_PI_2
+                && radius.is_finite()
+                && radius > 0.0
+                && rod_length.is_finite()
+                && rod_length >= 0.0;
+            if !ok {
+                return Err(format!(
+                    "cone `{}`: half-angle {half_angle} rad, radius {radius} m, rod length {rod_length} m (a cone needs \
+                     an angle in (0, π/2), a finite radius > 0 and a rod length ≥ 0)",
+                    w.name
+                ));
+            }
         }
     }
-    if c.has_pair_ids() && c.pair.iter().any(|&k| k as usize >= c.pair_count()) {
-        return Err("pair ids out of range".into());
+    let c = &m.contacts;
+    // Each mask bit is a wall the wall pass indexes.
+    if let Some((i, &bits)) = c.wall_near.iter().enumerate().find(|(_, &b)| nw < u8::BITS as usize && b >> nw != 0) {
+        return Err(format!("wall mask of particle {i} ({bits:#010b}) names a wall beyond the model's {nw}"));
     }
-    if !m.parallel_bonds.consistent(n) {
-        return Err("parallel bond rows do not match the particles".into());
+    Ok(())
+}
+
+/// `n` rows of ids in CSR form in which every pair appears in both rows: as many states as
+/// entries, ids below `n`, none the row's own, each row increasing, each entry mirrored in its
+/// partner's row. The error names `what` and the first entry that is wrong.
+fn check_symmetric_rows(what: &str, start: &[u32], other: &[u32], states: usize, n: usize) -> Result<(), String> {
+    check_row_starts(what, start, n, other.len())?;
+    if states != other.len() {
+        return Err(format!("{what}: {states} states for {} entries", other.len()));
+    }
+    let row = |i: usize| &other[start[i] as usize..start[i + 1] as usize];
+    for i in 0..n {
+        for (k, &j) in row(i).iter().enumerate() {
+            let at = start[i] as usize + k;
+            if j as usize >= n {
+                return Err(format!("{what}: entry {at} of particle {i} is particle {j}, and the rows cover {n}"));
+            }
+            if j as usize == i {
+                return Err(format!("{what}: entry {at} of particle {i} is the particle itself"));
+            }
+            if k > 0 && row(i)[k - 1] >= j {
+                return Err(format!(
+                    "{what}: particle {i}'s row lists {j} after {} (ids must increase)",
+                    row(i)[k - 1]
+                ));
+            }
+            if row(j as usize).binary_search(&(i as u32)).is_err() {
+                return Err(format!("{what}: particle {i}'s row lists {j}, and {j}'s row does not list {i}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The neighbour rows (absent until first built) and, once derived, their pair ids: the
+/// contact passes slice the rows by `row_start` and `pair_start` and index the pair records by
+/// `pair`, so all three must be what [`crate::neighbours::rebuild`] makes of the rows.
+fn check_neighbour_rows(m: &Model) -> Result<(), String> {
+    let c = &m.contacts;
+    let (n, e) = (m.len(), c.other.len());
+    // A skin that is NaN would never let the rows be rebuilt, whatever moved.
+    if !(c.skin.is_finite() && c.skin >= 0.0) {
+        return Err(format!("neighbour skin {} m is not a finite number ≥ 0", c.skin));
+    }
+    if c.row_start.is_empty() {
+        let derived = [e, c.state.len(), c.pair.len(), c.pair_start.len()];
+        if derived.iter().any(|&l| l > 0) {
+            return Err(format!(
+                "neighbour rows not built, yet {e} entries, {} states, {} pair ids and {} pair row starts",
+                c.state.len(),
+                c.pair.len(),
+                c.pair_start.len()
+            ));
+        }
+        return Ok(());
+    }
+    // Rows built before particles were added cover the first ones only, and are stale: the
+    // next step, observer or surgery rebuilds them for all (`Model::add_particle`).
+    let rows = c.row_start.len() - 1;
+    if rows > n || (rows < n && !c.stale) {
+        let starts = c.row_start.len();
+        return Err(format!("neighbour rows: {starts} row starts for {n} particles (need {})", n + 1));
+    }
+    check_symmetric_rows("neighbour rows", &c.row_start, &c.other, c.state.len(), rows)?;
+    if c.pair.is_empty() && c.pair_start.is_empty() {
+        // Not derived yet: the next step rebuilds the rows, reading only what is checked above.
+        return Ok(());
+    }
+    if !c.has_pair_ids() {
+        let (ids, starts) = (c.pair.len(), c.pair_start.len());
+        return Err(format!("pair ids: {ids} for {e} row entries, {starts} pair row starts for {rows} rows"));
+    }
+    // Each pair is in both rows (checked above), so the entries come two by two.
+    check_row_starts("pair rows", &c.pair_start, rows, e / 2)?;
+    for i in 0..rows {
+        let row = c.row(i);
+        // The pairs particle i owns are those with its higher-id neighbours: its row's tail.
+        let owned = c.pair_start[i + 1] - c.pair_start[i];
+        let higher = c.other[row.clone()].iter().filter(|&&j| j as usize > i).count();
+        if owned as usize != higher {
+            return Err(format!("pair rows: particle {i} owns {owned} pairs but has {higher} higher-id neighbours"));
+        }
+        for (k, at) in (row.end - higher..row.end).enumerate() {
+            let (id, expected) = (c.pair[at], c.pair_start[i] + k as u32);
+            if id != expected {
+                return Err(format!("pair ids: row entry {at} (particle {i}) has pair id {id}, not {expected}"));
+            }
+            let j = c.other[at] as usize;
+            // The rows are symmetric (checked above): the mirror entry is there.
+            let other = c.find(j, i as u32).map(|mirror| c.pair[mirror]);
+            if other != Some(id) {
+                let other = other.map_or("none".into(), |o| o.to_string());
+                return Err(format!("pair ids: the pair {i}–{j} has id {id} in {i}'s row but {other} in {j}'s"));
+            }
+        }
     }
     Ok(())
 }

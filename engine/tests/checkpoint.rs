@@ -83,6 +83,21 @@ fn a_flipped_byte_is_refused_as_corrupt() {
     assert!(msg.contains("corrupt") && msg.contains("checksum") && msg.contains("save the model again"), "{msg}");
 }
 
+// Rows built before a particle was added cover the particles that were there (stale, rebuilt
+// before the next step reads them): a model saved then loads, and continues bit for bit.
+#[test]
+fn a_model_saved_after_adding_a_particle_loads_and_continues_bitwise() {
+    let mut straight = loaded_sample();
+    let top = straight.model.particles.pos.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    straight.model.add_particle(Vec3::new(2e-3, 2e-3, top + 1.2e-3), 0.45e-3, 0).unwrap();
+    let bytes = encode(&straight.model, b"");
+    assert!(straight.model.contacts.row_start.len() < straight.model.len() + 1, "rows built before the particle");
+    run(&mut straight, 200);
+    let mut resumed = Simulation::new(decode(&bytes).unwrap().model);
+    run(&mut resumed, 200);
+    assert!(encode(&straight.model, b"") == encode(&resumed.model, b""), "the resumed model differs");
+}
+
 #[test]
 fn a_truncated_file_is_refused_with_its_size() {
     let sim = loaded_sample();
@@ -111,13 +126,25 @@ fn a_file_of_another_kind_is_refused_as_not_a_checkpoint() {
     assert_eq!(decode(b"").unwrap_err(), CheckpointError::NotACheckpoint);
 }
 
+// A model that does not hold together is refused before anything steps it: as corrupt when
+// this engine version wrote it (the file was altered after it was written), as incompatible
+// when another did (a layout this build may misread).
 #[test]
 fn a_well_formed_payload_with_inconsistent_lanes_is_refused_not_stepped() {
     let mut m = loaded_sample().model;
     m.particles.radius.pop();
-    let e = decode(&encode(&m, b"")).unwrap_err();
-    assert!(matches!(e, CheckpointError::Incompatible { .. }), "{e:?}");
-    assert!(e.to_string().contains("particle lanes"), "{e}");
+    let bytes = encode(&m, b"");
+    let e = decode(&bytes).unwrap_err();
+    assert!(matches!(e, CheckpointError::Corrupt { .. }), "{e:?}");
+    assert!(e.to_string().contains("particle lanes") && e.to_string().contains("save the model again"), "{e}");
+    // The same payload stamped by another writer (the version string leads the payload).
+    let writer = matdem_engine::checkpoint::WRITER;
+    let payload = &bytes[20..bytes.len() - 4];
+    assert_eq!(payload[0] as usize, writer.len());
+    let mut other = payload.to_vec();
+    other[1..1 + writer.len()].copy_from_slice(&"9".repeat(writer.len()).into_bytes());
+    let e = decode(&framed(FORMAT_VERSION, &other)).unwrap_err();
+    assert!(matches!(&e, CheckpointError::Incompatible { reason, .. } if reason.contains("particle lanes")), "{e:?}");
 }
 
 #[test]
@@ -342,7 +369,7 @@ fn a_pore_network_that_does_not_fit_the_elements_is_refused() {
     let f = model.pores.as_mut().unwrap();
     f.network.tri.tets[0].v[0] = model.particles.pos.len() as u32 + 5;
     match decode(&encode(&model, b"")) {
-        Err(CheckpointError::Incompatible { reason, .. }) => assert!(reason.contains("pore network"), "{reason}"),
+        Err(CheckpointError::Corrupt { reason }) => assert!(reason.contains("pore network"), "{reason}"),
         other => panic!("expected a refusal, got {:?}", other.map(|_| ())),
     }
 }

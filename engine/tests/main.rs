@@ -13,6 +13,7 @@ mod contact_laws;
 mod energy_and_stability;
 mod field_parity;
 mod fixed_rotation;
+mod forged_checkpoint;
 mod gpu_energy;
 mod gpu_parity;
 mod guard_stiffness;

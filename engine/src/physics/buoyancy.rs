@@ -5,7 +5,9 @@
 /// V = π·h²·(3r − h)/3.
 #[inline]
 pub fn submerged_volume(z: f64, r: f64, level: f64) -> f64 {
-    let h = (level - (z - r)).clamp(0.0, 2.0 * r);
+    // min/max, not `clamp`, which panics on a NaN or negative bound: a radius driven there
+    // (a runaway temperature with thermal expansion, a forged lane) is the guard's to report.
+    let h = (level - (z - r)).min(2.0 * r).max(0.0);
     std::f64::consts::PI * h * h * (3.0 * r - h) / 3.0
 }
 

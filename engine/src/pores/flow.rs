@@ -275,27 +275,36 @@ impl PoreFlow {
     }
 
     /// Whether the network and the fluid's lanes agree with each other and with `n` elements
-    /// (see [`PoreNetwork::consistent`]).
+    /// (see [`PoreNetwork::consistent`]); the error names what does not.
     pub fn consistent(&self, n: usize) -> Result<(), String> {
         self.network.consistent(n)?;
         let pores = self.network.pore_count();
-        let lanes = [self.mass.len(), self.pressure.len(), self.region.len(), self.source.len()];
-        let heat_ok = (self.temperature.is_empty() || self.temperature.len() == pores)
-            && self.region_mass.len() == self.boundaries.len()
-            && self.region_heat.len() == self.boundaries.len();
+        let throats = self.network.throats.len();
         let regions = self.boundaries.len();
-        let ids_ok = self.boundaries.iter().all(|b| match &b.region {
-            PoreRegion::Elements(ids) => ids.iter().all(|&i| (i as usize) < n),
-            _ => true,
-        });
-        if lanes.iter().any(|&l| l != pores)
-            || self.flow.len() != self.network.throats.len()
-            || self.boundary_flow.len() != regions
-            || self.region.iter().any(|&r| r != FREE && r as usize >= regions)
-            || !ids_ok
-            || !heat_ok
-        {
-            return Err("pore fluid lanes do not match the pore network".into());
+        let fail = |what: String| Err(format!("pore fluid lanes do not match the pore network: {what}"));
+        let lanes = [self.mass.len(), self.pressure.len(), self.region.len(), self.source.len()];
+        if lanes.iter().any(|&l| l != pores) {
+            return fail(format!("mass, pressure, region and source of {lanes:?} entries for {pores} pores"));
+        }
+        if !(self.temperature.is_empty() || self.temperature.len() == pores) {
+            return fail(format!("{} temperatures for {pores} pores", self.temperature.len()));
+        }
+        if self.flow.len() != throats {
+            return fail(format!("{} throat flows for {throats} throats", self.flow.len()));
+        }
+        let totals = [self.boundary_flow.len(), self.region_mass.len(), self.region_heat.len()];
+        if totals.iter().any(|&l| l != regions) {
+            return fail(format!("boundary flows and totals of {totals:?} entries for {regions} regions"));
+        }
+        if let Some((p, r)) = self.region.iter().enumerate().find(|(_, &r)| r != FREE && r as usize >= regions) {
+            return fail(format!("pore {p} is in boundary region {r} of {regions}"));
+        }
+        for (b, bc) in self.boundaries.iter().enumerate() {
+            if let PoreRegion::Elements(ids) = &bc.region {
+                if let Some(&i) = ids.iter().find(|&&i| i as usize >= n) {
+                    return fail(format!("boundary region {b} lists element {i}, and the model has {n}"));
+                }
+            }
         }
         Ok(())
     }

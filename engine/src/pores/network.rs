@@ -111,47 +111,82 @@ impl PoreNetwork {
             .collect()
     }
 
-    /// Whether every index in the network lies in range for `n` elements (a checkpoint is
-    /// checked before it is stepped: a well-formed but inconsistent one would otherwise index
-    /// out of bounds).
+    /// Whether every index in the network lies in range for `n` elements and the network is
+    /// as [`PoreNetwork::build`] makes it (a checkpoint is checked before it is stepped: a
+    /// well-formed but inconsistent one would otherwise index out of bounds). The error names
+    /// the first thing that is wrong.
     pub fn consistent(&self, n: usize) -> Result<(), String> {
+        use crate::state::check_row_starts;
         let tets = self.tri.tets.len();
         let pores = self.pore_count();
         let throats = self.throats.len();
-        let csr = |start: &[u32], items: usize, rows: usize| {
-            start.len() == rows + 1
-                && start.first() == Some(&0)
-                && start.windows(2).all(|w| w[0] <= w[1])
-                && start[rows] as usize == items
-        };
-        let tets_ok = self.tri.tets.iter().all(|t| t.v.iter().all(|&v| (v as usize) < n))
-            && self.tri.points.len() == n
-            && self.orient.len() == tets
-            && self.tet_pore.len() == tets
-            && self.tet_pore.iter().all(|&p| (p as usize) < pores);
-        let pores_ok = csr(&self.pore_tet_start, self.pore_tets.len(), pores)
-            && self.pore_tets.iter().all(|&t| (t as usize) < tets)
-            && self.volume.len() == pores
-            && self.centre.len() == pores;
-        let throats_ok = self
-            .throats
-            .iter()
-            .all(|t| (t.a as usize) < pores && (t.b as usize) < pores && (t.tet as usize) < tets && t.face < 4)
-            && csr(&self.row_start, self.row.len(), pores)
-            && self.row.iter().all(|&t| (t as usize) < throats)
-            && [self.bonded_at_build.len(), self.conductance.len(), self.opening.len(), self.cracked.len()]
-                .iter()
-                .all(|&l| l == throats);
-        let elems_ok = self.built_at.len() == n
-            && csr(&self.elem_start, self.elem_corners.len(), n)
-            && self.elem_corners.iter().all(|&c| (c as usize) < 4 * tets);
-        match (tets_ok, pores_ok, throats_ok, elems_ok) {
-            (true, true, true, true) => Ok(()),
-            (false, ..) => Err("pore network tetrahedra do not match the elements".into()),
-            (_, false, ..) => Err("pore network pores do not match its tetrahedra".into()),
-            (_, _, false, _) => Err("pore network throats do not match its pores".into()),
-            _ => Err("pore network corners do not match the elements".into()),
+        let fail = |what: String| Err(format!("pore network: {what}"));
+        if self.tri.points.len() != n || self.built_at.len() != n {
+            let (p, b) = (self.tri.points.len(), self.built_at.len());
+            return fail(format!("{p} points and {b} build positions for {n} elements"));
         }
+        for (t, tet) in self.tri.tets.iter().enumerate() {
+            if let Some(&v) = tet.v.iter().find(|&&v| v as usize >= n) {
+                return fail(format!("tetrahedron {t} has corner {v}, and the model has {n} elements"));
+            }
+            if let Some(&nb) = tet.n.iter().find(|&&nb| nb != HULL && nb as usize >= tets) {
+                return fail(format!("tetrahedron {t} has neighbour {nb} of {tets} tetrahedra"));
+            }
+        }
+        if self.orient.len() != tets || self.tet_pore.len() != tets {
+            let (o, p) = (self.orient.len(), self.tet_pore.len());
+            return fail(format!("{o} orientations and {p} pore ids for {tets} tetrahedra"));
+        }
+        if let Some((t, &p)) = self.tet_pore.iter().enumerate().find(|(_, &p)| p as usize >= pores) {
+            return fail(format!("tetrahedron {t} belongs to pore {p} of {pores}"));
+        }
+        if self.centre.len() != pores {
+            return fail(format!("{} pore centres for {pores} pores", self.centre.len()));
+        }
+        check_row_starts("pore network tetrahedra", &self.pore_tet_start, pores, self.pore_tets.len())?;
+        if self.pore_tets.len() != tets {
+            return fail(format!("its pores list {} tetrahedra of {tets}", self.pore_tets.len()));
+        }
+        for p in 0..pores {
+            // Every pore has a tetrahedron (its centre falls back on the first one's corners).
+            if self.tets_of(p).is_empty() {
+                return fail(format!("pore {p} has no tetrahedra"));
+            }
+            if let Some(&t) =
+                self.tets_of(p).iter().find(|&&t| t as usize >= tets || self.tet_pore[t as usize] as usize != p)
+            {
+                return fail(format!("pore {p} lists tetrahedron {t} (of {tets}), which is not its own"));
+            }
+        }
+        for (k, th) in self.throats.iter().enumerate() {
+            if !(th.a < th.b && (th.b as usize) < pores && (th.tet as usize) < tets && th.face < 4) {
+                let Throat { a, b, tet, face } = th;
+                return fail(format!(
+                    "throat {k} joins pores {a} and {b} of {pores} at face {face} of tetrahedron {tet}"
+                ));
+            }
+        }
+        let lanes = [self.bonded_at_build.len(), self.conductance.len(), self.opening.len(), self.cracked.len()];
+        if lanes.iter().any(|&l| l != throats) {
+            return fail(format!("throat lanes of {lanes:?} entries for {throats} throats"));
+        }
+        check_row_starts("pore network throats", &self.row_start, pores, self.row.len())?;
+        for p in 0..pores {
+            let touches =
+                |t: u32| self.throats.get(t as usize).is_some_and(|th| th.a as usize == p || th.b as usize == p);
+            if let Some(&t) = self.throats_of(p).iter().find(|&&t| !touches(t)) {
+                return fail(format!("pore {p} lists throat {t}, which does not join it"));
+            }
+        }
+        check_row_starts("pore network corners", &self.elem_start, n, self.elem_corners.len())?;
+        for i in 0..n {
+            let corners = &self.elem_corners[self.elem_start[i] as usize..self.elem_start[i + 1] as usize];
+            let at = |c: u32| self.tri.tets.get(c as usize / 4).is_some_and(|t| t.v[c as usize % 4] as usize == i);
+            if let Some(&c) = corners.iter().find(|&&c| !at(c)) {
+                return fail(format!("element {i} lists tetrahedron corner {c}, which is not its own"));
+            }
+        }
+        Ok(())
     }
 
     /// The network of the model's current packing.

@@ -32,6 +32,21 @@ impl Groups {
         self.map.keys().map(|s| s.as_str())
     }
 
+    /// Whether every group is as [`Groups::set`] leaves it for `n` particles: ids in
+    /// increasing order, each a particle (for checkpoints: hosts index particle lanes with
+    /// them). The error names the group and the id.
+    pub fn check(&self, n: usize) -> std::result::Result<(), String> {
+        for (name, ids) in &self.map {
+            if let Some(&bad) = ids.iter().find(|&&i| i as usize >= n) {
+                return Err(format!("group `{name}` lists particle {bad}, and the model has {n}"));
+            }
+            if let Some(w) = ids.windows(2).find(|w| w[0] >= w[1]) {
+                return Err(format!("group `{name}` lists particle {} after {} (ids must increase)", w[1], w[0]));
+            }
+        }
+        Ok(())
+    }
+
     /// Renumbers every group after particles were removed.
     pub fn remap(&mut self, map: &[Option<u32>]) {
         for ids in self.map.values_mut() {
