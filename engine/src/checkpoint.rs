@@ -73,8 +73,8 @@ pub enum CheckpointError {
     )]
     NotACheckpoint,
     #[error(
-        "checkpoint format version {found} is not supported (this build reads version {supported}): load it with \
-         the matdem-rs that wrote it, or re-create it with this one"
+        "checkpoint format version {found} is not supported (this build reads versions {OLDEST_VERSION} to \
+         {supported}): load it with the matdem-rs that wrote it, or re-create it with this one"
     )]
     UnsupportedVersion { found: u32, supported: u32 },
     #[error(

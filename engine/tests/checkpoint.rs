@@ -116,6 +116,10 @@ fn another_format_version_is_refused_with_what_to_do() {
     let e = decode(&bytes).unwrap_err();
     assert_eq!(e, CheckpointError::UnsupportedVersion { found: FORMAT_VERSION + 1, supported: FORMAT_VERSION });
     assert!(e.to_string().contains("load it with the matdem-rs that wrote it"), "{e}");
+    // Before: a format-1 file was told "this build reads version 8", though it reads 2 to 8.
+    bytes[8..12].copy_from_slice(&1u32.to_le_bytes());
+    let e = decode(&bytes).unwrap_err();
+    assert!(e.to_string().contains(&format!("reads versions 2 to {FORMAT_VERSION}")), "{e}");
 }
 
 #[test]
