@@ -8,7 +8,7 @@ use matdem_rs::package::Package;
 pub fn sweep(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
     match action {
-        SweepCommand::Plan { source, out, vary, runs, set, backend, replace } => {
+        SweepCommand::Plan { source, out, vary, runs, set, backend, replace, max_points } => {
             let fixed = set
                 .iter()
                 .map(|f| match f.split_once('=') {
@@ -25,10 +25,11 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
                 runs: Vec::new(),
                 study: None,
                 replace,
+                max_points,
             };
             let planned = match runs {
                 Some(file) => {
-                    request.runs = plan::read_runs_csv(&file)?;
+                    request.runs = plan::read_runs_csv(&file, max_points)?;
                     request.design = plan::Design::Runs { from: plan::absolute(&file).display().to_string() };
                     plan::plan(request)?
                 }
