@@ -19,6 +19,7 @@ mod fields_script;
 mod geometry_objects;
 mod guard;
 mod hardening;
+mod hardening_bounds;
 mod hot_cold_injection_cli;
 mod hydraulic_fracture_cli;
 mod land_subsidence_cli;
