@@ -155,6 +155,9 @@ pub enum Command {
         /// Settings run at once, each in its own process (they share the cores).
         #[arg(short = 'j', long, default_value_t = 1, value_parser = at_least_one)]
         jobs: usize,
+        /// The most settings the --vary grid may have: each is a run.
+        #[arg(long, value_name = "N", default_value_t = matdem_rs::sweep::plan::DEFAULT_MAX_POINTS, value_parser = positive::<usize>)]
+        max_points: usize,
     },
     /// Parameter sweeps as folders: plan the points, run them here or as a Slurm job array,
     /// see where they stand and merge their results into one table.
@@ -194,6 +197,9 @@ pub enum SweepCommand {
         /// Plan over a different sweep already in the folder (its points run again).
         #[arg(long)]
         replace: bool,
+        /// The most points the sweep may have: each is a run folder and a run.
+        #[arg(long, value_name = "N", default_value_t = matdem_rs::sweep::plan::DEFAULT_MAX_POINTS, value_parser = positive::<usize>)]
+        max_points: usize,
     },
     /// Run the pending points (no outcome yet, or interrupted) on this machine.
     Run {
@@ -261,6 +267,10 @@ pub struct LimitArgs {
     /// Most entries in one object map.
     #[arg(long, default_value_t = Limits::default().max_map_size, value_parser = positive::<usize>)]
     max_map_size: usize,
+    /// Most memory the run's fields, masks, tables and charts may hold together: bytes, or a
+    /// number with K, M, G or T (e.g. 16G) [default: half of this machine's memory].
+    #[arg(long, value_name = "SIZE", value_parser = matdem_rs::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 /// A limit of at least 1.
@@ -294,6 +304,7 @@ fn not_a_count(text: &str) -> String {
 impl LimitArgs {
     pub fn resolve(&self) -> Limits {
         Limits {
+            max_memory: self.max_memory.unwrap_or_else(matdem_rs::memory::default_limit),
             max_operations: self.max_operations,
             max_call_depth: self.max_call_depth as usize,
             max_string_size: self.max_string_size,

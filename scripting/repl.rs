@@ -66,7 +66,13 @@ impl Session {
         let mut engine = crate::new_engine(host.clone());
         // Script loops are cancelled here; native balances check the same flag.
         let flag = cancel.clone();
-        engine.on_progress(move |_| flag.load(Ordering::Relaxed).then(|| Dynamic::from("cancelled by Ctrl-C")));
+        engine.on_progress(move |_| {
+            if flag.load(Ordering::Relaxed) {
+                Some(Dynamic::from("cancelled by Ctrl-C"))
+            } else {
+                crate::memory::over_limit()
+            }
+        });
         let mut scope = Scope::new();
         scope.push_constant("params", rhai::Map::new());
         scope.push_constant("out_dir", out_dir.display().to_string());
@@ -130,10 +136,12 @@ impl Session {
     fn eval_code(&mut self, code: &str, label: &str) -> Reply {
         self.cancel.store(false, Ordering::Relaxed);
         let sources = Sources { main_path: label, main_text: code };
+        self.host.limits.compiling(&mut self.engine);
         let ast = match self.engine.compile_with_scope(&self.scope, code) {
             Ok(a) => a,
             Err(e) => return Reply::Err(render(&e.into(), &sources)),
         };
+        self.host.limits.running(&mut self.engine);
         // Functions defined on earlier lines stay callable.
         let merged = self.functions.merge(&ast);
         let result = self.engine.eval_ast_with_scope::<Dynamic>(&mut self.scope, &merged);

@@ -51,6 +51,9 @@ pub fn message(e: &EvalAltResult) -> String {
         EvalAltResult::ErrorStackOverflow(_) => "too many nested function calls: the script ran past the \
             sandbox's call depth (endless recursion?); if it is real, raise it with --max-call-depth N"
             .to_string(),
+        EvalAltResult::ErrorTerminated(token, _) if token.is::<crate::memory::OverLimit>() => {
+            token.clone().cast::<crate::memory::OverLimit>().message()
+        }
         EvalAltResult::ErrorDataTooLarge(what, _) => {
             format!("{what} too large for the sandbox's limit; if it is real, raise it with {} N", size_flag(what))
         }
@@ -72,7 +75,7 @@ pub fn message(e: &EvalAltResult) -> String {
 /// The option that raises the size limit an error message names.
 fn size_flag(what: &str) -> &'static str {
     match what {
-        w if w.contains("rray") => "--max-array-size",
+        w if w.contains("rray") || w.contains("BLOB") => "--max-array-size",
         w if w.contains("tring") => "--max-string-size",
         w if w.contains("ap") => "--max-map-size",
         _ => "--max-array-size, --max-string-size or --max-map-size",

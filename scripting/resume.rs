@@ -22,7 +22,6 @@ use matdem_engine::simulation::Balance;
 use rhai::{Array, Dynamic, EvalAltResult, Map};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
 
 /// The folder under a run's output folder that holds what a resume needs.
 pub const RESUME_DIR: &str = "resume";
@@ -90,7 +89,7 @@ impl Value {
             Value::Float(bits) => Dynamic::from_float(f64::from_bits(*bits)),
             Value::Str(s) => Dynamic::from(s.clone()),
             Value::Field(v) => Dynamic::from(Field::new(v.iter().map(|b| f64::from_bits(*b)).collect())),
-            Value::Mask(v) => Dynamic::from(Mask(Rc::new(v.clone()))),
+            Value::Mask(v) => Dynamic::from(Mask::new(v.clone())),
             Value::Array(a) => Dynamic::from_array(a.iter().map(Value::to_dynamic).collect::<Result<_, _>>()?),
             Value::Map(m) => {
                 let mut map = Map::new();

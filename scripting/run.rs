@@ -273,10 +273,19 @@ fn evaluate(
     let mut engine = crate::new_engine(host.clone());
     // A signal in a script loop stops the script at its next operation; a balance sees the
     // flag first and saves a resume point (see api::model::running::run_steps).
+    // Past --max-memory (values counted after they were made), it stops the same way.
     let control = cfg.control.clone();
-    engine.on_progress(move |_| control.is_cancelled().then(|| Stop::Stopped.token()));
+    engine.on_progress(
+        move |_| {
+            if control.is_cancelled() {
+                Some(Stop::Stopped.token())
+            } else {
+                crate::memory::over_limit()
+            }
+        },
+    );
     let sources = Sources { main_path: path, main_text: text };
-    let result = compile_and_run(cfg, &engine, &host, &sources);
+    let result = compile_and_run(cfg, &mut engine, &host, &sources);
     let plans = host.plans.take();
     (result, plans)
 }
@@ -291,12 +300,13 @@ fn own_binary() -> Option<PathBuf> {
 
 fn compile_and_run(
     cfg: &RunConfig,
-    engine: &rhai::Engine,
+    engine: &mut rhai::Engine,
     host: &Host,
     sources: &Sources,
 ) -> Result<Vec<PathBuf>, RunError> {
     let text = sources.main_text;
     let ast = engine.compile(text).map_err(|e| RunError::Script(render(&EvalAltResult::from(e), sources)))?;
+    host.limits.running(engine);
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());
     scope.push_constant("out_dir", host.out_dir.display().to_string());

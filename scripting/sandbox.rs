@@ -163,6 +163,9 @@ fn outside(out_dir: &Path, name: &str, why: &str) -> String {
 /// Limits on what a script may consume; the defaults let the oedometer's full run through.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Limits {
+    /// Bytes the fields, masks, tables and charts of a run may hold together (see
+    /// [`crate::memory`]).
+    pub max_memory: u64,
     /// Rhai operations in one run (native calls count as one, whatever they cost).
     pub max_operations: u64,
     /// Nested function calls.
@@ -178,6 +181,7 @@ pub struct Limits {
 impl Default for Limits {
     fn default() -> Self {
         Limits {
+            max_memory: crate::memory::default_limit(),
             // NOTE: one quick oedometer sample takes under 2e4 operations (the physics runs
             // natively; a script loops over stages and balance chunks, not particles), so the
             // full run stays far inside this, and an endless loop stops in about 3 s.
@@ -191,13 +195,31 @@ impl Default for Limits {
 }
 
 impl Limits {
+    /// Sets every limit on `engine` and the process's memory limit. Rhai's own size checks
+    /// are on, as needed to compile a script (they refuse literals that are too large); see
+    /// [`Limits::running`] for running one.
     pub fn apply(&self, engine: &mut Engine) {
         engine.set_max_operations(self.max_operations);
         engine.set_max_call_levels(self.max_call_depth);
         engine.set_max_expr_depths(128, 64);
+        crate::memory::set_limit(self.max_memory);
+        crate::size_checks::install(engine, *self);
+        self.compiling(engine);
+    }
+
+    /// Rhai's own size checks on: for compiling a script.
+    pub fn compiling(&self, engine: &mut Engine) {
         engine.set_max_string_size(self.max_string_size);
         engine.set_max_array_size(self.max_array_size);
         engine.set_max_map_size(self.max_map_size);
+    }
+
+    /// Rhai's own size checks off while a compiled script runs: they walk a whole array after
+    /// every call on it; [`crate::size_checks`] keeps the same limits at a bounded cost.
+    pub fn running(&self, engine: &mut Engine) {
+        engine.set_max_string_size(0);
+        engine.set_max_array_size(0);
+        engine.set_max_map_size(0);
     }
 }
 

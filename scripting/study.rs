@@ -57,6 +57,8 @@ pub struct StudyConfig {
     pub backend: String,
     /// Settings run at once, each in its own process.
     pub jobs: usize,
+    /// The most settings the grid may have.
+    pub max_points: usize,
     /// Ctrl-C or SIGTERM: the running settings are stopped the same way (they save their
     /// resume points) and the study ends; running it again finishes it.
     pub control: matdem_engine::backend::RunControl,
@@ -120,10 +122,11 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
         runs: Vec::new(),
         study: Some(spec.clone()),
         replace: true,
+        max_points: cfg.max_points,
     };
     // Locked before anything is written, and held from the plan to the study's own table.
     let lock = crate::out_lock::OutLock::acquire(&cfg.out_dir, &format!("study {}", cfg.script.display()))?;
-    let plan = crate::sweep::plan::plan_held(&lock, crate::sweep::plan::with_grid(request, as_grid(&cfg.vary)))?;
+    let plan = crate::sweep::plan::plan_held(&lock, crate::sweep::plan::with_grid(request, as_grid(&cfg.vary))?)?;
     progress(&format!("study: {} setting(s), one run each, in {}/runNN", plan.points.len(), cfg.out_dir.display()));
     let opts = LocalOptions { jobs: cfg.jobs, retry_failed: true, exe: cfg.exe.clone(), control: cfg.control.clone() };
     crate::sweep::run_local_held(&lock, &plan, &opts, &progress)?;
@@ -147,6 +150,7 @@ fn check_config(cfg: &StudyConfig) -> Result<(), String> {
     if cfg.vary.is_empty() {
         return Err("give at least one --vary NAME=v1,v2,...".into());
     }
+    crate::sweep::plan::check_grid_size(&as_grid(&cfg.vary), cfg.max_points)?;
     for (i, v) in cfg.vary.iter().enumerate() {
         if cfg.vary[..i].iter().any(|w| w.name == v.name) {
             return Err(format!("--vary {} is given twice; list all its values in one --vary", v.name));

@@ -188,43 +188,6 @@ fn no_generated_package_writes_outside_its_output_folder() {
     assert!(refused > 0 && refused < n, "the generator should make both kinds of package");
 }
 
-/// Starts `script` with `matdem-rs run`, waits for its first line on stdout, sends SIGTERM
-/// and returns (exit code, seconds from the signal to the exit, the run record).
-fn terminate_after_first_line(name: &str, script: &str, extra: &[&str]) -> (Option<i32>, f64, String) {
-    use std::io::BufRead;
-    let dir = temp_dir(name);
-    std::fs::write(dir.join("s.rhai"), script).unwrap();
-    let mut child = bin()
-        .arg("run")
-        .arg(dir.join("s.rhai"))
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(["--backend", "cpu"])
-        .args(extra)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
-    assert!(!first.is_empty(), "the script printed nothing");
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let sent = std::time::Instant::now();
-    assert!(std::process::Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap().success());
-    let code = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status.code();
-        }
-        if sent.elapsed().as_secs() > 20 {
-            let _ = child.kill();
-            panic!("{name}: still running 20 s after SIGTERM");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    };
-    let record = std::fs::read_to_string(dir.join("out/run.ron")).unwrap_or_default();
-    (code, sent.elapsed().as_secs_f64(), record)
-}
-
 #[test]
 fn sigterm_stops_a_script_loop_within_two_seconds_with_a_clear_record() {
     let script = "print(\"looping\"); let n = 0; loop { n += 1; }";

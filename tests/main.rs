@@ -19,6 +19,7 @@ mod fields_script;
 mod geometry_objects;
 mod guard;
 mod hardening;
+mod hardening_bounds;
 mod hardening_escapes;
 mod hardening_locks;
 mod hardening_messages;

@@ -9,7 +9,7 @@ use super::table::{Table, TableData};
 use super::{err, write_atomic, Host, RhaiResult};
 use crate::calibration::anova::{self, Anova, Pooling};
 use crate::calibration::levenberg_marquardt::{minimise, Options};
-use crate::calibration::orthogonal::OrthogonalArray;
+use crate::calibration::orthogonal::{self, OrthogonalArray};
 use crate::calibration::refine::Refinement;
 use crate::calibration::regression::{self, Fit, Form};
 use crate::calibration::response_surface::{Inversion, Surface};
@@ -135,7 +135,13 @@ fn names_of(v: &Array, what: &str) -> RhaiResult<Vec<String>> {
         .collect()
 }
 
-fn design_of_values(names: Vec<String>, values: Vec<Vec<f64>>) -> RhaiResult<Design> {
+/// The error of a construction or check of a design: a signal's cancellation stops the
+/// script as a signal does (see [`super::cancelled`]).
+fn design_err<'a>(host: &'a Host, what: &'a str) -> impl Fn(CalibrationError) -> Box<rhai::EvalAltResult> + 'a {
+    move |e| if orthogonal::is_cancellation(&e) { super::cancelled(host) } else { err(format!("{what}: {e}")) }
+}
+
+fn design_of_values(host: &Host, names: Vec<String>, values: Vec<Vec<f64>>) -> RhaiResult<Design> {
     if names.len() != values.len() || names.is_empty() {
         return Err(err(format!("orthogonal_design: {} name(s) for {} list(s) of levels", names.len(), values.len())));
     }
@@ -162,8 +168,10 @@ fn design_of_values(names: Vec<String>, values: Vec<Vec<f64>>) -> RhaiResult<Des
     if let Some((j, _)) = values.iter().enumerate().find(|(_, v)| v.iter().any(|x| !x.is_finite())) {
         return Err(err(format!("orthogonal_design: a level of `{}` is not a finite number", names[j])));
     }
-    let array = OrthogonalArray::for_factors(q, names.len()).map_err(cal("orthogonal_design"))?;
-    array.check().map_err(cal("orthogonal_design (a bug in the construction)"))?;
+    let cancelled = || host.control.is_cancelled();
+    let array = OrthogonalArray::for_factors_until(q, names.len(), &cancelled)
+        .map_err(design_err(host, "orthogonal_design"))?;
+    array.check_until(&cancelled).map_err(design_err(host, "orthogonal_design (a bug in the construction)"))?;
     Ok(Design { array, factors: names, values })
 }
 
@@ -284,29 +292,31 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<ResponseSurface>("Surface");
     engine.register_type_with_name::<ScriptRefinement>("Refinement");
 
-    // Designs.
+    // Designs: the largest (L4096) take a second to build and prove, so a signal is heard.
+    let h = host.clone();
+    engine.register_fn("orthogonal_array", move |runs: INT, levels: INT| -> RhaiResult<Design> {
+        if runs < 1 || levels < 2 {
+            return Err(err(format!("orthogonal_array({runs}, {levels}): give runs ≥ 4 and levels ≥ 2, e.g. (25, 5)")));
+        }
+        let cancelled = || h.control.is_cancelled();
+        let array = OrthogonalArray::with_runs_until(runs as usize, levels as usize, &cancelled)
+            .map_err(design_err(&h, "orthogonal_array"))?;
+        array.check_until(&cancelled).map_err(design_err(&h, "orthogonal_array (a bug in the construction)"))?;
+        let q = levels as usize;
+        let factors: Vec<String> = (1..=array.columns()).map(|c| format!("c{c}")).collect();
+        let values = vec![(1..=q).map(|l| l as f64).collect(); factors.len()];
+        Ok(Design { array, factors, values })
+    });
+    let h = host.clone();
     engine
-        .register_fn("orthogonal_array", |runs: INT, levels: INT| -> RhaiResult<Design> {
-            if runs < 1 || levels < 2 {
-                return Err(err(format!(
-                    "orthogonal_array({runs}, {levels}): give runs ≥ 4 and levels ≥ 2, e.g. (25, 5)"
-                )));
-            }
-            let array = OrthogonalArray::with_runs(runs as usize, levels as usize).map_err(cal("orthogonal_array"))?;
-            array.check().map_err(cal("orthogonal_array (a bug in the construction)"))?;
-            let q = levels as usize;
-            let factors: Vec<String> = (1..=array.columns()).map(|c| format!("c{c}")).collect();
-            let values = vec![(1..=q).map(|l| l as f64).collect(); factors.len()];
-            Ok(Design { array, factors, values })
-        })
-        .register_fn("orthogonal_design", |names: Array, levels: Array| -> RhaiResult<Design> {
+        .register_fn("orthogonal_design", move |names: Array, levels: Array| -> RhaiResult<Design> {
             let names = names_of(&names, "orthogonal_design: names")?;
             let values = levels
                 .iter()
                 .enumerate()
                 .map(|(j, v)| to_numbers(v, &format!("orthogonal_design: levels of factor {}", j + 1)))
                 .collect::<RhaiResult<Vec<_>>>()?;
-            design_of_values(names, values)
+            design_of_values(&h, names, values)
         })
         .register_get("name", |d: &mut Design| d.array.name())
         .register_get("runs", |d: &mut Design| d.array.runs() as INT)

@@ -70,10 +70,10 @@ fn host_annex(bytes: &[u8]) -> Result<ModelAnnex, String> {
 }
 
 fn table_of(columns: Vec<(String, Vec<u64>)>, rows: usize) -> TableData {
-    TableData {
-        columns: columns.into_iter().map(|(c, v)| (c, v.into_iter().map(f64::from_bits).collect())).collect(),
+    TableData::from_columns(
+        columns.into_iter().map(|(c, v)| (c, v.into_iter().map(f64::from_bits).collect())).collect(),
         rows,
-    }
+    )
 }
 
 /// Reads and decodes checkpoint `name` (see [`Host::read_input`]) into a new model.

@@ -7,7 +7,7 @@
 
 /// Every table of functions: this file's and those kept where their names are registered.
 pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] =
-    &[DOCS, super::geometry::DOCS, super::model::cutting::DOCS, super::statistics::DOCS];
+    &[DOCS, super::geometry::DOCS, super::model::cutting::DOCS, super::statistics::DOCS, crate::size_checks::DOCS];
 
 /// Every table of properties, as [`FUNCTION_TABLES`].
 pub const PROPERTY_TABLES: &[&[(&str, &str, &str)]] = &[PROPERTIES, super::geometry::PROPERTIES];
@@ -118,6 +118,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("report", "report(name, value)", "a result the run stands by, written to metrics.csv (read by matdem-rs study)"),
     ("field", "field([1.0, 2.0]) -> Field", "a whole array of numbers"),
     ("zeros", "zeros(n) -> Field", "a field of n zeros"),
+    ("linspace", "linspace(start, end, n) -> Field", "n evenly spaced values from start to end (both included)"),
     ("select", "f.select(mask) -> Field", "the values a mask selects"),
     ("sum", "f.sum() -> f64", "the sum of a field (0 for an empty one); refuses NaN/inf elements, naming the first"),
     ("mean", "f.mean() -> f64", "the mean of a field; refuses an empty field and NaN/inf elements, naming the first"),

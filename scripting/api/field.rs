@@ -11,23 +11,82 @@
 //! NaN/inf element, naming it, and `mean min max` refuse an empty field.
 
 use super::{err, RhaiResult};
+use crate::memory::{self, Charge};
 use rhai::{Array, Dynamic, Engine, FLOAT, INT};
+use std::ops::Deref;
 use std::rc::Rc;
 
 /// The most values a field made by a script may hold (as many as the largest box's particles).
 const MAX_FIELD_LEN: INT = matdem_engine::builder::MAX_BOX_PARTICLES as INT;
 
+/// Values whose bytes count in the run's memory budget while they live (see
+/// [`crate::memory`]): the storage of a field or a mask.
+#[derive(Debug, Default)]
+pub struct Counted<T> {
+    values: Vec<T>,
+    _charge: Charge,
+}
+
+impl<T> Counted<T> {
+    /// Counts values already made (the script stops at its next operation if they took the
+    /// run over `--max-memory`).
+    fn new(values: Vec<T>) -> Self {
+        let bytes = (values.capacity() * std::mem::size_of::<T>()) as u64;
+        Counted { values, _charge: Charge::counted(bytes) }
+    }
+
+    /// `n` values made by `fill`, refused before allocating when they would pass the
+    /// memory limit (or the system cannot give them); `what` names the call.
+    fn build(n: usize, what: &str, fill: impl FnOnce(&mut Vec<T>) -> RhaiResult<()>) -> RhaiResult<Self> {
+        let (mut values, charge) = memory::vec_for(n, what).map_err(err)?;
+        fill(&mut values)?;
+        Ok(Counted { values, _charge: charge })
+    }
+}
+
+impl<T> Deref for Counted<T> {
+    type Target = Vec<T>;
+
+    fn deref(&self) -> &Vec<T> {
+        &self.values
+    }
+}
+
 /// Numbers, one per particle or row. Cheap to clone (shared, copy on write).
 #[derive(Debug, Clone, Default)]
-pub struct Field(pub Rc<Vec<f64>>);
+pub struct Field(pub Rc<Counted<f64>>);
 
 /// Booleans, one per particle or row, from comparisons of fields.
 #[derive(Debug, Clone, Default)]
-pub struct Mask(pub Rc<Vec<bool>>);
+pub struct Mask(pub Rc<Counted<bool>>);
+
+impl Mask {
+    pub fn new(v: Vec<bool>) -> Self {
+        Mask(Rc::new(Counted::new(v)))
+    }
+
+    /// `n` booleans from `values`, refused before allocating past the memory limit.
+    fn collect(n: usize, what: &str, values: impl Iterator<Item = bool>) -> RhaiResult<Mask> {
+        Counted::build(n, what, |v| {
+            v.extend(values.take(n));
+            Ok(())
+        })
+        .map(|c| Mask(Rc::new(c)))
+    }
+}
 
 impl Field {
     pub fn new(v: Vec<f64>) -> Self {
-        Field(Rc::new(v))
+        Field(Rc::new(Counted::new(v)))
+    }
+
+    /// `n` numbers from `values`, refused before allocating past the memory limit.
+    pub fn collect(n: usize, what: &str, values: impl Iterator<Item = f64>) -> RhaiResult<Field> {
+        Counted::build(n, what, |v| {
+            v.extend(values.take(n));
+            Ok(())
+        })
+        .map(|c| Field(Rc::new(c)))
     }
 
     fn cmp(&self, o: &Field, op: &str, f: impl Fn(f64, f64) -> bool) -> RhaiResult<Mask> {
@@ -38,11 +97,11 @@ impl Field {
                 o.0.len()
             )));
         }
-        Ok(Mask(Rc::new(self.0.iter().zip(o.0.iter()).map(|(a, b)| f(*a, *b)).collect())))
+        Mask::collect(self.0.len(), op, self.0.iter().zip(o.0.iter()).map(|(a, b)| f(*a, *b)))
     }
 
-    fn cmp_scalar(&self, s: f64, f: impl Fn(f64, f64) -> bool) -> Mask {
-        Mask(Rc::new(self.0.iter().map(|a| f(*a, s)).collect()))
+    fn cmp_scalar(&self, s: f64, op: &str, f: impl Fn(f64, f64) -> bool) -> RhaiResult<Mask> {
+        Mask::collect(self.0.len(), op, self.0.iter().map(|a| f(*a, s)))
     }
 
     /// Elements where `mask` is true.
@@ -50,25 +109,29 @@ impl Field {
         if self.0.len() != mask.0.len() {
             return Err(err(format!("mask length {} does not match array length {}", mask.0.len(), self.0.len())));
         }
-        Ok(Field::new(self.0.iter().zip(mask.0.iter()).filter(|(_, m)| **m).map(|(v, _)| *v).collect()))
+        let n = mask.0.iter().filter(|m| **m).count();
+        Field::collect(n, "select", self.0.iter().zip(mask.0.iter()).filter(|(_, m)| **m).map(|(v, _)| *v))
     }
 
     /// Elements at the given 0-based indices.
     pub fn pick(&self, ids: &[usize]) -> RhaiResult<Field> {
         let n = self.0.len();
-        ids.iter()
-            .map(|&i| self.0.get(i).copied().ok_or_else(|| err(format!("index {i} out of range 0..{n}"))))
-            .collect::<RhaiResult<Vec<f64>>>()
-            .map(Field::new)
+        Counted::build(ids.len(), "pick", |out| {
+            for &i in ids {
+                out.push(self.0.get(i).copied().ok_or_else(|| err(format!("index {i} out of range 0..{n}")))?);
+            }
+            Ok(())
+        })
+        .map(|c| Field(Rc::new(c)))
     }
 
     /// `f(x)` of every element; refuses (naming the first element, with `why(x)`) a result
     /// that is NaN or infinite where `x` was finite.
     fn unary(&self, op: &str, f: impl Fn(f64) -> f64, why: impl Fn(f64) -> String) -> RhaiResult<Field> {
-        let out: Vec<f64> = self.0.iter().map(|&x| f(x)).collect();
-        match out.iter().zip(self.0.iter()).position(|(y, x)| !y.is_finite() && x.is_finite()) {
+        let out = Field::collect(self.0.len(), op, self.0.iter().map(|&x| f(x)))?;
+        match out.0.iter().zip(self.0.iter()).position(|(y, x)| !y.is_finite() && x.is_finite()) {
             Some(i) => Err(err(format!("{op}: element {i} {}", why(self.0[i])))),
-            None => Ok(Field::new(out)),
+            None => Ok(out),
         }
     }
 
@@ -138,12 +201,12 @@ impl Field {
                 show(hi)
             )));
         }
-        Ok(Field::new(self.0.iter().map(|x| x.clamp(lo, hi)).collect()))
+        Field::collect(self.0.len(), "clamp", self.0.iter().map(|x| x.clamp(lo, hi)))
     }
 
     /// A mask of the elements that are finite numbers (not NaN or ±inf).
-    pub fn is_finite(&self) -> Mask {
-        Mask(Rc::new(self.0.iter().map(|x| x.is_finite()).collect()))
+    pub fn is_finite(&self) -> RhaiResult<Mask> {
+        Mask::collect(self.0.len(), "is_finite", self.0.iter().map(|x| x.is_finite()))
     }
 }
 
@@ -219,16 +282,18 @@ pub fn binary(
     why: impl Fn(f64, f64) -> String,
 ) -> RhaiResult<Field> {
     let n = common_len(op, &[a, b])?.unwrap_or(1);
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let (x, y) = (a.at(i), b.at(i));
-        let z = f(x, y);
-        if !z.is_finite() && x.is_finite() && y.is_finite() {
-            return Err(err(format!("{}: element {i} {}", label(op), why(x, y))));
+    Counted::build(n, &label(op), |out| {
+        for i in 0..n {
+            let (x, y) = (a.at(i), b.at(i));
+            let z = f(x, y);
+            if !z.is_finite() && x.is_finite() && y.is_finite() {
+                return Err(err(format!("{}: element {i} {}", label(op), why(x, y))));
+            }
+            out.push(z);
         }
-        out.push(z);
-    }
-    Ok(Field::new(out))
+        Ok(())
+    })
+    .map(|c| Field(Rc::new(c)))
 }
 
 /// `mask ? a : b` element by element: MatDEM's `a(mask) = …` without a loop.
@@ -239,7 +304,7 @@ pub fn choose(mask: &Mask, a: &Operand, b: &Operand) -> RhaiResult<Field> {
             return Err(err(format!("where: the mask has {n} entries but a field has {len}")));
         }
     }
-    Ok(Field::new((0..n).map(|i| if mask.0[i] { a.at(i) } else { b.at(i) }).collect()))
+    Field::collect(n, "where", (0..n).map(|i| if mask.0[i] { a.at(i) } else { b.at(i) }))
 }
 
 /// Element-wise smaller (`pick_max` false) or larger of `a` and `b`; NaN stays NaN.
@@ -356,7 +421,23 @@ pub fn register(engine: &mut Engine) {
             if !(0..=MAX_FIELD_LEN).contains(&n) {
                 return Err(err(format!("zeros({n}): a field holds 0 to {MAX_FIELD_LEN} values")));
             }
-            Ok(Field::new(vec![0.0; n as usize]))
+            Field::collect(n as usize, &format!("zeros({n})"), std::iter::repeat(0.0))
+        })
+        .register_fn("linspace", |start: Dynamic, end: Dynamic, n: INT| -> RhaiResult<Field> {
+            let call = format!("linspace({start}, {end}, {n})");
+            let (Some(a), Some(b)) = (number(&start), number(&end)) else {
+                return Err(err(format!("{call}: start and end must be numbers")));
+            };
+            if !(a.is_finite() && b.is_finite()) {
+                return Err(err(format!("{call}: start and end must be finite")));
+            }
+            if !(0..=MAX_FIELD_LEN).contains(&n) {
+                return Err(err(format!("{call}: a field holds 0 to {MAX_FIELD_LEN} values")));
+            }
+            let step = (b - a) / (n - 1).max(1) as f64;
+            // The last value is `end` itself, not a sum that rounds near it.
+            let value = move |i: INT| if i == n - 1 && n > 1 { b } else { a + step * i as f64 };
+            Field::collect(n as usize, &call, (0..n).map(value))
         })
         .register_fn("len", |f: &mut Field| f.0.len() as INT)
         .register_get("len", |f: &mut Field| f.0.len() as INT)
@@ -394,7 +475,12 @@ pub fn register(engine: &mut Engine) {
         .register_fn("where", |m: Mask, a: Dynamic, b: Dynamic| -> RhaiResult<Field> {
             choose(&m, &Operand::from_dynamic(&a, "where")?, &Operand::from_dynamic(&b, "where")?)
         })
-        .register_fn("to_array", |f: &mut Field| f.0.iter().map(|v| Dynamic::from_float(*v)).collect::<Array>())
+        .register_fn("to_array", |f: &mut Field| -> RhaiResult<Array> {
+            // A script array takes 16 bytes a value: it must fit beside the fields (it is not
+            // counted once made; the array limit bounds it where it is held).
+            let _room = Charge::new(16 * f.0.len() as u64, "to_array").map_err(err)?;
+            Ok(f.0.iter().map(|v| Dynamic::from_float(*v)).collect::<Array>())
+        })
         .register_fn("select", |f: &mut Field, m: Mask| f.select(&m))
         .register_fn("fmt", |x: FLOAT, decimals: INT| format!("{x:.*}", decimals.clamp(0, 17) as usize))
         .register_fn("fmt", |x: INT, _decimals: INT| x.to_string())
@@ -441,13 +527,13 @@ pub fn register(engine: &mut Engine) {
     two_operands!("**", |a, b| binary("**", &a, &b, f64::powf, pow_why));
     two_operands!("min", |a, b| extreme("min", &a, &b, false));
     two_operands!("max", |a, b| extreme("max", &a, &b, true));
-    engine.register_fn("-", |a: Field| Field::new(a.0.iter().map(|x| -x).collect()));
+    engine.register_fn("-", |a: Field| Field::collect(a.0.len(), "`-`", a.0.iter().map(|x| -x)));
     macro_rules! compare {
         ($op:literal, $f:expr) => {
             engine
                 .register_fn($op, |a: Field, b: Field| a.cmp(&b, $op, $f))
-                .register_fn($op, |a: Field, b: FLOAT| a.cmp_scalar(b, $f))
-                .register_fn($op, |a: Field, b: INT| a.cmp_scalar(b as f64, $f));
+                .register_fn($op, |a: Field, b: FLOAT| a.cmp_scalar(b, $op, $f))
+                .register_fn($op, |a: Field, b: INT| a.cmp_scalar(b as f64, $op, $f));
         };
     }
     compare!("<", |a: f64, b: f64| a < b);
@@ -457,11 +543,13 @@ pub fn register(engine: &mut Engine) {
     engine
         .register_fn("&", |a: Mask, b: Mask| mask_zip(&a, &b, |x, y| x && y))
         .register_fn("|", |a: Mask, b: Mask| mask_zip(&a, &b, |x, y| x || y))
-        .register_fn("!", |a: Mask| Mask(Rc::new(a.0.iter().map(|x| !x).collect())))
+        .register_fn("!", |a: Mask| Mask::collect(a.0.len(), "`!`", a.0.iter().map(|x| !x)))
         .register_fn("count", |m: &mut Mask| m.0.iter().filter(|x| **x).count() as INT)
         .register_fn("len", |m: &mut Mask| m.0.len() as INT)
-        .register_fn("ids", |m: &mut Mask| {
-            m.0.iter().enumerate().filter(|(_, x)| **x).map(|(i, _)| Dynamic::from_int(i as INT)).collect::<Array>()
+        .register_fn("ids", |m: &mut Mask| -> RhaiResult<Array> {
+            let n = m.0.iter().filter(|x| **x).count();
+            let _room = Charge::new(16 * n as u64, "ids").map_err(err)?;
+            Ok(m.0.iter().enumerate().filter(|(_, x)| **x).map(|(i, _)| Dynamic::from_int(i as INT)).collect::<Array>())
         })
         .register_fn("to_string", |m: &mut Mask| {
             format!("Mask({} of {} true)", m.0.iter().filter(|x| **x).count(), m.0.len())
@@ -475,7 +563,7 @@ fn mask_zip(a: &Mask, b: &Mask, f: impl Fn(bool, bool) -> bool) -> RhaiResult<Ma
     if a.0.len() != b.0.len() {
         return Err(err(format!("cannot combine masks of lengths {} and {}", a.0.len(), b.0.len())));
     }
-    Ok(Mask(Rc::new(a.0.iter().zip(b.0.iter()).map(|(x, y)| f(*x, *y)).collect())))
+    Mask::collect(a.0.len(), "combine masks", a.0.iter().zip(b.0.iter()).map(|(x, y)| f(*x, *y)))
 }
 
 fn summary(v: &[f64]) -> String {
@@ -535,7 +623,7 @@ mod tests {
 
     #[test]
     fn where_refuses_a_field_of_another_length_than_the_mask() {
-        let mask = Mask(Rc::new(vec![true, false]));
+        let mask = Mask::new(vec![true, false]);
         let e = message(choose(&mask, &f(&[1.0, 2.0, 3.0]).into(), &Operand::Number(0.0)));
         assert!(e.contains("the mask has 2 entries but a field has 3"), "{e}");
     }

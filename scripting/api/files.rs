@@ -1,8 +1,9 @@
 //! Reading a script's own data files: `read_text(path)` and `load_table(path)` (CSV). Paths
 //! are relative to the script's folder or package, through the sandbox.
 
-use super::table::{Table, TableData};
+use super::table::{CsvError, Table, TableData};
 use super::{err, Host, RhaiResult};
+use crate::memory::Charge;
 use rhai::Engine;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -17,7 +18,15 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_fn("read_text", move |path: &str| read_text(&h, path));
     engine.register_fn("load_table", move |path: &str| -> RhaiResult<Table> {
         let text = read_text(&host, path)?;
-        let data = TableData::from_csv(&text).map_err(|e| err(format!("`{path}`: {e}")))?;
-        Ok(Table(Rc::new(RefCell::new(data))))
+        // Every comma or line break may end a cell of 8 bytes: refuse a file whose table could
+        // pass the memory limit before reading it (the table counts its real size after).
+        let cells = text.bytes().filter(|b| matches!(b, b',' | b'\n')).count() as u64 + 1;
+        drop(Charge::new(8 * cells, &format!("load_table(\"{path}\")")).map_err(err)?);
+        let control = host.control.clone();
+        match TableData::from_csv_until(&text, &|| control.is_cancelled()) {
+            Ok(data) => Ok(Table(Rc::new(RefCell::new(data)))),
+            Err(CsvError::Invalid(e)) => Err(err(format!("`{path}`: {e}"))),
+            Err(CsvError::Cancelled) => Err(super::cancelled(&host)),
+        }
     });
 }

@@ -196,6 +196,17 @@ pub fn raise_build(host: &Host, e: matdem_engine::Error) -> Box<EvalAltResult> {
     }
 }
 
+/// The script error for a long native call (reading a table, building a design, drawing a
+/// chart) given up because a signal set the cancel flag: as [`raise_build`] does for a
+/// cancelled build.
+pub fn cancelled(host: &Host) -> Box<EvalAltResult> {
+    if host.resumable {
+        crate::stop::Stop::Stopped.unwind()
+    } else {
+        err("cancelled by a signal")
+    }
+}
+
 /// Writes an output file atomically (see [`crate::atomic`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     crate::atomic::write(path, bytes)

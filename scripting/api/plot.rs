@@ -5,14 +5,32 @@ use super::field::{to_numbers, Field};
 use super::model::ModelHandle;
 use super::table::Table;
 use super::{err, Host, RhaiResult};
+use crate::memory::Charge;
 use crate::plot::{LineChart, ParticlePicture};
 use rhai::{Dynamic, Engine, FLOAT};
 use std::cell::RefCell;
 use std::rc::Rc;
 
-/// A line chart being assembled by a script.
+/// A line chart being assembled by a script, its points counted in the memory budget.
 #[derive(Clone)]
-pub struct Chart(pub Rc<RefCell<LineChart>>);
+pub struct Chart(pub Rc<RefCell<LineChart>>, Rc<RefCell<Charge>>);
+
+impl Chart {
+    /// A chart of none or one series (`chart(...)`, `plot(...)`).
+    fn new(chart: LineChart) -> Chart {
+        let held = Chart(Rc::new(RefCell::new(chart)), Rc::default());
+        held.count_last_series();
+        held
+    }
+
+    /// Counts the last series added (its numbers are copies the chart keeps).
+    fn count_last_series(&self) {
+        if let Some(s) = self.0.borrow().series.last() {
+            let values = s.x.len() + s.y.len() + s.x_err.len() + s.y_err.len();
+            self.1.borrow_mut().add(8 * values as u64);
+        }
+    }
+}
 
 /// Renders and writes a figure. Callers wrap it, and whatever reads the model for it, in
 /// one `observe`, so a resumed run neither redraws nor rewrites the figures finished before
@@ -147,7 +165,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<Chart>("Chart");
     engine
         .register_fn("chart", |title: &str, x_label: &str, y_label: &str| {
-            Chart(Rc::new(RefCell::new(LineChart::new(title, x_label, y_label))))
+            Chart::new(LineChart::new(title, x_label, y_label))
         })
         .register_fn("series", |c: &mut Chart, name: &str, x: Dynamic, y: Dynamic| -> RhaiResult<Chart> {
             let (x, y) = (to_numbers(&x, "series x")?, to_numbers(&y, "series y")?);
@@ -155,6 +173,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 return Err(err(format!("series `{name}`: x has {} values but y has {}", x.len(), y.len())));
             }
             c.0.borrow_mut().add_series(name, x, y);
+            c.count_last_series();
             Ok(c.clone())
         })
         .register_fn(
@@ -188,6 +207,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 }
                 let [x_err, y_err] = errs;
                 c.0.borrow_mut().add_series_with_errors(name, x, y, x_err, y_err);
+                c.count_last_series();
                 Ok(c.clone())
             },
         )
@@ -195,7 +215,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             let data = t.0.borrow();
             let mut c = LineChart::new(format!("{y} vs {x}"), x, y);
             c.add_series(y, data.column(x)?.to_vec(), data.column(y)?.to_vec());
-            Ok(Chart(Rc::new(RefCell::new(c))))
+            Ok(Chart::new(c))
         })
         .register_fn("plot", |x: Field, y: Field| -> RhaiResult<Chart> {
             let mut c = LineChart::new("", "x", "y");
@@ -203,14 +223,18 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 return Err(err(format!("plot: x has {} values but y has {}", x.0.len(), y.0.len())));
             }
             c.add_series("y", x.0.to_vec(), y.0.to_vec());
-            Ok(Chart(Rc::new(RefCell::new(c))))
+            Ok(Chart::new(c))
         });
     let h = host.clone();
     engine.register_fn("save", move |c: &mut Chart, name: &str| {
         let chart = c.0.borrow();
         h.observe("save_chart", || {
             warn_gaps(&h, &chart, name);
-            save_figure(&h, name, |p| chart.save(p))
+            let saved = save_figure(&h, name, |p| chart.save_until(p, &|| h.control.is_cancelled()));
+            if h.control.is_cancelled() {
+                return Err(super::cancelled(&h));
+            }
+            saved
         })
     });
     let h = host.clone();

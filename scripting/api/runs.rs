@@ -102,6 +102,7 @@ fn run_points(host: &Host, runs: &Array, opts: &Map) -> RhaiResult<Array> {
             runs: sets,
             study: None,
             replace: true,
+            max_points: MAX_POINTS,
         },
     )
     .map_err(|e| err(format!("run_points: {e}")))?;

@@ -25,6 +25,11 @@ impl OrthogonalArray {
     /// ordered by how many base columns they combine, so the first t are the base ones
     /// (run u's digits, slowest first) as in Taguchi's tables.
     pub fn rao_hamming(levels: usize, t: u32) -> Result<Self> {
+        Self::rao_hamming_until(levels, t, &|| false)
+    }
+
+    /// [`OrthogonalArray::rao_hamming`] that gives up soon after `cancelled()` turns true.
+    pub fn rao_hamming_until(levels: usize, t: u32, cancelled: &dyn Fn() -> bool) -> Result<Self> {
         let field = Field::new(levels as u32)?;
         let q = levels;
         let runs = q.checked_pow(t).filter(|&n| n <= MAX_RUNS && t >= 1).ok_or_else(|| {
@@ -45,15 +50,19 @@ impl OrthogonalArray {
         columns.sort_by_key(|c| {
             (c.iter().filter(|&&x| x != 0).count(), c.iter().map(|&x| std::cmp::Reverse(x)).collect::<Vec<_>>())
         });
-        let rows = (0..runs)
-            .map(|r| {
-                let u = vector(r);
+        let mut rows = Vec::with_capacity(runs);
+        for r in 0..runs {
+            if cancelled() {
+                return Err(cancellation());
+            }
+            let u = vector(r);
+            rows.push(
                 columns
                     .iter()
                     .map(|c| u.iter().zip(c).fold(0u8, |acc, (&a, &b)| field.add(acc, field.mul(a, b))))
-                    .collect()
-            })
-            .collect();
+                    .collect(),
+            );
+        }
         Ok(OrthogonalArray { levels: q, rows })
     }
 
@@ -61,12 +70,17 @@ impl OrthogonalArray {
     /// columns (a design uses the first `factors`; the empty rest give an ANOVA its error
     /// degrees of freedom).
     pub fn for_factors(levels: usize, factors: usize) -> Result<Self> {
+        Self::for_factors_until(levels, factors, &|| false)
+    }
+
+    /// [`OrthogonalArray::for_factors`] that gives up soon after `cancelled()` turns true.
+    pub fn for_factors_until(levels: usize, factors: usize, cancelled: &dyn Fn() -> bool) -> Result<Self> {
         if factors == 0 {
             return Err(CalibrationError::new("an orthogonal design needs at least one factor"));
         }
         let mut t = 2u32;
         loop {
-            let a = Self::rao_hamming(levels, t)?;
+            let a = Self::rao_hamming_until(levels, t, cancelled)?;
             if a.columns() >= factors {
                 return Ok(a);
             }
@@ -77,6 +91,11 @@ impl OrthogonalArray {
     /// The array of exactly `runs` runs at `levels` levels (runs must be a power of it,
     /// at least its square), with all its columns.
     pub fn with_runs(runs: usize, levels: usize) -> Result<Self> {
+        Self::with_runs_until(runs, levels, &|| false)
+    }
+
+    /// [`OrthogonalArray::with_runs`] that gives up soon after `cancelled()` turns true.
+    pub fn with_runs_until(runs: usize, levels: usize, cancelled: &dyn Fn() -> bool) -> Result<Self> {
         let mut t = 1u32;
         while levels.checked_pow(t).is_some_and(|n| n < runs) {
             t += 1;
@@ -87,7 +106,7 @@ impl OrthogonalArray {
                  (e.g. L9 and L27 at 3 levels, L16 at 2 or 4, L25 at 5, L32 at 2)"
             )));
         }
-        Self::rao_hamming(levels, t)
+        Self::rao_hamming_until(levels, t, cancelled)
     }
 
     pub fn runs(&self) -> usize {
@@ -113,10 +132,36 @@ impl OrthogonalArray {
     pub fn check(&self) -> Result<()> {
         check_design(&self.rows, self.levels)
     }
+
+    /// [`OrthogonalArray::check`] that gives up soon after `cancelled()` turns true.
+    pub fn check_until(&self, cancelled: &dyn Fn() -> bool) -> Result<()> {
+        check_design_until(&self.rows, self.levels, cancelled)
+    }
+}
+
+/// The error of a construction or check given up on a signal.
+fn cancellation() -> CalibrationError {
+    CalibrationError::new("cancelled by a signal")
+}
+
+/// Whether an error is a [`cancellation`].
+pub fn is_cancellation(e: &CalibrationError) -> bool {
+    *e == cancellation()
 }
 
 /// The strength-2 check on any design of level indices (0 … q−1).
 pub fn check_design(rows: &[Vec<u8>], q: usize) -> Result<()> {
+    check_design_until(rows, q, &|| false)
+}
+
+/// [`check_design`] that gives up soon after `cancelled()` turns true.
+///
+/// Every pair of columns is counted, n·m²/2 cells in all (L4096(2^4095) has 8.4 million
+/// pairs of 4096 runs): one bit a run per column and level, so a pair's counts are popcounts
+/// of 64 runs at a time. With every column balanced (each level n/q times), the pair counts
+/// of levels below q−1 fix the rest (a row or column of the q×q table sums to n/q), so
+/// (q−1)² popcounts a pair prove it. L4096 was checked in 90 s cell by cell.
+pub fn check_design_until(rows: &[Vec<u8>], q: usize, cancelled: &dyn Fn() -> bool) -> Result<()> {
     let n = rows.len();
     let m = rows.first().map_or(0, Vec::len);
     // One column only needs balance; pairs of columns need every pair of levels.
@@ -141,23 +186,54 @@ pub fn check_design(rows: &[Vec<u8>], q: usize) -> Result<()> {
                 n / q
             )));
         }
+    }
+    // bits[(a * (q - 1) + l) * words + w]: run 64·w + i has level l in column a.
+    let words = n.div_ceil(64);
+    let low = q - 1;
+    let mut bits = vec![0u64; m * low * words];
+    for (r, row) in rows.iter().enumerate() {
+        for (a, &l) in row.iter().enumerate() {
+            if (l as usize) < low {
+                bits[(a * low + l as usize) * words + r / 64] |= 1 << (r % 64);
+            }
+        }
+    }
+    let set = |a: usize, l: usize| &bits[(a * low + l) * words..(a * low + l + 1) * words];
+    let expected = (n / (q * q)) as u32;
+    for a in 0..m {
+        if cancelled() {
+            return Err(cancellation());
+        }
         for b in a + 1..m {
-            let mut pairs = vec![0usize; q * q];
-            rows.iter().for_each(|r| pairs[r[a] as usize * q + r[b] as usize] += 1);
-            if let Some(k) = pairs.iter().position(|&c| c != n / (q * q)) {
-                return Err(CalibrationError::new(format!(
-                    "columns {} and {} are not orthogonal: levels ({}, {}) appear together {} times, expected {}",
-                    a + 1,
-                    b + 1,
-                    k / q + 1,
-                    k % q + 1,
-                    pairs[k],
-                    n / (q * q)
-                )));
+            let orthogonal = (0..low).all(|l| {
+                (0..low).all(|k| {
+                    set(a, l).iter().zip(set(b, k)).map(|(x, y)| (x & y).count_ones()).sum::<u32>() == expected
+                })
+            });
+            if !orthogonal {
+                return Err(pair_error(rows, q, a, b));
             }
         }
     }
     Ok(())
+}
+
+/// The message for columns `a` and `b` that are not orthogonal: their first pair of levels
+/// that does not meet n/q² times.
+fn pair_error(rows: &[Vec<u8>], q: usize, a: usize, b: usize) -> CalibrationError {
+    let n = rows.len();
+    let mut pairs = vec![0usize; q * q];
+    rows.iter().for_each(|r| pairs[r[a] as usize * q + r[b] as usize] += 1);
+    let k = pairs.iter().position(|&c| c != n / (q * q)).unwrap_or(0);
+    CalibrationError::new(format!(
+        "columns {} and {} are not orthogonal: levels ({}, {}) appear together {} times, expected {}",
+        a + 1,
+        b + 1,
+        k / q + 1,
+        k % q + 1,
+        pairs[k],
+        n / (q * q)
+    ))
 }
 
 #[cfg(test)]
@@ -204,6 +280,64 @@ mod tests {
         let dup: Vec<Vec<u8>> =
             OrthogonalArray::with_runs(9, 3).unwrap().rows.iter().map(|r| vec![r[0], r[0]]).collect();
         assert!(check_design(&dup, 3).unwrap_err().to_string().contains("columns 1 and 2 are not orthogonal"));
+    }
+
+    /// The check as it was written first: every cell of every pair's table.
+    fn naive(rows: &[Vec<u8>], q: usize) -> bool {
+        let (n, m) = (rows.len(), rows[0].len());
+        (0..m).all(|a| {
+            (0..q).all(|l| rows.iter().filter(|r| r[a] as usize == l).count() == n / q)
+                && (a + 1..m).all(|b| {
+                    let mut pairs = vec![0usize; q * q];
+                    rows.iter().for_each(|r| pairs[r[a] as usize * q + r[b] as usize] += 1);
+                    pairs.iter().all(|&c| c == n / (q * q))
+                })
+        })
+    }
+
+    #[test]
+    fn the_popcount_check_agrees_with_counting_every_cell() {
+        // Arrays with two runs' levels swapped or changed in a column: the fast check (which
+        // counts (q−1)² cells a pair) says what counting all q² cells says.
+        let mut seed = 12345u64;
+        let mut next = |k: usize| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as usize % k
+        };
+        let (mut caught, mut kept) = (0, 0);
+        for (runs, q) in [(9, 3), (16, 4), (25, 5), (27, 3), (16, 2)] {
+            let oa = OrthogonalArray::with_runs(runs, q).unwrap();
+            for _ in 0..200 {
+                let mut rows = oa.rows.clone();
+                let (i, j, c) = (next(runs), next(runs), next(rows[0].len()));
+                if next(2) == 0 {
+                    let t = rows[i][c];
+                    rows[i][c] = rows[j][c];
+                    rows[j][c] = t;
+                } else {
+                    rows[i][c] = next(q) as u8;
+                }
+                let fast = check_design(&rows, q).is_ok();
+                assert_eq!(fast, naive(&rows, q), "L{runs} at {q} levels, runs {i} and {j}, column {c}");
+                if fast {
+                    kept += 1;
+                } else {
+                    caught += 1;
+                }
+            }
+        }
+        assert!(caught > 100 && kept > 10, "{caught} caught, {kept} still orthogonal");
+    }
+
+    #[test]
+    fn the_largest_arrays_are_checked_in_seconds_and_a_check_can_be_cancelled() {
+        let start = std::time::Instant::now();
+        let a = OrthogonalArray::with_runs(2048, 2).unwrap();
+        a.check().unwrap();
+        // Cell by cell this took 7 s (L2048); a release build now takes well under one.
+        assert!(start.elapsed().as_secs_f64() < 20.0, "{:?}", start.elapsed());
+        assert!(is_cancellation(&a.check_until(&|| true).unwrap_err()));
+        assert!(is_cancellation(&OrthogonalArray::with_runs_until(2048, 2, &|| true).unwrap_err()));
     }
 
     #[test]

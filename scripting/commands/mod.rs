@@ -55,8 +55,18 @@ pub fn dispatch(command: Command) -> Outcome {
         Command::Bench { backend, particles, steps, warmup, json, profile, fields } => {
             bench::bench(backend, particles, steps, warmup, json, profile, fields)
         }
-        Command::Study { script, vary, metric, set, reference, out, backend, jobs } => {
-            study::study(study::StudyArgs { script, vary, metric, fixed: set, reference, out, backend, jobs })
+        Command::Study { script, vary, metric, set, reference, out, backend, jobs, max_points } => {
+            study::study(study::StudyArgs {
+                script,
+                vary,
+                metric,
+                fixed: set,
+                reference,
+                out,
+                backend,
+                jobs,
+                max_points,
+            })
         }
         Command::Sweep { action } => sweep::sweep(action).map(|()| ExitCode::SUCCESS).map_err(Failure::error),
     }

@@ -16,6 +16,7 @@ pub struct StudyArgs {
     pub out: Option<PathBuf>,
     pub backend: Backend,
     pub jobs: usize,
+    pub max_points: usize,
 }
 
 pub fn study(args: StudyArgs) -> Outcome {
@@ -34,6 +35,7 @@ pub fn study(args: StudyArgs) -> Outcome {
         reference,
         backend: backend_name(args.backend),
         jobs: args.jobs,
+        max_points: args.max_points,
     };
     // Each setting's run locks its own runNN folder; the sweep holds the folder around them.
     match run_study(&cfg, |line| eprintln!("{line}")) {

@@ -11,7 +11,7 @@ use matdem_rs::terminal_text::one_line;
 pub fn sweep(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
     match action {
-        SweepCommand::Plan { source, out, vary, runs, set, backend, replace } => {
+        SweepCommand::Plan { source, out, vary, runs, set, backend, replace, max_points } => {
             let fixed = set
                 .iter()
                 .map(|f| match f.split_once('=') {
@@ -28,10 +28,11 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
                 runs: Vec::new(),
                 study: None,
                 replace,
+                max_points,
             };
             let planned = match runs {
                 Some(file) => {
-                    request.runs = plan::read_runs_csv(&file)?;
+                    request.runs = plan::read_runs_csv(&file, max_points)?;
                     request.design = plan::Design::Runs { from: plan::absolute(&file).display().to_string() };
                     plan::plan(request)?
                 }

@@ -6,6 +6,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::style::{self, FONT};
+use super::thin::thin;
 use super::{draw_err, PlotError};
 
 /// Size of a rendered chart in pixels.
@@ -85,11 +86,16 @@ impl LineChart {
 
     /// Renders the chart as an SVG document.
     pub fn render_svg(&self) -> Result<String, PlotError> {
+        self.render_svg_until(&|| false)
+    }
+
+    /// [`LineChart::render_svg`] that gives up soon after `cancelled()` turns true.
+    pub fn render_svg_until(&self, cancelled: &dyn Fn() -> bool) -> Result<String, PlotError> {
         style::ensure_fonts()?;
         let mut svg = String::new();
         {
             let root = SVGBackend::with_string(&mut svg, CHART_SIZE).into_drawing_area();
-            self.draw(&root, true)?;
+            self.draw(&root, true, cancelled)?;
             root.present().map_err(draw_err)?;
         }
         Ok(svg)
@@ -97,12 +103,17 @@ impl LineChart {
 
     /// Renders the chart as PNG-encoded bytes.
     pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
+        self.render_png_until(&|| false)
+    }
+
+    /// [`LineChart::render_png`] that gives up soon after `cancelled()` turns true.
+    pub fn render_png_until(&self, cancelled: &dyn Fn() -> bool) -> Result<Vec<u8>, PlotError> {
         style::ensure_fonts()?;
         let (w, h) = CHART_SIZE;
         let mut rgb = vec![0u8; w as usize * h as usize * 3];
         {
             let root = BitMapBackend::with_buffer(&mut rgb, CHART_SIZE).into_drawing_area();
-            self.draw(&root, false)?;
+            self.draw(&root, false, cancelled)?;
             root.present().map_err(draw_err)?;
         }
         super::encode_png(&rgb, w, h)
@@ -112,7 +123,13 @@ impl LineChart {
     /// `<path>.svg` and `<path>.png` when `path` has no extension. Returns the
     /// files written.
     pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
-        super::save_figure(path, || self.render_svg(), || self.render_png())
+        self.save_until(path, &|| false)
+    }
+
+    /// [`LineChart::save`] that gives up (writing nothing more) soon after `cancelled()`
+    /// turns true.
+    pub fn save_until(&self, path: &Path, cancelled: &dyn Fn() -> bool) -> Result<Vec<PathBuf>, PlotError> {
+        super::save_figure(path, || self.render_svg_until(cancelled), || self.render_png_until(cancelled))
     }
 
     /// The points of each series that cannot be drawn (NaN, ±inf or beyond ±1e300), which
@@ -189,9 +206,15 @@ impl LineChart {
             .collect()
     }
 
-    /// Draws the chart; `vector` selects markers suited to SVG over raster output.
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, vector: bool) -> Result<(), PlotError> {
-        let prepared = self.prepare()?;
+    /// Draws the chart; `vector` selects markers suited to SVG over raster output. Long
+    /// series are thinned to what the pixels show (see [`super::thin`]).
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        vector: bool,
+        cancelled: &dyn Fn() -> bool,
+    ) -> Result<(), PlotError> {
+        let mut prepared = self.prepare()?;
 
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         let bar_ends = prepared.iter().flat_map(|p| p.bars.iter().flatten());
@@ -239,6 +262,20 @@ impl LineChart {
             201..=1000 => 2,
             _ => 1,
         };
+        let columns = chart.plotting_area().dim_in_pixel().0 as usize;
+        for p in &mut prepared {
+            if cancelled() {
+                return Err(PlotError::Cancelled);
+            }
+            for run in &mut p.runs {
+                *run = thin(run, (x0, x1), columns);
+            }
+            // Error bars are drawn one by one: past a few a pixel column, every k-th.
+            let k = p.bars.len().div_ceil(4 * columns.max(1)).max(1);
+            if k > 1 {
+                p.bars = p.bars.iter().step_by(k).copied().collect();
+            }
+        }
 
         let mut labelled = 0;
         for (i, p) in prepared.iter().enumerate() {
@@ -262,6 +299,9 @@ impl LineChart {
                 }
             }
             for (k, run) in p.runs.iter().enumerate() {
+                if cancelled() {
+                    return Err(PlotError::Cancelled);
+                }
                 let drawn = chart
                     .draw_series(LineSeries::new(run.iter().copied(), colour.stroke_width(2)))
                     .map_err(draw_err)?;

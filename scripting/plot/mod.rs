@@ -16,6 +16,7 @@ pub mod bars;
 pub mod chart;
 pub mod picture;
 mod style;
+pub mod thin;
 
 use std::path::{Path, PathBuf};
 
@@ -51,6 +52,9 @@ pub enum PlotError {
         path.display()
     )]
     UnsupportedExtension { path: PathBuf, ext: String },
+    /// A signal cancelled the drawing (the run is stopping).
+    #[error("cancelled by a signal")]
+    Cancelled,
     /// Reading or writing a file failed.
     #[error("cannot write `{}`: {source}", path.display())]
     Io {

@@ -146,14 +146,40 @@ fn name_of(p: &Path) -> String {
     p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string()
 }
 
-/// Charts inline, pictures as images, tables (their first rows) and the other files, each
-/// under its heading when there is any.
+/// The largest chart placed inline: the page holds every inline chart, so a chart of
+/// millions of points (before charts were thinned, 500 MB) made the page as large again.
+const MAX_INLINE_SVG: u64 = 2 << 20;
+
+/// A chart too large to inline: its PNG when it has one (as an image), else a link.
+fn linked_chart(svg: &Path, name: &str, bytes: u64) -> String {
+    let size = format!("{:.1} MB, linked, not inlined", bytes as f64 / 1e6);
+    let png = svg.with_extension("png");
+    if png.is_file() {
+        format!(
+            "<figure><img src=\"{}\" alt=\"{}\"><figcaption><a href=\"{}\">{}</a> ({size})</figcaption></figure>\n",
+            href(&name_of(&png)),
+            escape(name),
+            href(name),
+            escape(name)
+        )
+    } else {
+        format!("<p><a href=\"{}\">{}</a> ({size})</p>\n", href(name), escape(name))
+    }
+}
+
+/// Charts inline (those under [`MAX_INLINE_SVG`]; larger ones linked), pictures as images,
+/// tables (their first rows) and the other files, each under its heading when there is any.
 pub fn output_sections(o: &Outputs, skip_tables: &[&str]) -> String {
     let mut s = String::new();
     if !o.charts.is_empty() {
         s.push_str("<h2>Charts</h2>\n");
         for p in &o.charts {
             let name = name_of(p);
+            let bytes = std::fs::metadata(p).map_or(0, |m| m.len());
+            if bytes > MAX_INLINE_SVG {
+                s.push_str(&linked_chart(p, &name, bytes));
+                continue;
+            }
             let text = std::fs::read_to_string(p).unwrap_or_default();
             match inline_svg(&text) {
                 Some(svg) => {

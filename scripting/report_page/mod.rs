@@ -1,6 +1,6 @@
 //! The report page: `index.html` in every run folder and every sweep folder, so a result can
 //! be read in a browser without a terminal — the run record, the plan, what the run reported,
-//! every chart (SVG inline), particle pictures, tables and the files written. One file with
+//! every chart (SVG inline; one over 2 MB linked instead), particle pictures, tables and the files written. One file with
 //! no network access needed: styles inline, images by relative path beside it.
 //!
 //! The page checks itself: a few lines of inline script mark `<body data-images>` with how

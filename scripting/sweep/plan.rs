@@ -9,6 +9,11 @@ use std::path::{Path, PathBuf};
 /// The plan's file name at the top of the sweep folder.
 pub const SWEEP_FILE: &str = "sweep.ron";
 
+/// The most points a sweep may plan unless told otherwise (`--max-points`): each point is a
+/// run folder and a run, so a grid of three parameters at 300 values each (27 million
+/// points) is a mistake to refuse before anything is made, not a plan.
+pub const DEFAULT_MAX_POINTS: usize = 10_000;
+
 /// How the points were chosen.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Design {
@@ -65,6 +70,31 @@ pub struct PlanRequest {
     pub study: Option<StudySpec>,
     /// A different plan already in `dir` is replaced (its outcomes forgotten) instead of refused.
     pub replace: bool,
+    /// The most points it may have (see [`DEFAULT_MAX_POINTS`]).
+    pub max_points: usize,
+}
+
+/// Why a sweep of `points` (`None`: too many to count) is refused: over `max_points`; `how`
+/// says how they came to be, `fewer` how to have fewer.
+fn too_many(points: Option<usize>, how: &str, fewer: &str, max_points: usize) -> String {
+    let points = points.map_or(format!("more than {max_points}"), |n| n.to_string());
+    format!(
+        "the sweep would have {points} points ({how}), over --max-points {max_points}: each point is a run folder \
+         and a run; {fewer}, or raise the limit with --max-points N if every point is meant"
+    )
+}
+
+const FEWER_VALUES: &str = "vary fewer values (or give a design's runs with --runs FILE.csv)";
+
+/// The number of points of the grid of `vary`, refused (before any is made) when over
+/// `max_points` or beyond counting.
+pub fn check_grid_size(vary: &[(String, Vec<String>)], max_points: usize) -> Result<usize, String> {
+    let how = vary.iter().map(|(n, v)| format!("{} {n}", v.len())).collect::<Vec<_>>().join(" × ");
+    match vary.iter().try_fold(1usize, |n, (_, v)| n.checked_mul(v.len())) {
+        Some(n) if n <= max_points => Ok(n),
+        Some(n) => Err(too_many(Some(n), &how, FEWER_VALUES, max_points)),
+        None => Err(too_many(None, &how, FEWER_VALUES, max_points)),
+    }
 }
 
 /// Every combination of the varied values, the first changing slowest.
@@ -84,14 +114,16 @@ pub fn grid(vary: &[(String, Vec<String>)]) -> Vec<Vec<(String, String)>> {
 
 /// Plans the grid of `vary` into `dir`; see [`plan`].
 pub fn plan_grid(req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> Result<SweepPlan, String> {
-    plan(with_grid(req, vary))
+    plan(with_grid(req, vary)?)
 }
 
-/// `req` with the grid of `vary` as its points.
-pub fn with_grid(mut req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> PlanRequest {
+/// `req` with the grid of `vary` as its points, refused before it is made when it would hold
+/// more than `req.max_points`.
+pub fn with_grid(mut req: PlanRequest, vary: Vec<(String, Vec<String>)>) -> Result<PlanRequest, String> {
+    check_grid_size(&vary, req.max_points)?;
     req.runs = grid(&vary);
     req.design = Design::Grid(vary);
-    req
+    Ok(req)
 }
 
 /// Plans parameter sets given one by one (a calibration design's runs) into `dir`: the
@@ -113,6 +145,7 @@ pub fn plan_runs(
         runs,
         study: None,
         replace: false,
+        max_points: DEFAULT_MAX_POINTS,
     })
 }
 
@@ -180,6 +213,9 @@ fn check_request(req: &PlanRequest) -> Result<(), String> {
     if req.runs.is_empty() {
         return Err("a sweep needs at least one point; give --vary NAME=v1,v2,... or --runs FILE.csv".into());
     }
+    if req.runs.len() > req.max_points {
+        return Err(too_many(Some(req.runs.len()), "one per run given", "give fewer runs", req.max_points));
+    }
     if !req.source.exists() {
         return Err(format!("cannot read {}: no such file or folder", req.source.display()));
     }
@@ -220,14 +256,15 @@ impl SweepPlan {
     /// A plan read from disk is checked as one that was typed: each point's folder is a
     /// plain name inside the sweep folder, names are parameter names, nothing is twice.
     fn check(&self) -> Result<(), String> {
-        for (k, p) in self.points.iter().enumerate() {
+        let mut seen = std::collections::HashSet::with_capacity(self.points.len());
+        for p in &self.points {
             let plain = p.name.starts_with(|c: char| c.is_ascii_alphanumeric())
                 && p.name.len() <= 64
                 && p.name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
             if !plain || p.name == super::point::OUTCOMES_DIR {
                 return Err(format!("point folder `{}` must be a plain name such as run01", p.name.escape_debug()));
             }
-            if self.points[..k].iter().any(|q| q.name == p.name) {
+            if !seen.insert(p.name.as_str()) {
                 return Err(format!("point folder `{}` is given twice", p.name));
             }
             check_names(&p.parameters).map_err(|e| format!("point {}: {e}", p.name))?;
@@ -280,8 +317,9 @@ fn check_names(params: &[(String, String)]) -> Result<(), String> {
     Ok(())
 }
 
-/// Parameter sets from a CSV file: a header of parameter names, one row per run.
-pub fn read_runs_csv(path: &Path) -> Result<Vec<Vec<(String, String)>>, String> {
+/// Parameter sets from a CSV file: a header of parameter names, one row per run; refused
+/// as soon as there are more than `max_points`.
+pub fn read_runs_csv(path: &Path, max_points: usize) -> Result<Vec<Vec<(String, String)>>, String> {
     let at = |e: String| format!("{}: {e}", path.display());
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -293,6 +331,9 @@ pub fn read_runs_csv(path: &Path) -> Result<Vec<Vec<(String, String)>>, String> 
         let row = row.map_err(|e| at(e.to_string()))?;
         if row.len() != header.len() || row.iter().any(str::is_empty) {
             return Err(at(format!("row {} needs a value for each of {}", k + 2, header.join(", "))));
+        }
+        if runs.len() == max_points {
+            return Err(at(too_many(None, "one per row", "give fewer rows", max_points)));
         }
         runs.push(header.iter().cloned().zip(row.iter().map(str::to_string)).collect());
     }

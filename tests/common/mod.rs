@@ -94,3 +94,45 @@ pub fn csv_column(path: &Path, name: &str) -> Vec<f64> {
     let k = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
     lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
 }
+
+/// Starts `script` with `matdem-rs run` in a fresh folder `name`, waits for its first line on
+/// stdout, sends SIGTERM and returns (exit code, seconds from the signal to the exit, the
+/// run record).
+pub fn terminate_after_first_line(name: &str, script: &str, extra: &[&str]) -> (Option<i32>, f64, String) {
+    terminate_after_first_line_in(&temp_dir(name), script, extra)
+}
+
+/// [`terminate_after_first_line`] in `dir`, which may hold the files the script reads.
+pub fn terminate_after_first_line_in(dir: &Path, script: &str, extra: &[&str]) -> (Option<i32>, f64, String) {
+    use std::io::BufRead;
+    std::fs::write(dir.join("s.rhai"), script).unwrap();
+    let mut child = bin()
+        .arg("run")
+        .arg(dir.join("s.rhai"))
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--backend", "cpu"])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    assert!(!first.is_empty(), "the script printed nothing");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let sent = std::time::Instant::now();
+    assert!(std::process::Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap().success());
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if sent.elapsed().as_secs() > 20 {
+            let _ = child.kill();
+            panic!("{}: still running 20 s after SIGTERM", dir.display());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let record = std::fs::read_to_string(dir.join("out/run.ron")).unwrap_or_default();
+    (code, sent.elapsed().as_secs_f64(), record)
+}

@@ -102,7 +102,7 @@ pub(super) fn layers_between_surfaces(host: &Host, d: &ModelHandle, items: &Arra
                 let (lo, hi) = (bounds[k].height(p), bounds[k + 1].height(p));
                 lo <= p.z && (p.z < hi || (k == last && p.z == hi))
             });
-            Dynamic::from(Mask(Rc::new(inside.collect())))
+            Dynamic::from(Mask::new(inside.collect()))
         };
         Ok(Dynamic::from_array((0..=last).map(layer).collect()))
     })?;
@@ -120,7 +120,7 @@ pub(super) fn layers_between_surfaces(host: &Host, d: &ModelHandle, items: &Arra
 /// The mask of the elements whose centre satisfies `inside`.
 fn mask_where(d: &ModelHandle, inside: impl Fn(&Vec3) -> bool) -> Mask {
     let m = d.model();
-    Mask(Rc::new(m.particles.pos.iter().map(inside).collect()))
+    Mask::new(m.particles.pos.iter().map(inside).collect())
 }
 
 /// Deletes the elements of an observed mask; returns how many went.

@@ -35,7 +35,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         })
         .register_get("killed", |d: &mut ModelHandle| {
             let m = d.model();
-            Mask(Rc::new((0..m.len()).map(|i| m.is_killed(i)).collect()))
+            Mask::new((0..m.len()).map(|i| m.is_killed(i)).collect())
         })
         .register_fn("keep_groups", |d: &mut ModelHandle, names: Array| -> RhaiResult<INT> {
             let mut m = d.model();

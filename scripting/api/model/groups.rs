@@ -30,7 +30,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             for &i in m.groups.get(name).map_err(raise)? {
                 mask[i as usize] = true;
             }
-            Ok(Mask(Rc::new(mask)))
+            Ok(Mask::new(mask))
         })
         .register_get("groups", |d: &mut ModelHandle| {
             d.model().groups.names().map(|s| Dynamic::from(s.to_string())).collect::<Array>()

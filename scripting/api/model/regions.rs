@@ -98,7 +98,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
 /// The mask of the particles whose centre satisfies `inside`.
 fn mask_where(d: &ModelHandle, inside: impl Fn(&Vec3) -> bool) -> Mask {
     let m = d.model();
-    Mask(Rc::new(m.particles.pos.iter().map(inside).collect()))
+    Mask::new(m.particles.pos.iter().map(inside).collect())
 }
 
 fn unit(n: Vec3, call: &str) -> RhaiResult<Vec3> {
@@ -137,7 +137,7 @@ fn layers(host: &Host, d: &ModelHandle, points: &[Vec3], n: Vec3) -> RhaiResult<
                 let t = p.dot(&n);
                 s[k] <= t && (t < s[k + 1] || (k == last && t == s[k + 1]))
             });
-            Dynamic::from(Mask(Rc::new(inside.collect())))
+            Dynamic::from(Mask::new(inside.collect()))
         };
         Ok(Dynamic::from_array((0..=last).map(layer).collect()))
     })?;
