@@ -50,8 +50,7 @@ fn machine_memory() -> Option<u64> {
     let cgroup = std::fs::read_to_string("/sys/fs/cgroup/memory.max").ok().and_then(|t| t.trim().parse::<u64>().ok());
     let address_space = unsafe {
         let mut r = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
-        (libc::getrlimit(libc::RLIMIT_AS, &mut r) == 0 && r.rlim_cur != libc::RLIM_INFINITY)
-            .then_some(r.rlim_cur)
+        (libc::getrlimit(libc::RLIMIT_AS, &mut r) == 0 && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
     };
     [physical, cgroup, address_space].into_iter().flatten().min()
 }
