@@ -149,7 +149,7 @@ fn bad_field_input_is_refused_with_what_to_do() {
         ("d.enable(\"heat\"); d.thermal(\"granite\", #{ conductivity: 1.0 })", "neither a material nor a group"),
         ("d.enable(\"heat\"); d.thermal(\"m\", #{ conductivty: 1.0 })", "conductivity"),
         ("d.enable(\"heat\"); d.thermal(\"m\", #{ conductivity: -1.0 })", "≥ 0"),
-        ("d.heat_substeps = 0", "integer ≥ 1"),
+        ("d.heat_substeps = 0", "integer from 1 to"),
         ("d.fluid_density = -1.0", "fluid_density"),
         ("d.enable(\"humidity\")", "moisture"),
         ("d.fix_temperature(\"sample\", 300.0)", "d.enable(\"heat\")"),
@@ -260,7 +260,7 @@ fn bad_moisture_input_is_refused_with_what_to_do() {
         ("d.water_radius_table = [[0.3, 1.0], [0.1, 0.9]]", "increase"),
         ("d.water_strength_table = [[0.0, 1.5]]", "(0, 1]"),
         ("d.water_strength_table = [0.0, 1.0]", "[[water content, value]"),
-        ("d.moisture_substeps = 0", "integer ≥ 1"),
+        ("d.moisture_substeps = 0", "integer from 1 to"),
         ("d.seal(\"sample\")", "d.enable(\"moisture\")"),
         ("d.show(\"water\", \"w\")", "no water field"),
     ];

@@ -138,3 +138,14 @@ fn command_line_mistakes_are_worded_for_what_they_are() {
     let text = format!("{}{}", stdout(&o), stderr(&o));
     assert!(text.contains(":load needs a file"), "{text}");
 }
+
+// Before: `d.heat_substeps = 4000000000` (or a forged checkpoint's) made one step run for
+// hours without hearing a signal.
+#[test]
+fn sub_step_counts_past_the_bound_are_refused() {
+    let dir = temp_dir("msg_substeps");
+    let e = refused(&dir, &format!("{BOX} d.enable(\"heat\"); d.heat_substeps = 4000000000;"));
+    assert!(e.contains("heat_substeps must be an integer from 1 to 1000000"), "{e}");
+    let e = refused(&dir, &format!("{BOX} d.fluid = #{{ max_substeps: 4000000000 }};"));
+    assert!(e.contains("max_substeps"), "{e}");
+}

@@ -461,7 +461,26 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     for section in p.sections {
         section.apply(&mut p.model).map_err(refuse)?;
     }
+    check_substeps(&p.model).map_err(refuse)?;
     Ok(Checkpoint { model: p.model, annex: p.annex })
+}
+
+/// Sub-step counts within what a setter takes (after the sections, which carry two of them).
+fn check_substeps(m: &Model) -> Result<(), String> {
+    use crate::physics::timestep::MAX_SUBSTEPS;
+    let s = &m.settings;
+    let mut counts = vec![
+        ("heat sub-steps", s.heat.substeps),
+        ("moisture sub-steps", s.moisture.substeps),
+        ("the pore fluid's max_substeps", s.pores.fluid.max_substeps),
+    ];
+    if let Some(f) = &m.pores {
+        counts.push(("the pore fluid's max_substeps", f.fluid.max_substeps));
+    }
+    match counts.into_iter().find(|&(_, n)| n == 0 || n > MAX_SUBSTEPS) {
+        Some((what, n)) => Err(format!("{what} = {n}, outside 1 to {MAX_SUBSTEPS}")),
+        None => Ok(()),
+    }
 }
 
 /// What must hold before the model is stepped: a well-formed but inconsistent payload (a

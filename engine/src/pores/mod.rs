@@ -99,11 +99,12 @@ impl Fluid {
                 )));
             }
         }
-        if self.max_substeps == 0 {
+        let most = crate::physics::timestep::MAX_SUBSTEPS;
+        if self.max_substeps == 0 || self.max_substeps > most {
             return Err(crate::Error::InvalidParameter {
                 name: "fluid max_substeps",
-                value: 0.0,
-                reason: "must be ≥ 1".into(),
+                value: f64::from(self.max_substeps),
+                reason: format!("must be 1 to {most}"),
             });
         }
         Ok(())

@@ -47,6 +47,15 @@ fn count(name: &str, v: INT) -> RhaiResult<u32> {
     u32::try_from(v).ok().filter(|&c| c >= 1).ok_or_else(|| err(format!("{name} must be an integer ≥ 1, got {v}")))
 }
 
+/// Sub-steps a step: at most [`MAX_SUBSTEPS`](matdem_engine::physics::timestep::MAX_SUBSTEPS).
+fn substeps(name: &str, v: INT) -> RhaiResult<u32> {
+    let most = matdem_engine::physics::timestep::MAX_SUBSTEPS;
+    u32::try_from(v)
+        .ok()
+        .filter(|&c| (1..=most).contains(&c))
+        .ok_or_else(|| err(format!("{name} must be an integer from 1 to {most}, got {v}")))
+}
+
 fn finite(name: &str, v: FLOAT) -> RhaiResult<FLOAT> {
     if v.is_finite() {
         Ok(v)
@@ -132,7 +141,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         })
         .register_get("heat_substeps", |d: &mut ModelHandle| INT::from(d.model().settings.heat.substeps))
         .register_set("heat_substeps", |d: &mut ModelHandle, n: INT| -> RhaiResult<()> {
-            d.model().settings.heat.substeps = count("heat_substeps", n)?;
+            d.model().settings.heat.substeps = substeps("heat_substeps", n)?;
             Ok(())
         })
         .register_get("heat_dissipation", |d: &mut ModelHandle| d.model().settings.heat.dissipation)
