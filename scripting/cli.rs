@@ -295,7 +295,7 @@ fn at_least_one(text: &str) -> Result<usize, String> {
 
 fn not_a_count(text: &str) -> String {
     if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) {
-        format!("`{text}` is too large: give at most {}", u64::MAX.min(usize::MAX as u64))
+        format!("`{text}` is too large: give at most {}", usize::MAX)
     } else {
         format!("`{text}` is not a whole number")
     }

@@ -159,6 +159,21 @@ pub fn edit_distance(a: &str, b: &str) -> usize {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// A value as a person reads it: plain when it is, in exponent form when plain would run to
+/// hundreds of digits (1e-300, 1e300).
+struct Readable(f64);
+
+impl std::fmt::Display for Readable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -186,20 +201,5 @@ mod tests {
         let s = instability(4e-7).to_string();
         assert!(s.contains("loaded contacts are stiffer"), "{s}");
         assert!(s.contains("halve dt (to 2.000e-7 s)"), "{s}");
-    }
-}
-
-/// A value as a person reads it: plain when it is, in exponent form when plain would run to
-/// hundreds of digits (1e-300, 1e300).
-struct Readable(f64);
-
-impl std::fmt::Display for Readable {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let a = self.0.abs();
-        if a != 0.0 && a.is_finite() && !(1e-4..1e9).contains(&a) {
-            write!(f, "{:e}", self.0)
-        } else {
-            write!(f, "{}", self.0)
-        }
     }
 }
