@@ -48,7 +48,7 @@ fn count(name: &str, v: INT) -> RhaiResult<u32> {
 }
 
 /// Sub-steps a step: at most [`MAX_SUBSTEPS`](matdem_engine::physics::timestep::MAX_SUBSTEPS).
-fn substeps(name: &str, v: INT) -> RhaiResult<u32> {
+pub(super) fn substeps(name: &str, v: INT) -> RhaiResult<u32> {
     let most = matdem_engine::physics::timestep::MAX_SUBSTEPS;
     u32::try_from(v)
         .ok()

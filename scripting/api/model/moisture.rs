@@ -14,15 +14,6 @@ fn count(name: &str, v: INT) -> RhaiResult<u32> {
     u32::try_from(v).ok().filter(|&c| c >= 1).ok_or_else(|| err(format!("{name} must be an integer ≥ 1, got {v}")))
 }
 
-/// Sub-steps a step: at most [`MAX_SUBSTEPS`](matdem_engine::physics::timestep::MAX_SUBSTEPS).
-fn substeps(name: &str, v: INT) -> RhaiResult<u32> {
-    let most = matdem_engine::physics::timestep::MAX_SUBSTEPS;
-    u32::try_from(v)
-        .ok()
-        .filter(|&c| (1..=most).contains(&c))
-        .ok_or_else(|| err(format!("{name} must be an integer from 1 to {most}, got {v}")))
-}
-
 /// A table `[[water, value], …]` (or `()` for none).
 fn table(v: &Dynamic, what: &str) -> RhaiResult<Option<Vec<(f64, f64)>>> {
     if v.is_unit() {
@@ -156,7 +147,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         })
         .register_get("moisture_substeps", |d: &mut ModelHandle| INT::from(d.model().settings.moisture.substeps))
         .register_set("moisture_substeps", |d: &mut ModelHandle, n: INT| -> RhaiResult<()> {
-            d.model().settings.moisture.substeps = substeps("moisture_substeps", n)?;
+            d.model().settings.moisture.substeps = super::fields::substeps("moisture_substeps", n)?;
             Ok(())
         })
         .register_get("moisture_bond_radius", |d: &mut ModelHandle| d.model().settings.moisture.bond_radius)
