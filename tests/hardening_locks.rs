@@ -4,6 +4,7 @@
 //! Each test names the failure it saw on the code before its fix.
 
 use crate::common::*;
+use crate::sweep_cli::{plan as sweep_plan, sweep};
 use matdem_rs::out_lock::OutLock;
 use std::io::Read;
 use std::path::Path;
@@ -14,22 +15,6 @@ const REPORT: &str = r#"report("m", params.x * 2.0);"#;
 
 fn ok(o: &Output) {
     assert!(o.status.success(), "exit {:?}\nstdout:\n{}\nstderr:\n{}", o.status.code(), stdout(o), stderr(o));
-}
-
-fn sweep_plan(source: &Path, dir: &Path, extra: &[&str]) -> Output {
-    bin()
-        .args(["sweep", "plan"])
-        .arg(source)
-        .arg("--out")
-        .arg(dir)
-        .args(["--backend", "cpu"])
-        .args(extra)
-        .output()
-        .unwrap()
-}
-
-fn sweep(args: &[&str], dir: &Path) -> Output {
-    bin().arg("sweep").args(args).arg(dir).output().unwrap()
 }
 
 /// A precious file outside the run and a lock file in `out` that links to it.

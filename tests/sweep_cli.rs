@@ -13,11 +13,11 @@ if params.x == 0 { throw "x must not be 0"; }
 report("inverse", 1.0 / params.x + params.offset);
 "#;
 
-fn sweep(args: &[&str], dir: &Path) -> Output {
+pub(crate) fn sweep(args: &[&str], dir: &Path) -> Output {
     bin().arg("sweep").args(args).arg(dir).output().unwrap()
 }
 
-fn plan(source: &Path, dir: &Path, extra: &[&str]) -> Output {
+pub(crate) fn plan(source: &Path, dir: &Path, extra: &[&str]) -> Output {
     bin()
         .args(["sweep", "plan"])
         .arg(source)
