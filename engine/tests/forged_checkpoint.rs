@@ -23,25 +23,32 @@ use std::sync::OnceLock;
 
 const HEADER: usize = 20;
 
-/// A small box of grains settled under gravity: walls (a servo platen among them), bonds with
-/// some weakened to a joint, parallel bonds, groups, rotation, heat with expansion, the heat
-/// ledger, contact dashpots and a water table.
-fn bonded_box() -> Model {
+/// A 3 mm box of grains (one material, r 0.4–0.55 mm) under 50 g with local damping: the
+/// base of both scenes.
+fn grain_box(height: f64, seed: u64, top_platen: bool) -> Model {
     let mut mat = Material::from_micro("grain", 2650.0, 2e4, 8e3, 2e-6, 0.02, 0.5, 0.5e-3).unwrap();
     mat.restitution = 0.5;
     let mut m = Model::new();
     m.add_material(mat).unwrap();
     let spec = BoxSpec {
         container: Container::Cuboid { width: 3e-3, length: 3e-3 },
-        height: 3.5e-3,
+        height,
         classes: vec![SizeClass { r_min: 0.4e-3, r_max: 0.55e-3, mass_ratio: 1.0 }],
         target_porosity: 0.4,
-        seed: 3,
-        top_platen: true,
+        seed,
+        top_platen,
     };
     spec.build_into(&mut m).unwrap();
     m.settings.gravity = Vec3::new(0.0, 0.0, -9.81 * 50.0);
     m.settings.local_damping = 0.3;
+    m
+}
+
+/// A small box of grains settled under gravity: walls (a servo platen among them), bonds with
+/// some weakened to a joint, parallel bonds, groups, rotation, heat with expansion, the heat
+/// ledger, contact dashpots and a water table.
+fn bonded_box() -> Model {
+    let mut m = grain_box(3.5e-3, 3, true);
     m.set_standard_dt().unwrap();
     let mut sim = Simulation::new(m);
     sim.run(600, &RunControl::default(), &mut |_| {}).unwrap();
@@ -70,21 +77,7 @@ fn bonded_box() -> Model {
 /// The same kind of box with the optional stages' sections: pore flow with a reservoir,
 /// moisture, epsd rolling resistance, a water table and a cone.
 fn wet_box() -> Model {
-    let mut mat = Material::from_micro("grain", 2650.0, 2e4, 8e3, 2e-6, 0.02, 0.5, 0.5e-3).unwrap();
-    mat.restitution = 0.5;
-    let mut m = Model::new();
-    m.add_material(mat).unwrap();
-    let spec = BoxSpec {
-        container: Container::Cuboid { width: 3e-3, length: 3e-3 },
-        height: 3e-3,
-        classes: vec![SizeClass { r_min: 0.4e-3, r_max: 0.55e-3, mass_ratio: 1.0 }],
-        target_porosity: 0.4,
-        seed: 5,
-        top_platen: false,
-    };
-    spec.build_into(&mut m).unwrap();
-    m.settings.gravity = Vec3::new(0.0, 0.0, -9.81 * 50.0);
-    m.settings.local_damping = 0.3;
+    let mut m = grain_box(3e-3, 5, false);
     m.settings.rotation = true;
     m.set_standard_dt().unwrap();
     let mut sim = Simulation::new(m);
