@@ -205,7 +205,7 @@ fn two_gpu_runs_are_bitwise_equal() {
     assert!(a == b, "two GPU runs of the same scene differ");
 }
 
-fn bond_material() -> Material {
+pub(crate) fn bond_material() -> Material {
     let mut mat = material("rock", 2650.0, 1e6, 1e9, 0.0);
     mat.ks = 1e6;
     mat.xb = 1e-5;
@@ -290,7 +290,7 @@ fn bonded_block_torn_apart_breaks_like_cpu() {
 
 /// [`grains`] deposited (on the CPU) in a ring, the inside of a cylinder, on a floor, with a
 /// top platen resting just above them, ready for a servo stage.
-fn oedometer_sample() -> Model {
+pub(crate) fn oedometer_sample() -> Model {
     let n = 4;
     let pitch = 2.02 * GRAIN_R;
     let mut m = grains(n, n, n, pitch, 11);

@@ -16,6 +16,7 @@ mod fixed_rotation;
 mod forged_checkpoint;
 mod gpu_energy;
 mod gpu_parity;
+mod gpu_resident;
 mod guard_stiffness;
 mod heat_dissipation;
 mod lattice;

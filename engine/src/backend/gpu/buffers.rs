@@ -335,11 +335,7 @@ impl DeviceLanes {
         let mut make = |lane: &'static str, data: &[u8]| storage_lane(ctx, lane, data, 128, limit, &mut bytes);
         let n = h.origin.len();
         let (cap, nw) = (plan.cap, h.walls.len());
-        let mut counters = [0u32; COUNTERS];
-        counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
-        counters[C_STIFF] = u32::MAX;
-        counters[C_PORE_STEP] = u32::MAX;
-        counters[C_PORE_EXCHANGE] = u32::MAX;
+        let counters = initial_counters();
         let mut slabs = Vec::new();
         for r in plan.slabs() {
             slabs.push(SlabLanes {
@@ -418,6 +414,16 @@ impl DeviceLanes {
     }
 }
 
+/// The counters as an upload leaves them: no step, no event, the minima at their top.
+pub fn initial_counters() -> [u32; COUNTERS] {
+    let mut counters = [0u32; COUNTERS];
+    counters[C_GUARD..C_GUARD + 4].fill(u32::MAX);
+    counters[C_STIFF] = u32::MAX;
+    counters[C_PORE_STEP] = u32::MAX;
+    counters[C_PORE_EXCHANGE] = u32::MAX;
+    counters
+}
+
 fn uniform(ctx: &GpuContext, label: &str, words: &[u32; 4]) -> wgpu::Buffer {
     ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
@@ -459,7 +465,7 @@ pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Re
     });
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    ctx.queue.submit([enc.finish()]);
+    ctx.submit(enc);
     let (tx, rx) = std::sync::mpsc::channel();
     staging.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
@@ -478,7 +484,7 @@ pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Re
 /// Writes the device's state back into the model: positions (origin + displacement, in f64),
 /// velocities, forces, angular lanes, the rows with their pair states (as the device last
 /// built them), wall-contact states, walls and their loads.
-pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model, rotation: bool) -> Result<()> {
+pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Model, rotation: bool) -> Result<()> {
     let n = d.n;
     let disp: Vec<[f32; 4]> = read(ctx, &d.disp, n)?;
     let vel: Vec<[f32; 4]> = read(ctx, &d.vel, n)?;
@@ -534,8 +540,11 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &HostLanes, m: &mut Model,
         m.wall_rolling = wall_rolling.iter().map(to64).collect();
     }
     let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
-    for (w, g) in m.walls.iter_mut().zip(&walls) {
-        let moved = to64(&g.moved);
+    for ((w, g), seen) in m.walls.iter_mut().zip(&walls).zip(&mut h.walls) {
+        // The device's move since the upload, less what an earlier download of this session
+        // already added (the session may continue after a download).
+        let moved = to64(&g.moved) - to64(&seen.moved);
+        seen.moved = g.moved;
         match &mut w.shape {
             // The host's shape is the one uploaded: add the device's move to it in f64.
             WallShape::Plane { point, .. } => *point += moved,

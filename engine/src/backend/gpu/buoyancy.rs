@@ -11,7 +11,7 @@ use crate::fields::BuoyancyPlan;
 use crate::plan::Stage;
 use wgpu::util::DeviceExt;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::Buoyancy.name(), shaders::BUOYANCY, "buoyancy", constants)
 }
 

@@ -41,7 +41,7 @@ pub struct Pipelines {
     feed: Option<wgpu::ComputePipeline>,
 }
 
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
     let mut c = constants.to_vec();
     c.push(("EXPANSION", if plan.expansion { 1.0 } else { 0.0 }));
     let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), shaders::CONDUCTION, entry, &c);
@@ -225,6 +225,17 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes,
 
 impl Kernels {
     /// One field step, in the kernels' order (each in the stage's debug group).
+    /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
+    pub fn cost(&self) -> (u64, u64) {
+        let sub = self.conduct.iter().chain([&self.settle]);
+        let once = self.feed.iter().chain(&self.expand);
+        let n = u64::from(self.substeps);
+        (
+            n * sub.clone().count() as u64 + once.clone().count() as u64,
+            n * sub.map(|k| k.bytes).sum::<u64>() + once.map(|k| k.bytes).sum::<u64>(),
+        )
+    }
+
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.push_debug_group(Stage::Conduction.name());
         if let Some(f) = &self.feed {

@@ -4,10 +4,11 @@
 //! `backend/cpu/contact_forces.rs`.
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::ContactForces.name(), shaders::CONTACT_FORCES, "compute_contact_forces", constants)
 }
 

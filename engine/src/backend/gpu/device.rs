@@ -36,6 +36,11 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// The limits the device was opened with (the adapter's own).
     pub limits: wgpu::Limits,
+    /// Command buffers submitted through [`submit`](Self::submit) (`bench --profile`).
+    submitted: std::sync::atomic::AtomicU64,
+    /// Pipelines compiled on this device ([`super::shaders::pipeline`]).
+    pub(crate) pipelines:
+        std::sync::Mutex<std::collections::HashMap<super::shaders::PipelineKey, wgpu::ComputePipeline>>,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -48,6 +53,17 @@ impl GpuContext {
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, software)"-style description.
     pub fn describe(&self) -> String {
         describe(&summary(&self.info))
+    }
+
+    /// Submits the encoder's commands, counting the submission.
+    pub fn submit(&self, enc: wgpu::CommandEncoder) {
+        self.submitted.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.queue.submit([enc.finish()]);
+    }
+
+    /// Submissions so far.
+    pub fn submissions(&self) -> u64 {
+        self.submitted.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Whether the adapter is a software rasteriser (lavapipe/llvmpipe): correct, not fast.
@@ -142,12 +158,22 @@ pub fn select(choice: BackendChoice) -> Result<Compute> {
     };
     let adapter = &adapters[k];
     let limits = adapter.limits();
-    let request =
-        wgpu::DeviceDescriptor { label: Some("matdem"), required_limits: limits.clone(), ..Default::default() };
+    // Timestamp queries where the adapter has them, for `bench --profile`.
+    let request = wgpu::DeviceDescriptor {
+        label: Some("matdem"),
+        required_limits: limits.clone(),
+        required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+        ..Default::default()
+    };
     match pollster::block_on(adapter.request_device(&request)) {
-        Ok((device, queue)) => {
-            Ok(Compute::Gpu(Arc::new(GpuContext { device, queue, info: adapter.get_info(), limits })))
-        }
+        Ok((device, queue)) => Ok(Compute::Gpu(Arc::new(GpuContext {
+            device,
+            queue,
+            info: adapter.get_info(),
+            limits,
+            submitted: Default::default(),
+            pipelines: Default::default(),
+        }))),
         Err(e) => {
             let reason = format!("opening {} failed: {e}", describe(&summaries[k]));
             if choice == BackendChoice::Auto {

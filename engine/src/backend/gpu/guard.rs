@@ -6,10 +6,11 @@
 //! only when it fires.
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::Guard.name(), shaders::GUARD, "check_state", constants)
 }
 

@@ -2,10 +2,11 @@
 //! (shaders/integrate.wgsl). CPU twin: `backend/cpu/integrate.rs`.
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, groups_for, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::Integrate.name(), shaders::INTEGRATE, "integrate", constants)
 }
 

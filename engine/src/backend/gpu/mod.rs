@@ -43,6 +43,7 @@ pub mod neighbours;
 pub mod parallel_bond;
 pub mod pore_flow;
 pub mod pore_heat;
+pub mod profile;
 pub mod rolling_resistance;
 pub mod rows;
 pub mod shaders;
@@ -70,6 +71,11 @@ pub use device::{select, BackendChoice, Compute};
 
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
+
+/// Models up to this many particles stay on the device between runs ([`Resident`]). Above
+/// it a run's steps dwarf an upload, and the copy of the model kept to compare against
+/// would double the host's memory.
+const RESIDENT_MAX_PARTICLES: usize = 200_000;
 
 /// Label of the compute pass that runs a batch of steps (walls → contact_forces →
 /// wall_forces → integrate, each step; then the neighbours stage's drift measure and, at a
@@ -149,6 +155,28 @@ struct Session {
     pores: Option<pore_flow::PoreSession>,
 }
 
+impl Session {
+    /// Whether the session may continue after a download: every lane it holds is then either
+    /// the model's (downloaded whole) or restarted by [`GpuBackend::rewind`]. The pore network
+    /// and the conduction stage keep sums since the upload that a download adds to the model
+    /// (the heat fed, the network's geometry), so they upload afresh.
+    fn can_continue(&self) -> bool {
+        self.pores.is_none() && self.thermal.is_none()
+    }
+}
+
+/// A session kept on the device after a run synced the model, and the model as that sync
+/// left it (as a checkpoint encodes it: every lane, section and setting). The next run
+/// continues on the device when the model still encodes to the same bytes; any change a
+/// script made, however small, means a fresh upload. Small scenes run as many short runs
+/// (a tolerance balance checks every 100 steps, a servo loop reads the platen between runs),
+/// and an upload rebuilds every buffer and bind group: on a hardware GPU that, not the
+/// steps, was the time of such a run.
+struct Resident {
+    session: Session,
+    model: Vec<u8>,
+}
+
 /// How the rows of a backend's runs were built, for tests and benchmarks: a rebuild on the
 /// device costs no transfer of the model, one through the host costs a download and an upload.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -161,6 +189,9 @@ pub struct RowStats {
     pub host_reason: Option<String>,
     /// Slabs the per-entry lanes of the last upload were split into.
     pub slabs: usize,
+    /// Runs that continued on the device without an upload: the model was unchanged since
+    /// the last run synced it ([`Resident`]).
+    pub continued: u64,
 }
 
 /// A plan's pipelines on one device.
@@ -181,6 +212,8 @@ pub struct GpuBackend {
     rows: RowStats,
     /// The model on the device between a run's first chunk and the next sync.
     session: Option<Session>,
+    /// The session kept after the last sync, for the next run to continue when it can.
+    resident: Option<Resident>,
     /// Steps the next batch may hold, from the drift of the last (1 after an upload or a
     /// row build).
     batch: u64,
@@ -208,7 +241,7 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
-        let device = &ctx.device;
+        let device: &GpuContext = &ctx;
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
         constants.extend(ledger.constants());
@@ -243,6 +276,7 @@ impl GpuBackend {
             binding_limit: None,
             rows: RowStats::default(),
             session: None,
+            resident: None,
             batch: 1,
             stiff: None,
         };
@@ -287,8 +321,9 @@ impl GpuBackend {
         }
     }
 
-    /// Puts the model on the device (rows rebuilt first if they do not cover it).
-    fn upload(&mut self, m: &mut Model) -> Result<Session> {
+    /// Brings the model to what an upload needs: rows that cover it, the lanes the plan's
+    /// stages read.
+    fn ready(&self, m: &mut Model) {
         if is_stale(&m.contacts, &m.particles.pos) {
             rebuild(m);
         }
@@ -301,6 +336,25 @@ impl GpuBackend {
         if self.plan.moisture.is_some() {
             m.fit_moisture();
         }
+    }
+
+    /// The session a run starts from: the one the last sync kept, when the model has not
+    /// changed since ([`Resident`]), else a fresh upload.
+    fn open(&mut self, m: &mut Model) -> Result<Session> {
+        if let Some(r) = self.resident.take() {
+            self.ready(m);
+            if crate::checkpoint::encode(m, &[]) == r.model {
+                self.rows.continued += 1;
+                return Ok(r.session);
+            }
+        }
+        self.batch = 1;
+        self.upload(m)
+    }
+
+    /// Puts the model on the device (rows rebuilt first if they do not cover it).
+    fn upload(&mut self, m: &mut Model) -> Result<Session> {
+        self.ready(m);
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
@@ -419,7 +473,7 @@ impl GpuBackend {
         debug_assert_eq!(C_CROWDED, C_LONGEST + 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         s.kernels.rows.encode(&mut enc, &s.lanes);
-        ctx.queue.submit([enc.finish()]);
+        ctx.submit(enc);
         let counters = read::<u32>(ctx, &s.lanes.counters, COUNTERS)?;
         self.check_device()?;
         let verdict = rows::verdict(&counters, s.lanes.plan.cap);
@@ -432,15 +486,15 @@ impl GpuBackend {
     /// Uploads the model, rebuilds its rows once on the device, and brings them back (for
     /// tests that compare them with the host's build). `Err(why)` inside when they did not fit.
     pub fn build_rows_once(&mut self, m: &mut Model) -> Result<std::result::Result<(), String>> {
-        let session = self.upload(m)?;
+        let mut session = self.upload(m)?;
         let verdict = self.build_rows(&session)?;
-        self.download(m, session)?;
+        self.download(m, &mut session)?;
         Ok(verdict)
     }
 
-    /// Encodes `k` steps, the drift measure and (when `guard`) the guard's checks, submits
-    /// them and reads the counters back.
-    fn step_batch(&self, s: &Session, k: u64, guard: bool) -> Result<Vec<u32>> {
+    /// Readies the counters a batch reports: the drift and speed maxima, the guard's minima
+    /// (and its stiffness finding when `guard`), the pore stage's.
+    fn reset_batch_counters(&self, s: &Session, guard: bool) {
         let ctx = &self.ctx;
         let mut reset = [0u32; C_GUARD + 4 - C_DRIFT];
         reset[C_GUARD - C_DRIFT..].fill(u32::MAX);
@@ -453,69 +507,99 @@ impl GpuBackend {
             let reset = [u32::MAX, 0, u32::MAX];
             ctx.queue.write_buffer(&s.lanes.counters, (C_PORE_STEP * 4) as u64, bytemuck::cast_slice(&reset));
         }
+    }
+
+    /// One step's stages in the order the device runs them, `t` steps into the batch: walls
+    /// (last step's loads summed, then moved) → contact forces → wall forces → the force
+    /// stages the scene has → integration → the field stages due after this step.
+    fn step_stages<'s>(&'s self, s: &'s Session, t: u64) -> Vec<(Stage, StageWork<'s>)> {
+        let kr = &s.kernels;
+        let mut out = Vec::with_capacity(10);
+        let step = s.step0 + s.steps + t;
+        if let Some(w) = &kr.walls {
+            out.push((Stage::Walls, StageWork::Kernels(vec![&w.advance])));
+        }
+        out.push((Stage::ContactForces, StageWork::Kernels(kr.contact_forces.iter().collect())));
+        if let Some(w) = &kr.walls {
+            out.push((Stage::WallForces, StageWork::Kernels(w.forces.iter().collect())));
+        }
+        if let Some(k) = &kr.parallel_bond {
+            out.push((Stage::ParallelBond, StageWork::Kernels(vec![k])));
+        }
+        if !kr.rolling_resistance.is_empty() {
+            out.push((Stage::RollingResistance, StageWork::Kernels(kr.rolling_resistance.iter().collect())));
+        }
+        if let Some(f) = &s.pores {
+            out.push((Stage::PoreFlow, StageWork::Pores(f)));
+        }
+        if let Some(b) = &kr.buoyancy {
+            out.push((Stage::Buoyancy, StageWork::Kernels(vec![b])));
+        }
+        out.push((Stage::Integrate, StageWork::Kernels(vec![&kr.integrate])));
+        if let (Some(c), Some(plan)) = (&kr.conduction, &self.plan.conduction) {
+            if plan.runs_after(step) {
+                out.push((Stage::Conduction, StageWork::Conduction(c)));
+            }
+        }
+        if let (Some(w), Some(plan)) = (&kr.moisture, &self.plan.moisture) {
+            if plan.runs_after(step) {
+                out.push((Stage::Moisture, StageWork::Moisture(w)));
+            }
+        }
+        out
+    }
+
+    /// What ends a batch: the neighbours stage's drift measure (the pore network's too) and,
+    /// when `guard`, the guard's checks.
+    fn batch_tail<'s>(&'s self, s: &'s Session, guard: bool) -> Vec<(Stage, StageWork<'s>)> {
+        let kr = &s.kernels;
+        let mut out = vec![(Stage::Neighbours, StageWork::Kernels(vec![&kr.drift]))];
+        if let Some(f) = &s.pores {
+            out.push((Stage::PoreFlow, StageWork::PoreDrift(f)));
+        }
+        if guard {
+            out.push((Stage::Guard, StageWork::Kernels(kr.guard.iter().collect())));
+        }
+        out
+    }
+
+    /// Encodes `k` steps, the drift measure and (when `guard`) the guard's checks, submits
+    /// them and reads the counters back.
+    fn step_batch(&self, s: &Session, k: u64, guard: bool) -> Result<Vec<u32>> {
+        let ctx = &self.ctx;
+        self.reset_batch_counters(s, guard);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
-            let kr = &s.kernels;
             for t in 0..k {
-                if let Some(w) = &kr.walls {
-                    dispatch_stage(&mut pass, Stage::Walls, [&w.advance]);
-                }
-                dispatch_stage(&mut pass, Stage::ContactForces, &kr.contact_forces);
-                if let Some(w) = &kr.walls {
-                    dispatch_stage(&mut pass, Stage::WallForces, &w.forces);
-                }
-                if let Some(k) = &kr.parallel_bond {
-                    dispatch_stage(&mut pass, Stage::ParallelBond, [k]);
-                }
-                if !kr.rolling_resistance.is_empty() {
-                    dispatch_stage(&mut pass, Stage::RollingResistance, &kr.rolling_resistance);
-                }
-                if let Some(f) = &s.pores {
-                    f.dispatch(&mut pass);
-                }
-                if let Some(b) = &kr.buoyancy {
-                    dispatch_stage(&mut pass, Stage::Buoyancy, [b]);
-                }
-                dispatch_stage(&mut pass, Stage::Integrate, [&kr.integrate]);
-                if let (Some(c), Some(plan)) = (&kr.conduction, &self.plan.conduction) {
-                    if plan.runs_after(s.step0 + s.steps + t) {
-                        c.dispatch(&mut pass);
-                    }
-                }
-                if let (Some(w), Some(plan)) = (&kr.moisture, &self.plan.moisture) {
-                    if plan.runs_after(s.step0 + s.steps + t) {
-                        w.dispatch(&mut pass);
-                    }
+                for (stage, work) in self.step_stages(s, t) {
+                    work.encode(&mut pass, stage);
                 }
             }
-            dispatch_stage(&mut pass, Stage::Neighbours, [&kr.drift]);
-            if let Some(f) = &s.pores {
-                f.dispatch_drift(&mut pass);
-            }
-            if guard {
-                dispatch_stage(&mut pass, Stage::Guard, &kr.guard);
+            for (stage, work) in self.batch_tail(s, guard) {
+                work.encode(&mut pass, stage);
             }
         }
-        ctx.queue.submit([enc.finish()]);
+        ctx.submit(enc);
         let counters = read::<u32>(ctx, &s.lanes.counters, COUNTERS)?;
         self.check_device()?;
         Ok(counters)
     }
 
     /// Brings the device's state into the model, appends the bonds that broke (in step and
-    /// particle order, as the CPU backend records them) and advances the clock.
-    fn download(&self, m: &mut Model, s: Session) -> Result<()> {
+    /// particle order, as the CPU backend records them) and advances the clock. The session
+    /// may continue only after [`rewind`](Self::rewind).
+    fn download(&self, m: &mut Model, s: &mut Session) -> Result<()> {
         if let (Some(w), true) = (&s.kernels.walls, s.steps > 0) {
             // The walls hold the loads of the step before the last: sum the last step's.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
             let label = Some("walls: sum_wall_loads");
             w.sum_loads
                 .dispatch(&mut enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None }));
-            self.ctx.queue.submit([enc.finish()]);
+            self.ctx.submit(enc);
         }
-        download(&self.ctx, &s.lanes, &s.host, m, self.plan.rotation)?;
+        download(&self.ctx, &s.lanes, &mut s.host, m, self.plan.rotation)?;
         if let Some(b) = &s.bonds {
             b.download(&self.ctx, m)?;
         }
@@ -554,6 +638,75 @@ impl GpuBackend {
         rebuild_wall_mask(m);
         self.check_device()
     }
+
+    /// Reads a batch's findings: stops the run when the guard (if it ran) or the maxima found
+    /// the state unstable, else returns the largest drift since the rows' build and the
+    /// largest speed.
+    fn check_batch(&self, m: &mut Model, s: &mut Session, counters: &[u32], guard: bool) -> Result<(f64, f64)> {
+        let failed = (0..4).find(|&k| counters[C_GUARD + k] != u32::MAX).filter(|_| guard);
+        if let Some(slot) = failed {
+            let particle = counters[C_GUARD + slot] as usize;
+            self.download(m, s)?;
+            // The CPU guard words it (and finds the same particle, unless f32 and f64
+            // disagree at the threshold: then the device's finding stands).
+            crate::guard::check_state(m)?;
+            return Err(crate::guard::unstable(m, particle, guard::FAILURES[slot].to_string()));
+        }
+        let drift = f64::from(f32::from_bits(counters[C_DRIFT])).sqrt();
+        let speed = f64::from(f32::from_bits(counters[C_SPEED])).sqrt();
+        if !(drift.is_finite() && speed.is_finite()) {
+            self.download(m, s)?;
+            crate::guard::check_state(m)?;
+            return Err(crate::guard::unstable(m, 0, guard::FAILURES[0].to_string()));
+        }
+        Ok((drift, speed))
+    }
+
+    /// Sizes the next batch by the drift rule (at most `limit` steps), or rebuilds the rows
+    /// now: on the device, or through the host when they outgrow their slots.
+    fn keep_rows_current(&mut self, m: &mut Model, s: &mut Session, drift: f64, speed: f64, limit: u64) -> Result<()> {
+        match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
+            Some(k) => self.batch = k.min(limit),
+            None => {
+                if let Err(why) = self.build_rows(s)? {
+                    // The rows did not fit: the host builds them and widens the slots.
+                    self.download(m, s)?;
+                    rebuild(m);
+                    self.rows.host_builds += 1;
+                    self.rows.host_reason = Some(why);
+                    *s = self.upload(m)?;
+                }
+                self.batch = 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Restarts what a session counts since its upload, after a download has added it to the
+    /// model (the step counter and breakage events, the heat ledger's sums), so that the
+    /// session continues as a fresh upload of the downloaded model would start.
+    fn rewind(&self, m: &Model, s: &mut Session) {
+        let q = &self.ctx.queue;
+        q.write_buffer(&s.lanes.counters, 0, bytemuck::cast_slice(&buffers::initial_counters()));
+        if self.ledger.lanes() > 0 {
+            let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+            enc.clear_buffer(&s.lanes.heat, 0, None);
+            q.submit([enc.finish()]);
+        }
+        s.steps = 0;
+        s.step0 = m.clock.step;
+    }
+
+    /// Syncs the model and keeps the session on the device for the next run, when it can
+    /// continue and the model is small enough to compare ([`Resident`]).
+    fn sync_session(&mut self, m: &mut Model, mut s: Session) -> Result<()> {
+        self.download(m, &mut s)?;
+        if s.can_continue() && s.lanes.n <= RESIDENT_MAX_PARTICLES {
+            self.rewind(m, &mut s);
+            self.resident = Some(Resident { session: s, model: crate::checkpoint::encode(m, &[]) });
+        }
+        Ok(())
+    }
 }
 
 impl Backend for GpuBackend {
@@ -573,19 +726,21 @@ impl Backend for GpuBackend {
         // Taken out for the chunk: an error drops the device's state, as it stands.
         let mut session = match self.session.take() {
             Some(s) => s,
-            None => {
-                self.batch = 1;
-                self.upload(m)?
-            }
+            None => self.open(m)?,
         };
         let mut done = 0;
         while done < steps {
             if sampling.at(done) {
-                self.download(m, session)?;
+                self.download(m, &mut session)?;
                 let mut energies = potential_energies(m, &self.plan);
                 energies.kinetic = kinetic_energy(m);
                 sample(EnergySample { step: m.clock.step, time: m.clock.time, energies });
-                session = self.upload(m)?;
+                // Measuring changed nothing: the session goes on where it can.
+                if session.can_continue() {
+                    self.rewind(m, &mut session);
+                } else {
+                    session = self.upload(m)?;
+                }
             }
             let k = self.batch.min(sampling.gap(done)).min(steps - done);
             let guard_now = done + k == steps;
@@ -597,23 +752,8 @@ impl Backend for GpuBackend {
             }
             if guard_now {
                 self.stiff = (counters[C_STIFF] != u32::MAX).then_some(counters[C_STIFF]);
-                let failed = (0..4).find(|&s| counters[C_GUARD + s] != u32::MAX);
-                if let Some(slot) = failed {
-                    let particle = counters[C_GUARD + slot] as usize;
-                    self.download(m, session)?;
-                    // The CPU guard words it (and finds the same particle, unless f32 and
-                    // f64 disagree at the threshold: then the device's finding stands).
-                    crate::guard::check_state(m)?;
-                    return Err(crate::guard::unstable(m, particle, guard::FAILURES[slot].to_string()));
-                }
             }
-            let drift = f64::from(f32::from_bits(counters[C_DRIFT])).sqrt();
-            let speed = f64::from(f32::from_bits(counters[C_SPEED])).sqrt();
-            if !(drift.is_finite() && speed.is_finite()) {
-                self.download(m, session)?;
-                crate::guard::check_state(m)?;
-                return Err(crate::guard::unstable(m, 0, guard::FAILURES[0].to_string()));
-            }
+            let (drift, speed) = self.check_batch(m, &mut session, &counters, guard_now)?;
             // The pore network: the next batch's sub-steps from this batch's smallest stable flow
             // step; a rebuild (through the host) when the drift may pass the threshold next step.
             let mut pore_batch = MAX_BATCH;
@@ -637,7 +777,7 @@ impl Backend for GpuBackend {
                 if need > f64::from(f.max_substeps) || exchange_over || rebuild_in.is_none() {
                     // Through the host: its f64 check words the guard's error (or finds the
                     // flow stable after all), or it rebuilds the network.
-                    self.download(m, session)?;
+                    self.download(m, &mut session)?;
                     if rebuild_in.is_none() {
                         if let Some(mut p) = m.pores.take() {
                             let r = p.rebuild(m);
@@ -662,20 +802,7 @@ impl Backend for GpuBackend {
                 }
                 pore_batch = pore_batch.min(rebuild_in.unwrap_or(1));
             }
-            match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
-                Some(k) => self.batch = k.min(pore_batch),
-                None => {
-                    if let Err(why) = self.build_rows(&session)? {
-                        // The rows did not fit: the host builds them and widens the slots.
-                        self.download(m, session)?;
-                        rebuild(m);
-                        self.rows.host_builds += 1;
-                        self.rows.host_reason = Some(why);
-                        session = self.upload(m)?;
-                    }
-                    self.batch = 1;
-                }
-            }
+            self.keep_rows_current(m, &mut session, drift, speed, pore_batch)?;
         }
         self.session = Some(session);
         Ok(())
@@ -694,7 +821,7 @@ impl Backend for GpuBackend {
 
     fn sync(&mut self, m: &mut Model) -> Result<()> {
         match self.session.take() {
-            Some(s) => self.download(m, s),
+            Some(s) => self.sync_session(m, s),
             None => Ok(()),
         }
     }
@@ -704,12 +831,42 @@ impl Backend for GpuBackend {
     }
 }
 
-/// Dispatches one stage's kernels inside a debug group named for the stage, so that a capture
-/// (RenderDoc, Nsight) shows a step as the plan's named stages.
-fn dispatch_stage<'k>(pass: &mut wgpu::ComputePass<'_>, stage: Stage, kernels: impl IntoIterator<Item = &'k Kernel>) {
-    pass.push_debug_group(stage.name());
-    for kernel in kernels {
-        kernel.dispatch(pass);
+/// What one stage of a step dispatches.
+enum StageWork<'s> {
+    Kernels(Vec<&'s Kernel>),
+    Pores(&'s pore_flow::PoreSession),
+    PoreDrift(&'s pore_flow::PoreSession),
+    Conduction(&'s conduction::Kernels),
+    Moisture(&'s moisture::Kernels),
+}
+
+impl StageWork<'_> {
+    /// Dispatches the stage's kernels inside a debug group named for the stage, so that a
+    /// capture (RenderDoc, Nsight) shows a step as the plan's named stages.
+    fn encode(&self, pass: &mut wgpu::ComputePass<'_>, stage: Stage) {
+        match self {
+            StageWork::Kernels(kernels) => {
+                pass.push_debug_group(stage.name());
+                for k in kernels {
+                    k.dispatch(pass);
+                }
+                pass.pop_debug_group();
+            }
+            StageWork::Pores(f) => f.dispatch(pass),
+            StageWork::PoreDrift(f) => f.dispatch_drift(pass),
+            StageWork::Conduction(c) => c.dispatch(pass),
+            StageWork::Moisture(w) => w.dispatch(pass),
+        }
     }
-    pass.pop_debug_group();
+
+    /// Dispatches, and the bytes their kernels bind (`None` for the pore network's stage,
+    /// which `bench --profile` does not measure).
+    fn cost(&self) -> Option<(u64, u64)> {
+        match self {
+            StageWork::Kernels(kernels) => Some((kernels.len() as u64, kernels.iter().map(|k| k.bytes).sum())),
+            StageWork::Conduction(c) => Some(c.cost()),
+            StageWork::Moisture(w) => Some(w.cost()),
+            StageWork::Pores(_) | StageWork::PoreDrift(_) => None,
+        }
+    }
 }

@@ -36,7 +36,7 @@ pub struct Pipelines {
     strengthen: Option<wgpu::ComputePipeline>,
 }
 
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
     let make = |entry| shaders::pipeline(device, Stage::Moisture.name(), shaders::MOISTURE, entry, constants);
     Pipelines {
         exchange: make("exchange"),
@@ -230,6 +230,17 @@ pub fn kernels(
 
 impl Kernels {
     /// One field step, in the kernels' order (each in the stage's debug group).
+    /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
+    pub fn cost(&self) -> (u64, u64) {
+        let sub = self.exchange.iter().chain([&self.settle]);
+        let once = self.shrink.iter().chain(&self.strengthen);
+        let n = u64::from(self.substeps);
+        (
+            n * sub.clone().count() as u64 + once.clone().count() as u64,
+            n * sub.map(|k| k.bytes).sum::<u64>() + once.map(|k| k.bytes).sum::<u64>(),
+        )
+    }
+
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.push_debug_group(Stage::Moisture.name());
         for _ in 0..self.substeps {

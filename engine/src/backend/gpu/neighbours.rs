@@ -4,10 +4,11 @@
 //! ([`crate::neighbours::steps_until_rebuild`]).
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, groups_for, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::Neighbours.name(), shaders::NEIGHBOURS, "measure_drift", constants)
 }
 

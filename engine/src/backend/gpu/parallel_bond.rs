@@ -44,7 +44,7 @@ struct Bond {
 /// Bytes of one bond end on the device.
 pub const ENTRY_BYTES: usize = std::mem::size_of::<Bond>() + std::mem::size_of::<u32>();
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::ParallelBond.name(), shaders::PARALLEL_BOND, "parallel_bond", constants)
 }
 

@@ -89,12 +89,12 @@ pub struct Pipelines {
     heat: Option<pore_heat::Pipelines>,
 }
 
-fn pipeline(device: &wgpu::Device, entry: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+fn pipeline(device: &GpuContext, entry: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_FLOW, entry, constants)
 }
 
 /// The stage's pipelines; with `thermal`, the fluid temperature's too (shaders/pore_heat.wgsl).
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)], thermal: bool) -> Pipelines {
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], thermal: bool) -> Pipelines {
     Pipelines {
         bonds: pipeline(device, "pore_bonds", constants),
         geometry: pipeline(device, "pore_geometry", constants),
@@ -390,7 +390,7 @@ impl PoreSession {
         }
         let bytes = (lanes.mass0.len() * 4) as u64;
         enc.copy_buffer_to_buffer(&lanes.volume, 0, &lanes.volume0, 0, bytes);
-        ctx.queue.submit([enc.finish()]);
+        ctx.submit(enc);
         let bytes = lanes.bytes + heat.as_ref().map_or(0, |h| h.bytes);
         Ok(PoreSession { lanes, kernels, heat, substeps: n, drift_limit, max_substeps, bytes, stepped: false })
     }
@@ -617,7 +617,7 @@ impl PoreFlowKernel {
     /// Uploads the network and fluid of `f` (its current volumes, conductances, boundary
     /// regions and masses) for sub-steps of length `h` (s).
     pub fn upload(ctx: &GpuContext, f: &PoreFlow, h: f64) -> Result<Self> {
-        let p = pipelines(&ctx.device, &[], false);
+        let p = pipelines(ctx, &[], false);
         let lanes = Lanes::upload(ctx, f, &[], &[], h, ctx.limits.max_storage_buffer_binding_size)?;
         let (pressure, mass) = flow_kernels(&ctx.device, &p, &lanes);
         Ok(PoreFlowKernel { lanes, pressure, mass })
@@ -636,7 +636,7 @@ impl PoreFlowKernel {
                 self.mass.dispatch(&mut pass);
             }
         }
-        ctx.queue.submit([enc.finish()]);
+        ctx.submit(enc);
     }
 
     /// Brings the masses back into `f` (the f64 mass at the upload plus the f32 change), the

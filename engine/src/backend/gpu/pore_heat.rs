@@ -57,7 +57,7 @@ pub struct Pipelines {
     eos: wgpu::ComputePipeline,
 }
 
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines {
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
     let make = |entry| shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_HEAT, entry, constants);
     Pipelines {
         pressure: make("pore_pressure_thermal"),

@@ -7,11 +7,12 @@
 //! the plan has the stage. CPU twin: `backend/cpu/rolling_resistance.rs`.
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, Kernel};
 use crate::physics::rolling_resistance::RollingResistance;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)], r: &RollingResistance) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResistance) -> wgpu::ComputePipeline {
     let mut constants = constants.to_vec();
     constants.push(("ROLLING_MU", r.mu_r));
     constants.push(("ROLLING_DAMPING", r.damping));

@@ -9,6 +9,7 @@
 //! Also the conversions between the host's CSR rows and the device's fixed-width slots.
 
 use super::buffers::{DeviceLanes, C_CROWDED, C_LONGEST};
+use super::device::GpuContext;
 use super::shaders::{self, grid, groups_for, Kernel};
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
@@ -134,7 +135,7 @@ pub struct Pipelines {
     write: wgpu::ComputePipeline,
 }
 
-pub fn pipelines(device: &wgpu::Device, constants: &[(&str, f64)]) -> Pipelines {
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
     let with_write = |on: f64| {
         let mut c = constants.to_vec();
         c.push(("WRITE_ROWS", on));

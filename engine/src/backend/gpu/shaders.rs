@@ -2,6 +2,7 @@
 //! a pipeline: `common.wgsl` and `heat.wgsl` prepended to the stage's file, the plan's choices passed as
 //! pipeline-overridable constants, so a switched-off effect is compiled out.
 
+use super::device::GpuContext;
 use crate::model::{NormalKind, TangentialKind};
 use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
@@ -83,25 +84,52 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
 }
 
 /// A compute pipeline for `entry` of a stage, its bind group layout derived from the shader.
+/// Compiled once per device for each (stage, entry, constants): a script whose plan changes
+/// between runs (a platen's servo set, a material added) builds new plans, not new pipelines,
+/// and a driver's compile costs more than a small scene's run.
 pub fn pipeline(
-    device: &wgpu::Device,
+    device: &GpuContext,
     label: &str,
     stage: &str,
     entry: &str,
     constants: &[(&str, f64)],
 ) -> wgpu::ComputePipeline {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source(stage).into()),
-    });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: true },
-        cache: None,
-    })
+    let key = PipelineKey {
+        label: label.to_string(),
+        stage: stage.to_string(),
+        entry: entry.to_string(),
+        constants: constants.iter().map(|&(k, v)| (k.to_string(), v.to_bits())).collect(),
+    };
+    let mut cache = device.pipelines.lock().unwrap_or_else(|p| p.into_inner());
+    cache
+        .entry(key)
+        .or_insert_with(|| {
+            let module = device.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source(stage).into()),
+            });
+            device.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    zero_initialize_workgroup_memory: true,
+                },
+                cache: None,
+            })
+        })
+        .clone()
+}
+
+/// What makes two pipelines the same ([`pipeline`]).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PipelineKey {
+    label: String,
+    stage: String,
+    entry: String,
+    constants: Vec<(String, u64)>,
 }
 
 /// A pipeline bound to its buffers, and how many workgroups one dispatch needs.
@@ -109,6 +137,9 @@ pub struct Kernel {
     pub pipeline: wgpu::ComputePipeline,
     pub bind_group: wgpu::BindGroup,
     pub groups: (u32, u32),
+    /// Bytes of the buffers bound: what one dispatch may read and write at most (`bench
+    /// --profile` divides it by the stage's time).
+    pub bytes: u64,
 }
 
 impl Kernel {
@@ -138,7 +169,8 @@ impl Kernel {
             .collect();
         let bind_group =
             device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
-        Kernel { pipeline: pipeline.clone(), bind_group, groups }
+        let bytes = buffers.iter().map(|(_, b)| b.size()).sum();
+        Kernel { pipeline: pipeline.clone(), bind_group, groups, bytes }
     }
 
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {

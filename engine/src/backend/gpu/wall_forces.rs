@@ -3,10 +3,11 @@
 //! CPU twin: `backend/cpu/wall_forces.rs`.
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::WallForces.name(), shaders::WALL_FORCES, "compute_wall_forces", constants)
 }
 

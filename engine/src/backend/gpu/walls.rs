@@ -4,15 +4,16 @@
 //! walls. CPU twin: [`crate::walls::Wall::advance`].
 
 use super::buffers::DeviceLanes;
+use super::device::GpuContext;
 use super::shaders::{self, Kernel};
 use crate::plan::Stage;
 
-pub fn pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, Stage::Walls.name(), shaders::WALLS, "advance_walls", constants)
 }
 
 /// The loads alone (no move), so the host reads the loads of the run's last step.
-pub fn sum_pipeline(device: &wgpu::Device, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
+pub fn sum_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
     shaders::pipeline(device, "sum_wall_loads", shaders::WALLS, "sum_wall_loads", constants)
 }
 
