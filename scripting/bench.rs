@@ -2,7 +2,8 @@
 //! throughput, contacts, memory and the machine, as text or as one JSON object.
 
 use matdem_engine::backend::gpu::device::GpuContext;
-use matdem_engine::bench::{profile, run, BenchReport, LatticeScene, StageProfile};
+use matdem_engine::backend::gpu::profile::{GpuProfile, ProfileClock};
+use matdem_engine::bench::{profile, profile_gpu, run, BenchReport, LatticeScene, StageProfile};
 use matdem_engine::Simulation;
 use std::sync::Arc;
 
@@ -21,7 +22,7 @@ pub struct BenchConfig {
     pub warmup: u64,
     pub steps: u64,
     pub json: bool,
-    /// Also time each named stage in separate passes (CPU only).
+    /// Also time each named stage in separate passes.
     pub profile: bool,
     /// Bench this GPU instead of the CPU backend.
     pub gpu: Option<Arc<GpuContext>>,
@@ -82,17 +83,15 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     if cfg.steps == 0 {
         return Err("error: --steps must be at least 1".into());
     }
-    if cfg.profile && cfg.gpu.is_some() {
-        return Err("error: --profile times the CPU backend's stages; run it with --backend cpu".into());
-    }
     let mut model = scene.build().map_err(|e| format!("error: building the bench scene: {e}"))?;
     for f in &cfg.fields {
         f.apply(&mut model, &scene).map_err(|e| format!("error: switching on {}: {e}", f.name()))?;
     }
-    let profile = if cfg.profile {
-        Some(profile(&model, cfg.warmup, cfg.steps).map_err(|e| format!("error: the profiled run failed: {e}"))?)
-    } else {
-        None
+    let failed = |e: matdem_engine::Error| format!("error: the profiled run failed: {e}");
+    let (profile, gpu_profile) = match (cfg.profile, &cfg.gpu) {
+        (false, _) => (None, None),
+        (true, None) => (Some(profile(&model, cfg.warmup, cfg.steps).map_err(failed)?), None),
+        (true, Some(ctx)) => (None, Some(profile_gpu(&model, ctx.clone(), cfg.warmup, cfg.steps).map_err(failed)?)),
     };
     let sim = match &cfg.gpu {
         Some(ctx) => Simulation::with_gpu(model, ctx.clone()),
@@ -105,12 +104,15 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     };
     let backend = Backend { name: if cfg.gpu.is_some() { "gpu" } else { "cpu" }, device };
     let mut out = if cfg.json {
-        json(&scene, &report, &backend, &cfg.fields)
+        json(&scene, &report, &backend, &cfg.fields, gpu_profile.as_ref())
     } else {
         text(&scene, &report, &backend, &cfg.fields)
     };
     if let (Some(p), false) = (&profile, cfg.json) {
         out.push_str(&profile_text(p));
+    }
+    if let (Some(p), false) = (&gpu_profile, cfg.json) {
+        out.push_str(&gpu_profile_text(p));
     }
     Ok(out)
 }
@@ -133,6 +135,63 @@ fn profile_text(p: &StageProfile) -> String {
         let _ = writeln!(o, "  {name:<15} {share:5.1} %  {:.4} ms a step", 1e3 * t / p.steps.max(1) as f64);
     }
     let _ = writeln!(o, "  (heat: booked inside contact_forces, wall_forces and integrate, its time theirs)");
+    o
+}
+
+/// Each stage's time on the device, the bytes it binds and the bandwidth that makes.
+fn gpu_profile_text(p: &GpuProfile) -> String {
+    let mut o = String::new();
+    let per_step = |x: f64| x / p.steps.max(1) as f64;
+    let clock = match p.clock {
+        ProfileClock::Timestamps { period } => format!("timestamp queries, {period} ns a tick"),
+        ProfileClock::Host => "the host's clock around each pass's submission and wait: this adapter has no                                timestamp queries, so each pass also counts its submission"
+            .to_string(),
+    };
+    let total = p.total();
+    let _ = writeln!(
+        o,
+        "profile: {} steps with each stage in its own pass, {:.3} ms a step ({clock}); {} steps as a run encodes \
+         them (up to 64 in one pass), in turn with those: {:.3} ms a step",
+        p.steps,
+        1e3 * per_step(total),
+        p.batched_steps,
+        1e3 * p.batched_seconds / p.batched_steps.max(1) as f64
+    );
+    let nominal = p.nominal_bandwidth;
+    let _ = writeln!(
+        o,
+        "  {:<24} {:>6} {:>10} {:>11} {:>16} {:>9}{}",
+        "stage",
+        "share",
+        "ms a step",
+        "dispatches",
+        "bytes bound/p·s",
+        "GB/s",
+        if nominal.is_some() { "  of nominal" } else { "" }
+    );
+    let n = p.particles.max(1) as f64;
+    for s in &p.stages {
+        let share = if total > 0.0 { 100.0 * s.seconds / total } else { 0.0 };
+        let rate = if s.seconds > 0.0 { s.bytes as f64 / s.seconds } else { 0.0 };
+        let of = nominal.map(|bw| format!("  {:>8.1} %", 100.0 * rate / bw)).unwrap_or_default();
+        let _ = writeln!(
+            o,
+            "  {:<24} {share:5.1} % {:>10.4} {:>11.2} {:>16.0} {:>9.1}{of}",
+            s.name,
+            1e3 * per_step(s.seconds),
+            per_step(s.dispatches as f64),
+            per_step(s.bytes as f64) / n,
+            rate / 1e9
+        );
+    }
+    let _ = writeln!(
+        o,
+        "  a run's step: {:.2} dispatches, {:.3} submissions (one a batch for the steps, one for the counters' \
+         read, the row builds); nominal bandwidth {}",
+        p.dispatches_per_step,
+        p.submissions_per_step,
+        nominal.map_or("not known for this adapter".to_string(), |bw| format!("{:.2} TB/s", bw / 1e12))
+    );
     o
 }
 
@@ -215,6 +274,40 @@ fn text(s: &LatticeScene, r: &BenchReport, b: &Backend, fields: &[BenchField]) -
     o
 }
 
+/// The GPU profile as a JSON object: the clock, each stage's seconds, bytes and dispatches
+/// over the profiled steps, the batched time, a run's dispatches and submissions a step.
+fn gpu_profile_json(p: &GpuProfile) -> String {
+    let stages: Vec<String> = p
+        .stages
+        .iter()
+        .map(|s| {
+            format!(
+                "{{\"name\":{},\"seconds\":{},\"bytes\":{},\"dispatches\":{}}}",
+                json_str(s.name),
+                json_num(s.seconds),
+                s.bytes,
+                s.dispatches
+            )
+        })
+        .collect();
+    let clock = match p.clock {
+        ProfileClock::Timestamps { .. } => "timestamps",
+        ProfileClock::Host => "host",
+    };
+    format!(
+        "{{\"clock\":{},\"steps\":{},\"stages\":[{}],\"batched_steps\":{},\"batched_seconds\":{},\"dispatches_per_step\":{},\
+         \"submissions_per_step\":{},\"nominal_bandwidth\":{}}}",
+        json_str(clock),
+        p.steps,
+        stages.join(","),
+        p.batched_steps,
+        json_num(p.batched_seconds),
+        json_num(p.dispatches_per_step),
+        json_num(p.submissions_per_step),
+        p.nominal_bandwidth.map_or("null".to_string(), json_num)
+    )
+}
+
 fn json_num(x: f64) -> String {
     if x.is_finite() {
         format!("{x}")
@@ -240,7 +333,7 @@ fn json_str(s: &str) -> String {
     o
 }
 
-fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField]) -> String {
+fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField], profile: Option<&GpuProfile>) -> String {
     let on: Vec<String> = on.iter().map(|f| json_str(&format!("{f:?}").to_lowercase())).collect();
     let fields: Vec<(&str, String)> = vec![
         ("backend", json_str(b.name)),
@@ -261,6 +354,10 @@ fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField]) -> St
         ("bytes_per_particle", json_num(r.bytes_per_particle)),
         ("plan_bytes_per_particle", r.lane_sets.iter().map(|s| s.bytes_per_particle).sum::<usize>().to_string()),
     ];
+    let mut fields = fields;
+    if let Some(p) = profile {
+        fields.push(("profile", gpu_profile_json(p)));
+    }
     let body: Vec<String> = fields.iter().map(|(k, v)| format!("{}:{v}", json_str(k))).collect();
     format!("{{{}}}\n", body.join(","))
 }

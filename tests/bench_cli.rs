@@ -1,4 +1,4 @@
-//! `matdem-rs bench` end to end: a small lattice, JSON output, and the GPU refusal.
+//! `matdem-rs bench` end to end: a small lattice, JSON output, the GPU refusal and profile.
 
 use crate::common::*;
 
@@ -76,4 +76,53 @@ fn bench_on_gpu_reports_the_adapter_and_device_memory() {
     assert!(bytes > 100.0 && bytes < 1024.0, "{out}");
     let c = v["contacts_per_particle"].as_f64().unwrap();
     assert!((4.0..=6.0).contains(&c), "contacts per particle {c}");
+}
+
+// `bench --profile --backend gpu` (lavapipe in CI, which has timestamp queries): every stage
+// of the plan gets a line with its time, dispatches and bytes, and the stages' passes sum to
+// the step as a run encodes it (a batch in one pass) within 10 %. Each profiled batch is
+// followed by a batched one, so both see the machine's load alike; a burst of another
+// process's work can still tip one run, so the measure is taken up to three times. Measured
+// on the 2-core VM: 2.31/2.55, 2.61/2.50, 2.86/2.71 ms a step.
+#[test]
+fn gpu_profile_lists_every_stage_and_they_sum_to_the_step() {
+    let mut ratios = Vec::new();
+    for _ in 0..3 {
+        let o = bin()
+            .args(["bench", "--backend", "gpu", "--profile", "--particles", "2000", "--steps", "400", "--warmup", "10"])
+            .arg("--json")
+            .output()
+            .unwrap();
+        if o.status.code() == Some(2) && !gpu_required() {
+            eprintln!("skipped: no GPU adapter: {}", stderr(&o));
+            return;
+        }
+        assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+        let out = stdout(&o);
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+        let p = &v["profile"];
+        assert_eq!(p["clock"], "timestamps", "lavapipe has timestamp queries: {p}");
+        let stages = p["stages"].as_array().unwrap();
+        let names: Vec<&str> = stages.iter().map(|s| s["name"].as_str().unwrap()).collect();
+        // The bench scene's plan: five walls, contacts, integration, the drift measure, the guard.
+        for stage in ["walls", "contact_forces", "wall_forces", "integrate", "neighbours", "guard"] {
+            assert!(names.contains(&stage), "{stage} missing from {names:?}");
+        }
+        for s in stages.iter().filter(|s| s["name"] != "neighbours: row builds") {
+            assert!(s["seconds"].as_f64().unwrap() > 0.0 && s["bytes"].as_u64().unwrap() > 0, "{s}");
+            assert!(s["dispatches"].as_u64().unwrap() > 0, "{s}");
+        }
+        let per = |secs: f64, steps: &serde_json::Value| secs / steps.as_u64().unwrap() as f64;
+        let sum: f64 = stages.iter().map(|s| s["seconds"].as_f64().unwrap()).sum();
+        let ratio = per(sum, &p["steps"]) / per(p["batched_seconds"].as_f64().unwrap(), &p["batched_steps"]);
+        // Contact forces, wall forces, walls and integration each step; the tail once a batch.
+        let d = p["dispatches_per_step"].as_f64().unwrap();
+        assert!((4.0..5.0).contains(&d), "dispatches a step {d}");
+        assert!(p["submissions_per_step"].as_f64().unwrap() < 0.5, "{p}");
+        ratios.push(ratio);
+        if (ratio - 1.0).abs() <= 0.1 {
+            return;
+        }
+    }
+    panic!("the stages' passes do not sum to the step within 10 %: ratios {ratios:?}");
 }

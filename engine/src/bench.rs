@@ -231,6 +231,22 @@ pub fn profile(model: &Model, warmup: u64, steps: u64) -> Result<StageProfile> {
     Ok(StageProfile { steps, stages, fused_seconds })
 }
 
+/// Profiles `steps` steps of `model` on the GPU `ctx` after `warmup` ordinary ones: each
+/// stage in its own pass, timed on the device, then the same number of steps as a run
+/// encodes them ([`GpuBackend::profile`](crate::backend::gpu::GpuBackend::profile)).
+#[cfg(feature = "gpu")]
+pub fn profile_gpu(
+    model: &Model,
+    ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>,
+    warmup: u64,
+    steps: u64,
+) -> Result<crate::backend::gpu::profile::GpuProfile> {
+    let mut m = model.clone();
+    let mut b = crate::backend::gpu::GpuBackend::prepare(ctx, &m)?;
+    crate::simulation::run_steps(&mut b, &mut m, warmup, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})?;
+    b.profile(&mut m, steps)
+}
+
 /// Particle pairs in the rows that touch now (centre distance < r_i + r_j), each once.
 pub fn touching_pairs(m: &Model) -> usize {
     let (p, c) = (&m.particles, &m.contacts);

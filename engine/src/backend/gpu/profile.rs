@@ -15,12 +15,14 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq)]
 pub struct GpuProfile {
     pub particles: usize,
-    /// Steps run with each stage in its own pass, and again as a run encodes them.
+    /// Steps run with each stage in its own pass.
     pub steps: u64,
     /// The stages in step order (the batch's drift measure and guard last), each over the
     /// profiled steps; `neighbours: row builds` when the rows were rebuilt meanwhile.
     pub stages: Vec<StageTime>,
-    /// Seconds of the same number of steps as a run encodes them: a batch in one pass.
+    /// Steps run as a run encodes them (a batch in one pass), each batch after one of the
+    /// profiled ones, and their seconds.
+    pub batched_steps: u64,
     pub batched_seconds: f64,
     /// How the passes were timed.
     pub clock: ProfileClock,
@@ -67,9 +69,9 @@ const MAX_PASSES: usize = (wgpu::QUERY_SET_MAX_QUERIES / 2) as usize;
 pub const ROW_BUILDS: &str = "neighbours: row builds";
 
 impl GpuBackend {
-    /// Runs `steps` steps of `m` with each stage in its own pass, timed, then `steps` more as
-    /// a run encodes them, timed the same way; the model stays on the device afterwards (a
-    /// later run or sync continues from it). The pore network's stage is not profiled.
+    /// Runs `steps` steps of `m` with each stage in its own pass, timed, each batch followed by
+    /// one as a run encodes it, timed the same way; the model stays on the device afterwards
+    /// (a later run or sync continues from it). The pore network's stage is not profiled.
     pub fn profile(&mut self, m: &mut Model, steps: u64) -> Result<GpuProfile> {
         if self.plan.pore_flow.is_some() {
             return Err(Error::InvalidScene(
@@ -84,16 +86,20 @@ impl GpuBackend {
             None => self.open(m)?,
         };
         let mut stages: Vec<StageTime> = Vec::new();
-        let (mut batched_seconds, mut dispatches) = (0.0, 0u64);
+        let (mut batched_seconds, mut batched_steps, mut dispatches) = (0.0, 0u64, 0u64);
         let (mut submissions, mut timed_reads) = (0, 0);
-        for separate in [true, false] {
-            let before = self.ctx.submissions();
-            let mut done = 0;
-            while done < steps {
-                let per_step = self.step_stages(&s, 0).len() + 2;
-                let room = if separate { ((MAX_PASSES - 4) / per_step).max(1) as u64 } else { MAX_BATCH };
-                let k = self.batch.min(room).min(steps - done);
-                let guard = done + k == steps;
+        let mut done = 0;
+        // Batches alternate, each as separate passes and then as a run encodes it, so that
+        // both see the machine alike (another process's load comes in bursts).
+        while done < steps {
+            let per_step = self.step_stages(&s, 0).len() + 2;
+            let room = ((MAX_PASSES - 4) / per_step).max(1) as u64;
+            let first = self.batch.min(room).min(steps - done);
+            let guard = done + first == steps;
+            for separate in [true, false] {
+                // The drift after the first half may allow the second fewer steps.
+                let k = if separate { first } else { first.min(self.batch) };
+                let before = self.ctx.submissions();
                 self.reset_batch_counters(&s, guard);
                 let mut work: Vec<(Stage, StageWork)> = (0..k).flat_map(|t| self.step_stages(&s, t)).collect();
                 work.extend(self.batch_tail(&s, guard));
@@ -104,13 +110,13 @@ impl GpuBackend {
                         book(&mut stages, stage.name(), secs, bytes, count);
                     }
                 } else {
+                    batched_steps += k;
                     batched_seconds += self.time_passes(&[&work[..]])?[0];
                     timed_reads += u64::from(self.timestamp_period().is_some());
                     dispatches += work.iter().filter_map(|(_, w)| w.cost()).map(|(d, _)| d).sum::<u64>();
                 }
                 drop(work);
                 let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;
-                done += k;
                 s.steps += k;
                 let (drift, speed) = self.check_batch(m, &mut s, &counters, guard)?;
                 let t = Instant::now();
@@ -119,12 +125,14 @@ impl GpuBackend {
                 if separate && self.rows.device_builds + self.rows.host_builds > builds {
                     book(&mut stages, ROW_BUILDS, t.elapsed().as_secs_f64(), 0, 0);
                 }
+                if !separate {
+                    // As a run submits: the steps, the counters' read, the row builds (not the
+                    // timestamps' read).
+                    submissions += self.ctx.submissions() - before - timed_reads;
+                    timed_reads = 0;
+                }
             }
-            if !separate {
-                // As a run submits: the steps, the counters' read, the row builds (not the
-                // timestamps' read).
-                submissions = self.ctx.submissions() - before - timed_reads;
-            }
+            done += first;
         }
         self.check_device()?;
         self.session = Some(s);
@@ -132,11 +140,12 @@ impl GpuBackend {
             Some(period) => ProfileClock::Timestamps { period },
             None => ProfileClock::Host,
         };
-        let per = |x: f64| x / steps.max(1) as f64;
+        let per = |x: f64| x / batched_steps.max(1) as f64;
         Ok(GpuProfile {
             particles: m.len(),
             steps,
             stages,
+            batched_steps,
             batched_seconds,
             clock,
             dispatches_per_step: per(dispatches as f64),
