@@ -117,11 +117,16 @@ fn time(mut sim: Simulation) -> Result<Timing> {
         if seconds >= TARGET_S || steps >= MAX_STEPS {
             return Ok(Timing { steps, seconds, rate: particles * steps as f64 / seconds.max(1e-9) });
         }
-        // Aim a little past the target, so that the next run is the last; never less than
-        // twice this one, so that a run too short to time still ends the loop soon.
-        let aimed = steps as f64 * 1.25 * TARGET_S / seconds.max(1e-9);
-        steps = (aimed.ceil() as u64).clamp(2 * steps, MAX_STEPS);
+        steps = next_steps(steps, seconds);
     }
+}
+
+/// The length of the run after one of `steps` steps that took `seconds` (< [`TARGET_S`]): a
+/// little past the target, so that it is the last; at least twice `steps`, so that a run
+/// too short to time still ends the loop soon; at most [`MAX_STEPS`].
+fn next_steps(steps: u64, seconds: f64) -> u64 {
+    let aimed = steps as f64 * 1.25 * TARGET_S / seconds.max(1e-9);
+    (aimed.ceil() as u64).max(2 * steps).min(MAX_STEPS)
 }
 
 impl std::fmt::Display for SpeedTest {
@@ -166,6 +171,14 @@ mod tests {
         assert_eq!(choose(1e6, Some(1.1e6)), Choice::Cpu, "a near tie goes to the f64 reference");
         assert_eq!(choose(1e6, Some(0.5e6)), Choice::Cpu);
         assert_eq!(choose(1e6, None), Choice::Cpu, "a GPU that could not step the scene");
+    }
+
+    #[test]
+    fn each_timed_run_aims_past_the_target_grows_and_stops_at_the_cap() {
+        assert_eq!(next_steps(4, TARGET_S / 10.0), 50, "1.25 × the target at the measured rate");
+        assert_eq!(next_steps(100, 0.9 * TARGET_S), 200, "at least twice as long");
+        assert_eq!(next_steps(6000, 1e-3), MAX_STEPS, "twice 6000 is past the cap");
+        assert_eq!(next_steps(4, 0.0), MAX_STEPS, "a run too short to time");
     }
 
     fn timing(steps: u64, rate: f64) -> Timing {
