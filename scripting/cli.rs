@@ -20,7 +20,8 @@ pub struct Cli {
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
-    /// A hardware GPU when one is present, else the CPU backend.
+    /// With a hardware GPU, a speed test of the scene on it and on the CPU at the first run,
+    /// then the faster for the whole run; without one, the CPU backend.
     Auto,
     /// The native CPU backend (f64, multithreaded): the reference.
     Cpu,

@@ -17,6 +17,7 @@ pub mod report;
 pub mod report_page;
 pub mod resume;
 pub mod run;
+pub mod run_backend;
 pub mod run_record;
 pub mod sandbox;
 pub mod size_checks;

@@ -8,16 +8,15 @@ use crate::package::Package;
 use crate::report::{render, Sources};
 use crate::report_page::{write_run_page, RunSummary};
 use crate::resume::{self, Pending, Session};
+use crate::run_backend::{kind, RunBackend};
 use crate::run_record::{now_utc, sha256_hex, RunRecord};
 use crate::sandbox::{Limits, ReadRoot};
 use crate::stop::Stop;
-use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::RunControl;
 use rhai::{Dynamic, EvalAltResult, Scope};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
-use std::sync::Arc;
 
 /// What the command line asked for, resolved.
 pub struct RunConfig {
@@ -27,14 +26,12 @@ pub struct RunConfig {
     pub params: Vec<(String, Dynamic)>,
     pub progress: bool,
     pub plan_only: bool,
-    /// The backend, as the run record names it.
-    pub backend: String,
+    /// Where the script's models step (`auto` decides at the first run).
+    pub backend: RunBackend,
     /// Set by Ctrl-C or SIGTERM; the engine checks it between chunks of steps.
     pub control: RunControl,
     /// `--resume DIR`: continue the interrupted run whose output folder (or resume folder) is DIR.
     pub resume: Option<PathBuf>,
-    /// The GPU the script's models step on; `None` for the CPU backend.
-    pub gpu: Option<Arc<GpuContext>>,
     /// Set when `script` is a packaged simulator (a folder or an archive); `params` then
     /// already holds its defaults and checked `--set` values.
     pub package: Option<Package>,
@@ -122,8 +119,8 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     let sha = sha256_hex(text.as_bytes());
     // The journal and the run record keep parameters as text; a resume types them again.
     let params = cfg.params.iter().map(|(k, v)| (k.clone(), v.to_string())).collect();
-    let mut session =
-        Session { script_sha256: sha.clone(), params, backend: cfg.backend.clone(), ..Session::default() };
+    let mut backend = cfg.backend.clone();
+    let mut session = Session { script_sha256: sha.clone(), params, ..Session::default() };
     if let Some(dir) = &cfg.resume {
         let (journal, models) = resume::load(dir).map_err(RunError::Setup)?;
         if journal.script_sha256 != sha {
@@ -135,19 +132,23 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         }
         // f64 on the CPU, f32 on a GPU: a run continued on the other would change precision
         // half-way without a word. (The device may differ: only the backend's kind is kept.)
-        let kind = |b: &str| b.split(" on ").next().unwrap_or_default().to_string();
-        if !journal.backend.is_empty() && kind(&journal.backend) != kind(&cfg.backend) {
+        // An `auto` run continues where the interrupted one stepped, without measuring.
+        backend = backend.resumed(&journal.backend);
+        if matches!(cfg.backend, RunBackend::Auto(_)) && !matches!(backend, RunBackend::Auto(_)) {
+            eprintln!("auto: {}, where the interrupted run stepped (no speed test)", backend.describe());
+        }
+        let (was, now) = (kind(&journal.backend), backend.describe());
+        if !was.is_empty() && was != "auto" && was != kind(&now) {
             return Err(RunError::Setup(format!(
-                "error: the interrupted run stepped on {}, this one would on {}: resume with --backend {}",
-                kind(&journal.backend),
-                kind(&cfg.backend),
-                journal.backend.split_whitespace().next().unwrap_or("cpu")
+                "error: the interrupted run stepped on {was}, this one would on {}: resume with --backend {was}",
+                kind(&now)
             )));
         }
         session.params = journal.params;
         session.entries = journal.entries;
         session.pending = Some(Pending { interrupted: journal.interrupted, models });
     }
+    session.backend = backend.describe();
     // Held until the run ends: a second run into this folder is refused, not interleaved.
     let _lock = if cfg.plan_only {
         None
@@ -168,7 +169,8 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         script: cfg.script.display().to_string(),
         script_sha256: sha,
         parameters: session.params.clone(),
-        backend: cfg.backend.clone(),
+        backend: backend.describe(),
+        speed_test: None,
         matdem_rs_version: env!("CARGO_PKG_VERSION").to_string(),
         started: now_utc(),
         finished: None,
@@ -185,8 +187,10 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
     // Verified against run.ron's seal by `resume::load` above.
     let loaded_journal = cfg.resume.as_ref().and_then(|_| resume::journal_sha256(&cfg.out_dir));
     let started = std::time::Instant::now();
-    let (result, plans) = evaluate(cfg, &text, &path, read_root, session);
+    let (result, plans, ran_on) = evaluate(cfg, backend, &text, &path, read_root, session);
     if !cfg.plan_only {
+        // `auto` has decided by now, if a model ran.
+        (record.backend, record.speed_test) = ran_on;
         let (status, code) = match &result {
             Ok(_) => ("ok", 0),
             Err(RunError::Interrupted(_)) => ("interrupted", 130),
@@ -236,20 +240,24 @@ fn earlier_outputs(dir: &Path) -> usize {
 /// Each model's plan, by model name.
 type Plans = Vec<(String, String)>;
 
-/// Prepares the host and the engine and evaluates the script; returns its result and the
-/// plans of the models it ran.
+/// Where a run's models stepped, in words, and the speed test's line if `auto` measured.
+type RanOn = (String, Option<String>);
+
+/// Prepares the host and the engine and evaluates the script on `backend`; returns its
+/// result, the plans of the models it ran and where they stepped.
 fn evaluate(
     cfg: &RunConfig,
+    backend: RunBackend,
     text: &str,
     path: &str,
     read_root: ReadRoot,
     session: Session,
-) -> (Result<Vec<PathBuf>, RunError>, Plans) {
+) -> (Result<Vec<PathBuf>, RunError>, Plans, RanOn) {
     let mut host = Host::new(cfg.out_dir.clone());
     host.progress = cfg.progress;
     host.plan_only = cfg.plan_only;
     host.control = cfg.control.clone();
-    host.gpu = cfg.gpu.clone();
+    host.backend = RefCell::new(backend);
     host.read_root = read_root;
     host.limits = cfg.limits;
     if cfg.resume.is_some() {
@@ -263,7 +271,6 @@ fn evaluate(
     }
     host.self_run = own_binary().map(|exe| crate::api::runs::SelfRun {
         source: cfg.script.clone(),
-        backend: if cfg.gpu.is_some() { "gpu" } else { "cpu" }.to_string(),
         params: session.params.clone(),
         exe,
     });
@@ -287,7 +294,8 @@ fn evaluate(
     let sources = Sources { main_path: path, main_text: text };
     let result = compile_and_run(cfg, &mut engine, &host, &sources);
     let plans = host.plans.take();
-    (result, plans)
+    let ran_on = (host.backend.borrow().describe(), host.speed_test.take());
+    (result, plans, ran_on)
 }
 
 /// The `matdem-rs` binary running this process, which `run_points` starts again for each

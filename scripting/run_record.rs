@@ -17,6 +17,9 @@ pub struct RunRecord {
     /// `--set` parameters as given.
     pub parameters: Vec<(String, String)>,
     pub backend: String,
+    /// `--backend auto`'s speed test: both figures and the choice (absent when it did not measure).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_test: Option<String>,
     pub matdem_rs_version: String,
     /// UTC, RFC 3339.
     pub started: String,

@@ -165,10 +165,9 @@ fn no_generated_package_writes_outside_its_output_folder() {
                         params: Vec::new(),
                         progress: false,
                         plan_only: false,
-                        backend: "cpu (f64)".into(),
+                        backend: matdem_rs::run_backend::RunBackend::Cpu,
                         control: RunControl::default(),
                         resume: None,
-                        gpu: None,
                         package: Some(package),
                         limits: Limits::default(),
                     };

@@ -85,7 +85,23 @@ impl Simulation {
     /// contact statistics, scripts' arrays) read the model, which each run brings up to date.
     #[cfg(feature = "gpu")]
     pub fn with_gpu(model: Model, ctx: std::sync::Arc<crate::backend::gpu::device::GpuContext>) -> Self {
-        Simulation { target: Target::Gpu(ctx), ..Self::new(model) }
+        Self::with_target(model, Target::Gpu(ctx))
+    }
+
+    /// A simulation whose runs step on `target`.
+    pub fn with_target(model: Model, target: Target) -> Self {
+        Simulation { target, ..Self::new(model) }
+    }
+
+    /// Moves the simulation to `target` (a host's `--backend auto` decided where its run
+    /// steps): the model is brought up to date from the backend it leaves, whose prepared
+    /// state is dropped; the plan stays. Later runs prepare a backend on `target`.
+    pub fn set_target(&mut self, target: Target) -> Result<()> {
+        if let Some(mut backend) = self.prepared.as_mut().and_then(|p| p.backend.take()) {
+            backend.sync(&mut self.model)?;
+        }
+        self.target = target;
+        Ok(())
     }
 
     /// Puts `model` in place of the current one (a loaded checkpoint), on the same backend;

@@ -34,6 +34,7 @@ mod rolling_resistance;
 mod run_loop;
 mod scaling_law;
 mod servo;
+mod speed_test;
 mod stage_lanes;
 mod strip;
 mod tangential_damping;

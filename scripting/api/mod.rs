@@ -23,14 +23,13 @@ pub mod training;
 pub mod zones;
 
 use crate::resume::{Entry, Session, Value};
+use crate::run_backend::RunBackend;
 use crate::sandbox::{output_path, Limits, ReadRoot};
-use matdem_engine::backend::gpu::device::GpuContext;
 use model::{ModelData, ModelHandle};
 use rhai::{Dynamic, Engine, EvalAltResult};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::{Rc, Weak};
-use std::sync::Arc;
 
 pub type RhaiResult<T> = Result<T, Box<EvalAltResult>>;
 
@@ -65,9 +64,11 @@ pub struct Host {
     /// Whether a cancelled run saves a resume point (`matdem-rs run`); elsewhere (the REPL,
     /// in-process engines) nothing is journaled and a cancel is a plain error.
     pub resumable: bool,
-    /// The GPU every model of the run steps on (`--backend gpu`, or `auto` with a hardware
-    /// GPU); `None` runs on the CPU backend.
-    pub gpu: Option<Arc<GpuContext>>,
+    /// Where the run's models step; an undecided `--backend auto` is settled at the first
+    /// run or balance ([`crate::run_backend::settle`]).
+    pub backend: RefCell<RunBackend>,
+    /// The speed test's line, once `auto` has measured (for `run.ron`).
+    pub speed_test: RefCell<Option<String>>,
     /// The only place the script may read from (its folder or its package).
     pub read_root: ReadRoot,
     /// Limits on operations, call depth and data sizes.
@@ -94,7 +95,8 @@ impl Host {
             models: RefCell::new(Vec::new()),
             session: RefCell::new(Session::default()),
             resumable: false,
-            gpu: None,
+            backend: RefCell::default(),
+            speed_test: RefCell::new(None),
             warnings: RefCell::new(Vec::new()),
             plans: RefCell::new(Vec::new()),
             self_run: None,
@@ -124,7 +126,7 @@ impl Host {
     /// Gives a new model to the script under the next creation number.
     pub fn adopt(&self, name: &str, model: matdem_engine::Model) -> ModelHandle {
         let mut models = self.models.borrow_mut();
-        let handle = ModelHandle::new(name, model, models.len(), self.gpu.clone());
+        let handle = ModelHandle::new(name, model, models.len(), self.backend.borrow().target());
         models.push(Rc::downgrade(&handle.0));
         handle
     }

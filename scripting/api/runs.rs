@@ -20,8 +20,6 @@ use std::rc::Rc;
 pub struct SelfRun {
     /// The script, package folder or archive the run was started with.
     pub source: PathBuf,
-    /// `--backend` of the points (as the command line takes it: cpu, gpu, auto).
-    pub backend: String,
     /// The run's own parameters: every point gets them, unless its map sets the same name.
     pub params: Vec<(String, String)>,
     /// The `matdem-rs` binary.
@@ -96,7 +94,8 @@ fn run_points(host: &Host, runs: &Array, opts: &Map) -> RhaiResult<Array> {
         sweep::PlanRequest {
             source: me.source.clone(),
             dir: dir.clone(),
-            backend: me.backend.clone(),
+            // The run's backend once decided; before that, each point's `auto` decides.
+            backend: host.backend.borrow().cli_name().to_string(),
             fixed,
             design: sweep::Design::Runs { from: "run_points".into() },
             runs: sets,

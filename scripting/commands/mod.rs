@@ -9,11 +9,11 @@ mod sweep;
 
 use crate::cli::{Backend, Command};
 use clap::ValueEnum;
-use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute, GpuContext};
+use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute};
 use matdem_engine::backend::RunControl;
+use matdem_rs::run_backend::RunBackend;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
 /// Why a command stopped: the text for stderr (whole lines) and the exit code.
 pub struct Failure {
@@ -115,21 +115,30 @@ fn stop_on_signals(control: &RunControl, what: &str) {
 }
 
 /// Opens the device `--backend` asks for and says on stderr which one runs (and, for `auto`
-/// on the CPU, why). `--backend gpu` without a usable adapter ends the command (exit 2).
-fn open_backend(backend: Backend) -> Result<Option<Arc<GpuContext>>, Failure> {
+/// on the CPU, why). With a GPU to measure, `auto` is left for the first run to decide
+/// ([`matdem_rs::run_backend`]). `--backend gpu` without a usable adapter ends the command
+/// (exit 2).
+fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
     let choice = match backend {
         Backend::Auto => BackendChoice::Auto,
         Backend::Cpu => BackendChoice::Cpu,
         Backend::Gpu => BackendChoice::Gpu,
     };
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     match select(choice).map_err(Failure::error)? {
+        Compute::Gpu(ctx) if choice == BackendChoice::Auto => {
+            eprintln!(
+                "backend: auto, cpu (f64, {threads} threads) or gpu (f32) on {}: a speed test at the first run decides",
+                ctx.describe()
+            );
+            Ok(RunBackend::Auto(ctx))
+        }
         Compute::Gpu(ctx) => {
             let note = if ctx.is_software() { " — a software device: correct, not fast" } else { "" };
             eprintln!("backend: gpu (f32) on {}{note}", ctx.describe());
-            Ok(Some(ctx))
+            Ok(RunBackend::Gpu(ctx))
         }
         Compute::Cpu { reason } => {
-            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
             // Passing over a software adapter is the right choice, not news on every run;
             // other reasons (no adapter, a device that failed to open) are said.
             if reason.contains("software adapter") {
@@ -137,7 +146,7 @@ fn open_backend(backend: Backend) -> Result<Option<Arc<GpuContext>>, Failure> {
             } else {
                 eprintln!("backend: cpu (f64, {threads} threads): {reason}");
             }
-            Ok(None)
+            Ok(RunBackend::Cpu)
         }
     }
 }

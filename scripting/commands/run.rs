@@ -5,6 +5,7 @@ use crate::cli::Backend;
 use matdem_engine::backend::RunControl;
 use matdem_rs::package::Package;
 use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
+use matdem_rs::run_backend::RunBackend;
 use matdem_rs::sandbox::Limits;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -41,11 +42,7 @@ pub fn run(
     };
     let control = RunControl::default();
     stop_on_signals(&control, "the run without saving a resume point");
-    let gpu = open_backend(backend)?;
-    let backend = match &gpu {
-        Some(ctx) => format!("gpu (f32) on {}", ctx.describe()),
-        None => "cpu (f64)".to_string(),
-    };
+    let backend = open_backend(backend)?;
     let cfg = RunConfig {
         script,
         out_dir,
@@ -55,7 +52,6 @@ pub fn run(
         backend,
         control,
         resume,
-        gpu,
         package,
         limits,
     };
@@ -74,10 +70,9 @@ pub fn plan(script: PathBuf, set: &[String], limits: Limits) -> Outcome {
         params,
         progress: false,
         plan_only: true,
-        backend: "cpu (f64)".to_string(),
+        backend: RunBackend::Cpu,
         control: RunControl::default(),
         resume: None,
-        gpu: None,
         package,
         limits,
     };

@@ -38,6 +38,7 @@ pub fn write_run_page(out_dir: &Path, run: &RunSummary) -> std::io::Result<PathB
         ("SHA-256", r.script_sha256.clone()),
         ("parameters", if params.is_empty() { "(defaults)".into() } else { params }),
         ("backend", r.backend.clone()),
+        ("speed test", r.speed_test.clone().unwrap_or_else(|| "-".into())),
         ("matdem-rs", r.matdem_rs_version.clone()),
         ("started", r.started.clone()),
         ("finished", r.finished.clone().unwrap_or_default()),

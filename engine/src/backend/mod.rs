@@ -11,6 +11,8 @@
 pub mod cpu;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "gpu")]
+pub mod speed_test;
 
 use crate::error::Result;
 use crate::guard::StiffContact;

@@ -38,7 +38,7 @@ use super::table::{row_from_map, Table};
 use super::{err, raise, Host, RhaiResult};
 use crate::resume::{self, SavedBalance};
 use crate::stop::Stop;
-use matdem_engine::backend::gpu::device::GpuContext;
+use matdem_engine::backend::Target;
 use matdem_engine::simulation::Balance;
 use matdem_engine::state::particles::dof;
 use matdem_engine::status::{porosity, Region};
@@ -46,7 +46,6 @@ use matdem_engine::{Material, Model, Simulation, Vec3, WallMotion};
 use rhai::{Array, Dynamic, Engine, EvalAltResult, Map, FLOAT, INT};
 use std::cell::{RefCell, RefMut};
 use std::rc::Rc;
-use std::sync::Arc;
 
 pub struct ModelData {
     pub name: String,
@@ -65,13 +64,10 @@ pub struct ModelData {
 pub struct ModelHandle(pub Rc<RefCell<ModelData>>);
 
 impl ModelHandle {
-    /// A handle for model number `number`, stepping on `gpu` when given, else on the CPU
-    /// backend; scripts get theirs through [`Host::adopt`].
-    pub fn new(name: &str, model: Model, number: usize, gpu: Option<Arc<GpuContext>>) -> Self {
-        let sim = match gpu {
-            Some(ctx) => Simulation::with_gpu(model, ctx),
-            None => Simulation::new(model),
-        };
+    /// A handle for model number `number`, stepping on `target`; scripts get theirs through
+    /// [`Host::adopt`].
+    pub fn new(name: &str, model: Model, number: usize, target: Target) -> Self {
+        let sim = Simulation::with_target(model, target);
         ModelHandle(Rc::new(RefCell::new(ModelData {
             name: name.to_string(),
             sim,

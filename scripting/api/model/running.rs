@@ -10,6 +10,9 @@ use crate::terminal_text::one_line;
 /// models and runs the rest of its steps. Cancelled, it writes the resume folder and ends
 /// the script.
 fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResult<Dynamic> {
+    // `--backend auto` decides at the first run (never while planning or replaying: those
+    // runs are decided from the start).
+    crate::run_backend::settle(host, d).map_err(err)?;
     {
         let mut data = d.data();
         if !data.plan_noted {

@@ -9,7 +9,9 @@ use std::sync::Arc;
 /// What the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BackendChoice {
-    /// A hardware GPU when there is one, else the CPU backend.
+    /// A GPU worth measuring (hardware; software too with [`AUTO_SOFTWARE`]`=1`) when there
+    /// is one, else the CPU backend; a host then times its scene on both and steps on the
+    /// faster ([`crate::backend::speed_test`]).
     Auto,
     /// The native CPU backend (f64).
     Cpu,
@@ -28,6 +30,11 @@ impl std::str::FromStr for BackendChoice {
         }
     }
 }
+
+/// The environment variable that lets `auto` measure a software adapter too (`=1`): for tests,
+/// and for a machine whose software Vulkan may be fast. Without it a machine with only
+/// lavapipe/llvmpipe runs on the CPU without paying a speed test on every run.
+pub const AUTO_SOFTWARE: &str = "MATDEM_AUTO_SOFTWARE";
 
 /// An open device and what it is.
 pub struct GpuContext {
@@ -138,7 +145,8 @@ pub fn pick(adapters: &[AdapterSummary], choice: BackendChoice) -> std::result::
 }
 
 /// Opens the device `choice` asks for. `Gpu` without a usable adapter is an error;
-/// `Auto` falls back to the CPU backend and says why.
+/// `Auto` falls back to the CPU backend and says why, and passes over a software adapter
+/// unless [`AUTO_SOFTWARE`] is `1`.
 pub fn select(choice: BackendChoice) -> Result<Compute> {
     if choice == BackendChoice::Cpu {
         return Ok(Compute::Cpu { reason: "requested with --backend cpu".into() });
@@ -151,7 +159,8 @@ pub fn select(choice: BackendChoice) -> Result<Compute> {
     let instance = wgpu::Instance::new(desc);
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
     let summaries: Vec<AdapterSummary> = adapters.iter().map(|a| summary(&a.get_info())).collect();
-    let k = match pick(&summaries, choice) {
+    let software_ok = choice == BackendChoice::Auto && std::env::var(AUTO_SOFTWARE).is_ok_and(|v| v == "1");
+    let k = match pick(&summaries, if software_ok { BackendChoice::Gpu } else { choice }) {
         Ok(k) => k,
         Err(reason) if choice == BackendChoice::Auto => return Ok(Compute::Cpu { reason }),
         Err(reason) => return Err(Error::Gpu(GpuError::NoAdapter { reason })),
