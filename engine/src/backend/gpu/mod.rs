@@ -2,7 +2,8 @@
 //!
 //! A run uploads the model once, steps it on the device in batches of command buffers, and
 //! brings back only what the host needs: between batches a few counters (the largest drift
-//! and speed, the guard's findings), at the end of the run the state a script reads. One
+//! and speed, the guard's findings), at the end of the run the state a script reads; the
+//! next run continues on the device when the model is as that sync left it ([`Resident`]). One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
 //! wall forces → parallel bonds, rolling resistance, pore flow, buoyancy (when the scene has
 //! them) → integration; when the drift reaches half the skin the rows are rebuilt on the
@@ -241,7 +242,7 @@ impl GpuBackend {
                 *slot = Some(e.to_string());
             }
         }));
-        let device: &GpuContext = &ctx;
+        let device: &GpuContext = &ctx; // the pipelines are cached on the context
         let ledger = heat::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
         constants.extend(ledger.constants());
