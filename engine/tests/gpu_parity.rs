@@ -205,7 +205,7 @@ fn two_gpu_runs_are_bitwise_equal() {
     assert!(a == b, "two GPU runs of the same scene differ");
 }
 
-pub(crate) fn bond_material() -> Material {
+fn bond_material() -> Material {
     let mut mat = material("rock", 2650.0, 1e6, 1e9, 0.0);
     mat.ks = 1e6;
     mat.xb = 1e-5;
@@ -256,22 +256,7 @@ fn bonded_pairs_break_in_tension_and_shear_like_cpu() {
 #[test]
 fn bonded_block_torn_apart_breaks_like_cpu() {
     let Some(ctx) = gpu("bonded_block") else { return };
-    let mut m = Model::new();
-    let k = m.add_material(bond_material()).unwrap();
-    let r = 0.01;
-    for x in matdem_engine::builder::simple_cubic(4, 4, 4, 2.0 * r, Vec3::repeat(r)) {
-        m.add_particle(x, r, k).unwrap();
-    }
-    m.connect(None, 1e-9).unwrap();
-    let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
-    let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
-    m.fix(&bottom, dof::ALL, true).unwrap();
-    for &i in &top {
-        m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, 0.01);
-    }
-    m.fix(&top, dof::ALL, true).unwrap();
-    m.set_dt(1e-6).unwrap();
-    let (mut cpu, mut gpu) = both(m, &ctx);
+    let (mut cpu, mut gpu) = both(pulled_bonded_block(4, 4), &ctx);
     run(&mut cpu, 3000).unwrap();
     run(&mut gpu, 3000).unwrap();
     let (a, b) = (&cpu.model.breakages, &gpu.model.breakages);
@@ -286,6 +271,27 @@ fn bonded_block_torn_apart_breaks_like_cpu() {
     assert_eq!(a.len(), b.len());
     assert!(b.iter().all(|x| x.kind == BreakKind::Tension));
     assert!(a[0].step.abs_diff(b[0].step) <= 1);
+}
+
+/// A bonded simple cubic block of `nx·ny·4` spheres (r = 1 cm), its bottom layer held and its
+/// top layer pulled up at 1 cm/s, both with every dof prescribed; dt = 1 µs.
+pub(crate) fn pulled_bonded_block(nx: usize, ny: usize) -> Model {
+    let mut m = Model::new();
+    let k = m.add_material(bond_material()).unwrap();
+    let r = 0.01;
+    for x in matdem_engine::builder::simple_cubic(nx, ny, 4, 2.0 * r, Vec3::repeat(r)) {
+        m.add_particle(x, r, k).unwrap();
+    }
+    m.connect(None, 1e-9).unwrap();
+    let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
+    let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
+    m.fix(&bottom, dof::ALL, true).unwrap();
+    for &i in &top {
+        m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, 0.01);
+    }
+    m.fix(&top, dof::ALL, true).unwrap();
+    m.set_dt(1e-6).unwrap();
+    m
 }
 
 /// [`grains`] deposited (on the CPU) in a ring, the inside of a cylinder, on a floor, with a

@@ -2,12 +2,11 @@
 //! model is as the last run left it, and uploads it afresh after any change a program made.
 
 use crate::common::{gpu, material};
-use crate::gpu_parity::{bond_material, oedometer_sample};
+use crate::gpu_parity::{oedometer_sample, pulled_bonded_block};
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::gpu::{GpuBackend, RowStats};
 use matdem_engine::backend::RunControl;
 use matdem_engine::simulation::run_steps;
-use matdem_engine::state::particles::dof;
 use matdem_engine::{Model, Vec3, WallMotion};
 use std::sync::Arc;
 
@@ -60,21 +59,7 @@ fn runs_that_continue_on_the_device_equal_one_run() {
 #[test]
 fn breakages_across_continued_runs_are_those_of_one_run() {
     let Some(ctx) = gpu("resident_breakages") else { return };
-    let mut m = Model::new();
-    let k = m.add_material(bond_material()).unwrap();
-    let r = 0.01;
-    for x in matdem_engine::builder::simple_cubic(3, 3, 4, 2.0 * r, Vec3::repeat(r)) {
-        m.add_particle(x, r, k).unwrap();
-    }
-    m.connect(None, 1e-9).unwrap();
-    let bottom: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z < 1.5 * r).collect();
-    let top: Vec<u32> = (0..m.len() as u32).filter(|&i| m.particles.pos[i as usize].z > 6.5 * r).collect();
-    m.fix(&bottom, dof::ALL, true).unwrap();
-    for &i in &top {
-        m.particles.vel[i as usize] = Vec3::new(0.0, 0.0, 0.01);
-    }
-    m.fix(&top, dof::ALL, true).unwrap();
-    m.set_dt(1e-6).unwrap();
+    let m = pulled_bonded_block(3, 3);
     let (mut one, mut ten) = (m.clone(), m);
     runs(&ctx, &mut one, 1, 3000);
     let b = runs(&ctx, &mut ten, 10, 300);
