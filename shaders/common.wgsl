@@ -54,7 +54,8 @@ struct Params {
     max_overlap_ratio: f32,
     wall_groups: u32,
     gravity: vec4<f32>,
-    // Entries each row has room for: entry k of particle i (in its slab) is at i·cap + k.
+    // Entries each row has room for. A slab's rows lie rank by rank: entry k of the slab's
+    // particle `local` is at k·count + local (`row_slot`).
     cap: u32,
     // Buckets of the cell list's hash table (a power of two).
     buckets: u32,
@@ -72,6 +73,20 @@ struct Slab {
     count: u32,
     pad0: u32,
     pad1: u32,
+}
+
+// Where entry k of the row of a slab's particle `local` lies, in a slab of `count` particles.
+// Rows lie rank by rank (entry 0 of every row, then entry 1, …): the invocations of a warp hold
+// neighbouring rows, so at each entry they read neighbouring words, where rows one after another
+// put their reads a whole row apart.
+fn row_slot(local: u32, k: u32, count: u32) -> u32 {
+    return k * count + local;
+}
+
+// One past the slot of the last of `len` entries of `local`'s row (the row's entries are
+// `local`, `local + count`, …, below it).
+fn row_end(local: u32, len: u32, count: u32) -> u32 {
+    return row_slot(local, len, count);
 }
 
 // The cell of the device's cell list holding position `x` (cells of `size`, which is at

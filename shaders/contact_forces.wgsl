@@ -46,9 +46,8 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     var t = vec3<f32>(0.0);
     // The row's heat (damping, friction, breakage), whole pairs.
     var h = vec3<f32>(0.0);
-    let start = local * params.cap;
-    let end = start + row_len[i];
-    for (var e = start; e < end; e++) {
+    let end = row_end(local, row_len[i], slab.count);
+    for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         let st = state[e];
         let bonded = st.w != 0.0;

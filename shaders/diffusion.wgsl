@@ -23,9 +23,8 @@ fn row_exchange(i: u32, local: u32, ui: f32, own: Exchange) -> Exchange {
     let oi = origin[i].xyz;
     let ri = origin[i].w;
     let di = disp[i].xyz;
-    let start = local * params.cap;
-    let end = start + row_len[i];
-    for (var e = start; e < end; e++) {
+    let end = row_end(local, row_len[i], slab.count);
+    for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         if field_sealed(j) {
             continue;

@@ -61,14 +61,13 @@ fn check_state(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         atomicMin(&counters[C_GUARD + 1u], i);
     }
     let ratio = params.max_overlap_ratio;
-    let start = local * params.cap;
-    let end = start + row_len[i];
+    let end = row_end(local, row_len[i], slab.count);
     let mi = body[i].x;
     let mati = kind[i] & 0xffffu;
     let free_i = is_free(i);
     var deep = false;
     var stiff = false;
-    for (var e = start; e < end; e++) {
+    for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         let rj = origin[j].w;
         let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);

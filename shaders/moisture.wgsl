@@ -148,9 +148,8 @@ fn strengthen(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let i = slab.first + local;
-    let start = local * params.cap;
-    let end = start + row_len[i];
-    for (var e = start; e < end; e++) {
+    let end = row_end(local, row_len[i], slab.count);
+    for (var e = local; e < end; e += slab.count) {
         if state[e].w != 0.0 {
             let j = other[e];
             let s = table_at(field.radius_points, field.strength_points, 0.5 * (water[i].x + water[j].x));

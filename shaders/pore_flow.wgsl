@@ -165,9 +165,9 @@ fn pore_bonds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if i < slab.first || i >= slab.first + slab.count {
         return;
     }
-    let start = (i - slab.first) * params.cap;
+    let local = i - slab.first;
     var alive = 0u;
-    for (var e = start; e < start + row_len[i]; e++) {
+    for (var e = local; e < row_end(local, row_len[i], slab.count); e += slab.count) {
         if other[e] == ij.y {
             alive = select(0u, 1u, state[e].w != 0.0);
             break;

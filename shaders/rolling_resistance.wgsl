@@ -91,9 +91,8 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     // The work the torques take: whole pairs, whole wall contacts.
     var pair_heat = 0.0;
     var wall_heat = 0.0;
-    let start = local * params.cap;
-    let end = start + row_len[i];
-    for (var e = start; e < end; e++) {
+    let end = row_end(local, row_len[i], slab.count);
+    for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         // Both parts of the position differ little between neighbours: subtract each first.
         let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);

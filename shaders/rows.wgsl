@@ -42,7 +42,6 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let i = slab.first + local;
-    let base = local * params.cap;
     let cap = params.cap;
     // The old row's set states, in j order (the old row is sorted). A state is set when any
     // of it is non-zero, its dashpot force included: a head-on contact has no shear spring
@@ -55,18 +54,18 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     var crowded = false;
     let old_len = row_len[i];
     for (var k = 0u; k < old_len; k++) {
-        let s = state[base + k];
+        let s = state[row_slot(local, k, slab.count)];
         var fd = 0.0;
         if DASHPOT {
-            fd = dashpot[base + k];
+            fd = dashpot[row_slot(local, k, slab.count)];
         }
         var sr = vec4<f32>(0.0);
         if ROLLING_SPRING {
-            sr = rolling[base + k];
+            sr = rolling[row_slot(local, k, slab.count)];
         }
         if any(s != vec4<f32>(0.0)) || fd != 0.0 || any(sr != vec4<f32>(0.0)) {
             if carried < MAX_CARRY {
-                carry_j[carried] = other[base + k];
+                carry_j[carried] = other[row_slot(local, k, slab.count)];
                 carry_s[carried] = s;
                 carry_d[carried] = fd;
                 carry_r[carried] = sr;
@@ -81,7 +80,7 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     for (var m = 0u; m < carried; m++) {
         if carry_s[m].w != 0.0 {
             if WRITE_ROWS {
-                other[base + len] = carry_j[m];
+                other[row_slot(local, len, slab.count)] = carry_j[m];
             }
             len++;
         }
@@ -131,7 +130,7 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
                         continue;
                     }
                     if WRITE_ROWS && len < cap {
-                        other[base + len] = j;
+                        other[row_slot(local, len, slab.count)] = j;
                     }
                     len++;
                 }
@@ -147,17 +146,17 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     // Sort by j (insertion: rows are short), then give each entry its old state.
     for (var k = 1u; k < len; k++) {
-        let j = other[base + k];
+        let j = other[row_slot(local, k, slab.count)];
         var h = k;
-        while h > 0u && other[base + h - 1u] > j {
-            other[base + h] = other[base + h - 1u];
+        while h > 0u && other[row_slot(local, h - 1u, slab.count)] > j {
+            other[row_slot(local, h, slab.count)] = other[row_slot(local, h - 1u, slab.count)];
             h--;
         }
-        other[base + h] = j;
+        other[row_slot(local, h, slab.count)] = j;
     }
     var m = 0u;
     for (var k = 0u; k < len; k++) {
-        let j = other[base + k];
+        let j = other[row_slot(local, k, slab.count)];
         // Both lists are sorted by j: walk them together.
         while m < carried && carry_j[m] < j {
             m++;
@@ -170,12 +169,12 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             fd = carry_d[m];
             sr = carry_r[m];
         }
-        state[base + k] = s;
+        state[row_slot(local, k, slab.count)] = s;
         if DASHPOT {
-            dashpot[base + k] = fd;
+            dashpot[row_slot(local, k, slab.count)] = fd;
         }
         if ROLLING_SPRING {
-            rolling[base + k] = sr;
+            rolling[row_slot(local, k, slab.count)] = sr;
         }
     }
     row_len[i] = len;

@@ -60,17 +60,8 @@ fn bench_on_gpu_without_an_adapter_is_refused_with_exit_code_2() {
 // bytes per particle, and sees the lattice's contacts as the CPU does.
 #[test]
 fn bench_on_gpu_reports_the_adapter_and_device_memory() {
-    let o = bin()
-        .args(["bench", "--backend", "gpu", "--particles", "500", "--steps", "20", "--warmup", "5", "--json"])
-        .output()
-        .unwrap();
-    if o.status.code() == Some(2) && !gpu_required() {
-        eprintln!("skipped: no GPU adapter: {}", stderr(&o));
-        return;
-    }
-    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
-    let out = stdout(&o);
-    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+    let Some(v) = gpu_bench_json(&["--particles", "500", "--steps", "20", "--warmup", "5"]) else { return };
+    let out = v.to_string();
     assert_eq!(v["backend"], "gpu");
     let bytes = v["bytes_per_particle"].as_f64().unwrap();
     assert!(bytes > 100.0 && bytes < 1024.0, "{out}");
@@ -88,18 +79,8 @@ fn bench_on_gpu_reports_the_adapter_and_device_memory() {
 fn gpu_profile_lists_every_stage_and_they_sum_to_the_step() {
     let mut ratios = Vec::new();
     for _ in 0..3 {
-        let o = bin()
-            .args(["bench", "--backend", "gpu", "--profile", "--particles", "2000", "--steps", "400", "--warmup", "10"])
-            .arg("--json")
-            .output()
-            .unwrap();
-        if o.status.code() == Some(2) && !gpu_required() {
-            eprintln!("skipped: no GPU adapter: {}", stderr(&o));
-            return;
-        }
-        assert!(o.status.success(), "stderr:\n{}", stderr(&o));
-        let out = stdout(&o);
-        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+        let args = ["--profile", "--particles", "2000", "--steps", "400", "--warmup", "10"];
+        let Some(v) = gpu_bench_json(&args) else { return };
         let p = &v["profile"];
         assert_eq!(p["clock"], "timestamps", "lavapipe has timestamp queries: {p}");
         let stages = p["stages"].as_array().unwrap();
@@ -125,4 +106,17 @@ fn gpu_profile_lists_every_stage_and_they_sum_to_the_step() {
         }
     }
     panic!("the stages' passes do not sum to the step within 10 %: ratios {ratios:?}");
+}
+
+/// `bench --backend gpu --json` with `args`, parsed; `None` (said) when there is no GPU adapter
+/// and the run does not require one.
+fn gpu_bench_json(args: &[&str]) -> Option<serde_json::Value> {
+    let o = bin().args(["bench", "--backend", "gpu", "--json"]).args(args).output().unwrap();
+    if o.status.code() == Some(2) && !gpu_required() {
+        eprintln!("skipped: no GPU adapter: {}", stderr(&o));
+        return None;
+    }
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let out = stdout(&o);
+    Some(serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}")))
 }

@@ -274,7 +274,25 @@ impl DeviceLanes {
         pipeline: &wgpu::ComputePipeline,
         buffers: impl Fn(&'a SlabLanes) -> Vec<&'a wgpu::Buffer>,
     ) -> Vec<Kernel> {
-        self.slabs.iter().map(|s| Kernel::bind(device, pipeline, &buffers(s), groups_for(s.count))).collect()
+        self.per_slab_from(device, pipeline, 0, buffers)
+    }
+
+    /// [`per_slab`](Self::per_slab) for an entry point whose bindings start at `first` (one
+    /// that reads no scene constant: a binding the shader does not use must not be bound).
+    pub fn per_slab_from<'a>(
+        &'a self,
+        device: &wgpu::Device,
+        pipeline: &wgpu::ComputePipeline,
+        first: u32,
+        buffers: impl Fn(&'a SlabLanes) -> Vec<&'a wgpu::Buffer>,
+    ) -> Vec<Kernel> {
+        self.slabs
+            .iter()
+            .map(|s| {
+                let numbered: Vec<(u32, &wgpu::Buffer)> = (first..).zip(buffers(s)).collect();
+                Kernel::bind_at(device, pipeline, &numbered, groups_for(s.count))
+            })
+            .collect()
     }
 }
 
@@ -342,18 +360,18 @@ impl DeviceLanes {
                 first: r.start,
                 count: r.len(),
                 uniform: uniform(ctx, "slab", &[r.start as u32, r.len() as u32, 0, 0]),
-                other: make("neighbour ids", bytes_of(&h.other[r.start * cap..r.end * cap]))?,
-                state: make("pair state", bytes_of(&h.state[r.start * cap..r.end * cap]))?,
+                other: make("neighbour ids", bytes_of(&rows::by_rank(&h.other[r.start * cap..r.end * cap], cap)))?,
+                state: make("pair state", bytes_of(&rows::by_rank(&h.state[r.start * cap..r.end * cap], cap)))?,
                 wall_state: make("wall contact state", bytes_of(&h.wall_state[r.start * nw..r.end * nw]))?,
                 dashpot: if h.dashpot.is_empty() {
                     make("dashpot forces", &[])?
                 } else {
-                    make("dashpot forces", bytes_of(&h.dashpot[r.start * cap..r.end * cap]))?
+                    make("dashpot forces", bytes_of(&rows::by_rank(&h.dashpot[r.start * cap..r.end * cap], cap)))?
                 },
                 rolling: if h.rolling.is_empty() {
                     make("rolling springs", &[])?
                 } else {
-                    make("rolling springs", bytes_of(&h.rolling[r.start * cap..r.end * cap]))?
+                    make("rolling springs", bytes_of(&rows::by_rank(&h.rolling[r.start * cap..r.end * cap], cap)))?
                 },
                 wall_rolling: if h.wall_rolling.is_empty() {
                     make("wall rolling springs", &[])?
@@ -451,34 +469,96 @@ fn bytes_of<T: Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
 }
 
-/// Copies `buffer` back to the host (blocking).
+/// Copies the first `count` elements of `buffer` back to the host (blocking).
 pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Result<Vec<T>> {
-    let size = (count * std::mem::size_of::<T>()) as u64;
-    if size == 0 {
-        return Ok(Vec::new());
+    let mut rb = Readback::default();
+    let part = rb.add::<T>(buffer, count);
+    Ok(rb.fetch(ctx)?.take(part))
+}
+
+/// Buffers copied back to the host together: one submission and one wait for them all, so a
+/// download's dozen lanes cost one round trip to the device instead of a dozen (on a hardware
+/// GPU each costs a submission, a map and a wait, whatever its size).
+#[derive(Default)]
+pub struct Readback<'b> {
+    /// Each part's buffer and bytes.
+    parts: Vec<(&'b wgpu::Buffer, u64)>,
+}
+
+/// A part of a [`Readback`], by which its contents are taken from the [`Fetched`] words.
+#[derive(Debug, Clone, Copy)]
+pub struct Part(usize);
+
+/// What a [`Readback`] brought back: its parts one after another, as 4-byte words (every lane's
+/// element is a whole number of them).
+pub struct Fetched {
+    words: Vec<u32>,
+    spans: Vec<std::ops::Range<usize>>,
+}
+
+impl<'b> Readback<'b> {
+    /// Asks for the first `count` elements of `buffer`.
+    pub fn add<T: Pod>(&mut self, buffer: &'b wgpu::Buffer, count: usize) -> Part {
+        self.parts.push((buffer, (count * std::mem::size_of::<T>()) as u64));
+        Part(self.parts.len() - 1)
     }
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    ctx.submit(enc);
-    let (tx, rx) = std::sync::mpsc::channel();
-    staging.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| GpuError::Device(e.to_string()))?
-        .map_err(|e| GpuError::Device(format!("reading a buffer back: {e}")))?;
-    let view = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("{e:?}")))?;
-    let out = bytemuck::cast_slice::<u8, T>(&view).to_vec();
-    drop(view);
-    staging.unmap();
-    Ok(out)
+
+    /// Copies every part back (blocking).
+    pub fn fetch(self, ctx: &GpuContext) -> Result<Fetched> {
+        let mut spans = Vec::with_capacity(self.parts.len());
+        let mut total = 0u64;
+        for (_, bytes) in &self.parts {
+            debug_assert!(bytes.is_multiple_of(4), "lanes are made of 4-byte words");
+            spans.push((total / 4) as usize..((total + bytes) / 4) as usize);
+            total += bytes;
+        }
+        if total == 0 {
+            return Ok(Fetched { words: Vec::new(), spans });
+        }
+        let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: total,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        for ((buffer, bytes), span) in self.parts.iter().zip(&spans) {
+            if *bytes > 0 {
+                enc.copy_buffer_to_buffer(buffer, 0, &staging, 4 * span.start as u64, *bytes);
+            }
+        }
+        ctx.submit(enc);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Device(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Device(e.to_string()))?
+            .map_err(|e| GpuError::Device(format!("reading a buffer back: {e}")))?;
+        let view = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("{e:?}")))?;
+        let words = bytemuck::cast_slice::<u8, u32>(&view).to_vec();
+        drop(view);
+        staging.unmap();
+        Ok(Fetched { words, spans })
+    }
+}
+
+impl Fetched {
+    /// A part's elements.
+    pub fn take<T: Pod>(&self, part: Part) -> Vec<T> {
+        bytemuck::cast_slice::<u32, T>(&self.words[self.spans[part.0].clone()]).to_vec()
+    }
+}
+
+/// A slab's lanes in a download's [`Readback`].
+struct SlabParts {
+    other: Part,
+    state: Part,
+    dashpot: Option<Part>,
+    wall_state: Part,
+    /// The epsd rolling springs of the row entries and of the wall contacts.
+    rolling: Option<(Part, Part)>,
 }
 
 /// Writes the device's state back into the model: positions (origin + displacement, in f64),
@@ -486,9 +566,35 @@ pub fn read<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, count: usize) -> Re
 /// built them), wall-contact states, walls and their loads.
 pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Model, rotation: bool) -> Result<()> {
     let n = d.n;
-    let disp: Vec<[f32; 4]> = read(ctx, &d.disp, n)?;
-    let vel: Vec<[f32; 4]> = read(ctx, &d.vel, n)?;
-    let force: Vec<[f32; 4]> = read(ctx, &d.force, n)?;
+    let cap = d.plan.cap;
+    let nw = h.walls.len();
+    let epsd = !h.wall_rolling.is_empty() || !h.rolling.is_empty();
+    // Every lane in one round trip.
+    let mut rb = Readback::default();
+    let disp = rb.add::<[f32; 4]>(&d.disp, n);
+    let vel = rb.add::<[f32; 4]>(&d.vel, n);
+    let force = rb.add::<[f32; 4]>(&d.force, n);
+    let spin = rotation.then(|| (rb.add::<[f32; 4]>(&d.ang_vel, n), rb.add::<[f32; 4]>(&d.torque, n)));
+    let slabs: Vec<SlabParts> = d
+        .slabs
+        .iter()
+        .map(|s| SlabParts {
+            other: rb.add::<u32>(&s.other, s.count * cap),
+            state: rb.add::<[f32; 4]>(&s.state, s.count * cap),
+            // The dashpot forces go back too, so a CPU run continues the trapezoid.
+            dashpot: (!h.dashpot.is_empty()).then(|| rb.add::<f32>(&s.dashpot, s.count * cap)),
+            wall_state: rb.add::<[f32; 4]>(&s.wall_state, s.count * nw),
+            rolling: epsd.then(|| {
+                (rb.add::<[f32; 4]>(&s.rolling, s.count * cap), rb.add::<[f32; 4]>(&s.wall_rolling, s.count * nw))
+            }),
+        })
+        .collect();
+    let row_len = rb.add::<u32>(&d.row_len, n);
+    let built = rb.add::<[f32; 4]>(&d.built, n);
+    let walls = rb.add::<WallLane>(&d.walls, nw);
+    let got = rb.fetch(ctx)?;
+    let (disp, vel, force): (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[f32; 4]>) =
+        (got.take(disp), got.take(vel), got.take(force));
     let to64 = |a: &[f32; 4]| Vec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
     let p = &mut m.particles;
     for i in 0..n {
@@ -496,9 +602,8 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
         p.vel[i] = to64(&vel[i]);
         p.force[i] = to64(&force[i]);
     }
-    if rotation {
-        let w: Vec<[f32; 4]> = read(ctx, &d.ang_vel, n)?;
-        let t: Vec<[f32; 4]> = read(ctx, &d.torque, n)?;
+    if let Some((w, t)) = spin {
+        let (w, t): (Vec<[f32; 4]>, Vec<[f32; 4]>) = (got.take(w), got.take(t));
         if let Some(r) = &mut p.rotation {
             for i in 0..n {
                 r.ang_vel[i] = to64(&w[i]);
@@ -506,31 +611,25 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
             }
         }
     }
-    let cap = d.plan.cap;
-    let nw = h.walls.len();
     let mut other = Vec::with_capacity(n * cap);
     let mut state = Vec::with_capacity(n * cap);
     let mut dashpot = Vec::with_capacity(if h.dashpot.is_empty() { 0 } else { n * cap });
     let mut wall_state = Vec::with_capacity(n * nw);
-    let epsd = !h.wall_rolling.is_empty() || !h.rolling.is_empty();
     let (mut rolling, mut wall_rolling) = (Vec::new(), Vec::new());
-    for s in &d.slabs {
-        if epsd {
-            rolling.extend(read::<[f32; 4]>(ctx, &s.rolling, s.count * cap)?);
-            if nw > 0 {
-                wall_rolling.extend(read::<[f32; 4]>(ctx, &s.wall_rolling, s.count * nw)?);
-            }
+    for s in &slabs {
+        other.extend(rows::by_row(&got.take::<u32>(s.other), cap));
+        state.extend(rows::by_row(&got.take::<[f32; 4]>(s.state), cap));
+        if let Some(part) = s.dashpot {
+            dashpot.extend(rows::by_row(&got.take::<f32>(part), cap));
         }
-        other.extend(read::<u32>(ctx, &s.other, s.count * cap)?);
-        state.extend(read::<[f32; 4]>(ctx, &s.state, s.count * cap)?);
-        if !h.dashpot.is_empty() {
-            // The dashpot forces go back too, so a CPU run continues the trapezoid.
-            dashpot.extend(read::<f32>(ctx, &s.dashpot, s.count * cap)?);
+        wall_state.extend(got.take::<[f32; 4]>(s.wall_state));
+        if let Some((row, wall)) = s.rolling {
+            rolling.extend(rows::by_row(&got.take::<[f32; 4]>(row), cap));
+            wall_rolling.extend(got.take::<[f32; 4]>(wall));
         }
-        wall_state.extend(read::<[f32; 4]>(ctx, &s.wall_state, s.count * nw)?);
     }
-    let slots = rows::Slots { cap, row_len: read(ctx, &d.row_len, n)?, other, state, dashpot, rolling };
-    let built: Vec<[f32; 4]> = read(ctx, &d.built, n)?;
+    let slots = rows::Slots { cap, row_len: got.take(row_len), other, state, dashpot, rolling };
+    let built: Vec<[f32; 4]> = got.take(built);
     let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
     rows::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
@@ -539,7 +638,7 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
     if epsd {
         m.wall_rolling = wall_rolling.iter().map(to64).collect();
     }
-    let walls: Vec<WallLane> = read(ctx, &d.walls, h.walls.len())?;
+    let walls: Vec<WallLane> = got.take(walls);
     for ((w, g), seen) in m.walls.iter_mut().zip(&walls).zip(&mut h.walls) {
         // The device's move since the upload, less what an earlier download of this session
         // already added (the session may continue after a download).

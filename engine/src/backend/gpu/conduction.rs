@@ -187,9 +187,9 @@ pub struct Kernels {
 }
 
 pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes, plan: &ConductionPlan) -> Kernels {
-    let conduct = d.per_slab(device, &p.conduct, |s| {
+    // Bindings 1 to 11: the rows' walk reads no scene constant (params, binding 0).
+    let conduct = d.per_slab_from(device, &p.conduct, 1, |s| {
         vec![
-            &d.params,
             &d.origin,
             &d.disp,
             &d.row_len,

@@ -177,9 +177,9 @@ pub fn kernels(
     thermal: Option<&super::conduction::Lanes>,
 ) -> Kernels {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
-    let exchange = d.per_slab(device, &p.exchange, |s| {
+    // Bindings 1 to 12: the rows' walk reads no scene constant (params, binding 0).
+    let exchange = d.per_slab_from(device, &p.exchange, 1, |s| {
         vec![
-            &d.params,
             &d.origin,
             &d.disp,
             &d.row_len,
@@ -211,7 +211,6 @@ pub fn kernels(
                     device,
                     k,
                     &[
-                        (0, &d.params),
                         (3, &d.row_len),
                         (4, &s.other),
                         (5, &s.state),

@@ -480,8 +480,8 @@ fn kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes, d: &DeviceLanes) -> 
         d.slabs
             .iter()
             .map(|s| {
+                // No scene constant (params, binding 0): the rows' walk needs none.
                 let b = [
-                    (0, &d.params),
                     (1, &l.params),
                     (20, &l.bond_edges),
                     (21, &l.bond_alive),

@@ -15,7 +15,8 @@ use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 
-/// Rows in fixed-width slots: entry k of particle i at `i * cap + k`, `row_len[i]` in use.
+/// Rows in fixed-width slots, row by row: entry k of particle i at `i * cap + k`, `row_len[i]`
+/// in use. The device keeps each slab's slots rank by rank instead ([`by_rank`]).
 pub struct Slots {
     pub cap: usize,
     pub row_len: Vec<u32>,
@@ -59,6 +60,22 @@ pub fn to_slots(c: &Contacts, n: usize, cap: usize, dashpot: bool, rolling: bool
         }
     }
     s
+}
+
+/// A slab's slots as the host holds them, row by row (`count` rows of `cap`), laid rank by
+/// rank as the device keeps them: entry k of row r at k·count + r (`row_slot` in
+/// common.wgsl), so that a warp's invocations, which hold neighbouring rows, read neighbouring
+/// words at each entry.
+pub fn by_rank<T: Copy>(rows: &[T], cap: usize) -> Vec<T> {
+    let count = rows.len() / cap.max(1);
+    (0..rows.len()).map(|slot| rows[(slot % count) * cap + slot / count]).collect()
+}
+
+/// A slab's slots as the device keeps them (rank by rank), back row by row: [`by_rank`]
+/// undone.
+pub fn by_row<T: Copy>(ranks: &[T], cap: usize) -> Vec<T> {
+    let count = ranks.len() / cap.max(1);
+    (0..ranks.len()).map(|slot| ranks[(slot % cap) * count + slot / cap]).collect()
 }
 
 /// Replaces the rows of `c` by the slots' (built at `built_at`), with the pair ids the host's
@@ -238,6 +255,15 @@ pub fn verdict(counters: &[u32], cap: usize) -> std::result::Result<(), String> 
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn slots_go_rank_by_rank_on_the_device_and_back() {
+        // Three rows of two: (a0 a1) (b0 b1) (c0 c1) → a0 b0 c0 a1 b1 c1.
+        let rows = [10, 11, 20, 21, 30, 31];
+        assert_eq!(by_rank(&rows, 2), vec![10, 20, 30, 11, 21, 31]);
+        assert_eq!(by_row(&by_rank(&rows, 2), 2), rows.to_vec());
+        assert!(by_rank::<u32>(&[], 4).is_empty());
+    }
+
     use super::*;
 
     fn contacts(rows: &[&[u32]]) -> Contacts {
