@@ -75,7 +75,8 @@ struct Slab {
     pad1: u32,
 }
 
-// Where entry k of the row of a slab's particle `local` lies, in a slab of `count` particles.
+// Where entry k of the row of a slab's particle `local` lies, in a slab of `count` particles
+// (and its contact state with wall k: the wall contact states lie wall by wall the same way).
 // Rows lie rank by rank (entry 0 of every row, then entry 1, …): the invocations of a warp hold
 // neighbouring rows, so at each entry they read neighbouring words, where rows one after another
 // put their reads a whole row apart.

@@ -128,7 +128,7 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     for (var w = 0u; w < params.nw; w++) {
         let ng = wall_normal_and_gap(walls[w], oi, ui);
         let overlap = ri - ng.w;
-        let k = local * params.nw + w;
+        let k = row_slot(local, w, slab.count);
         if overlap <= 0.0 {
             if ROLLING_SPRING && any(wall_rolling[k] != vec4<f32>(0.0)) {
                 wall_rolling[k] = vec4<f32>(0.0);

@@ -63,7 +63,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let inward = ng.xyz;
         // A killed element never touches a wall (its wall states were cleared when it was killed).
         let overlap = select(ri - ng.w, -1.0, (kind[k] & KILLED) != 0u);
-        let e = kl * nw + w;
+        let e = row_slot(kl, w, slab.count);
         if inside {
             let st = wall_state[e];
             if overlap <= 0.0 {

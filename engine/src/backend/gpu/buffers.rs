@@ -362,7 +362,10 @@ impl DeviceLanes {
                 uniform: uniform(ctx, "slab", &[r.start as u32, r.len() as u32, 0, 0]),
                 other: make("neighbour ids", bytes_of(&rows::by_rank(&h.other[r.start * cap..r.end * cap], cap)))?,
                 state: make("pair state", bytes_of(&rows::by_rank(&h.state[r.start * cap..r.end * cap], cap)))?,
-                wall_state: make("wall contact state", bytes_of(&h.wall_state[r.start * nw..r.end * nw]))?,
+                wall_state: make(
+                    "wall contact state",
+                    bytes_of(&rows::by_rank(&h.wall_state[r.start * nw..r.end * nw], nw)),
+                )?,
                 dashpot: if h.dashpot.is_empty() {
                     make("dashpot forces", &[])?
                 } else {
@@ -376,7 +379,10 @@ impl DeviceLanes {
                 wall_rolling: if h.wall_rolling.is_empty() {
                     make("wall rolling springs", &[])?
                 } else {
-                    make("wall rolling springs", bytes_of(&h.wall_rolling[r.start * nw..r.end * nw]))?
+                    make(
+                        "wall rolling springs",
+                        bytes_of(&rows::by_rank(&h.wall_rolling[r.start * nw..r.end * nw], nw)),
+                    )?
                 },
             });
         }
@@ -622,10 +628,10 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
         if let Some(part) = s.dashpot {
             dashpot.extend(rows::by_row(&got.take::<f32>(part), cap));
         }
-        wall_state.extend(got.take::<[f32; 4]>(s.wall_state));
+        wall_state.extend(rows::by_row(&got.take::<[f32; 4]>(s.wall_state), nw));
         if let Some((row, wall)) = s.rolling {
             rolling.extend(rows::by_row(&got.take::<[f32; 4]>(row), cap));
-            wall_rolling.extend(got.take::<[f32; 4]>(wall));
+            wall_rolling.extend(rows::by_row(&got.take::<[f32; 4]>(wall), nw));
         }
     }
     let slots = rows::Slots { cap, row_len: got.take(row_len), other, state, dashpot, rolling };
