@@ -599,8 +599,9 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
     let built = rb.add::<[f32; 4]>(&d.built, n);
     let walls = rb.add::<WallLane>(&d.walls, nw);
     let got = rb.fetch(ctx)?;
-    let (disp, vel, force): (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[f32; 4]>) =
-        (got.take(disp), got.take(vel), got.take(force));
+    let disp: Vec<[f32; 4]> = got.take(disp);
+    let vel: Vec<[f32; 4]> = got.take(vel);
+    let force: Vec<[f32; 4]> = got.take(force);
     let to64 = |a: &[f32; 4]| Vec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
     let p = &mut m.particles;
     for i in 0..n {
