@@ -68,7 +68,7 @@ fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             let free = vec3<f32>(select(1.0, 0.0, (fixed & 1u) != 0u), select(1.0, 0.0, (fixed & 2u) != 0u),
                 select(1.0, 0.0, (fixed & 4u) != 0u));
             let q = -dot(fd * free, 0.5 * (v0 + v1)) * params.dt;
-            let k = i * HEAT_LANES + HEAT_DAMPING;
+            let k = ledger_index(i, HEAT_DAMPING, params.n);
             heat[k] = ledger_add(heat[k], q, params.one);
         }
     }

@@ -112,7 +112,7 @@ fn add_booked(acc: vec2<f32>, i: u32, slot: u32) -> vec2<f32> {
     if slot == HEAT_OFF {
         return acc;
     }
-    let h = heat[i * HEAT_LANES + slot];
+    let h = heat[ledger_index(i, slot, params.n)];
     return ledger_add(ledger_add(acc, h.x, params.one), h.y, params.one);
 }
 

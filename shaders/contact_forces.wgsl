@@ -135,7 +135,7 @@ fn opened_heat(i: u32, j: u32, e: u32, d: vec3<f32>, shear: vec3<f32>) -> vec3<f
 // Adds x to particle i's ledger lane `slot` (nothing when the plan has no such lane).
 fn book(slot: u32, i: u32, x: f32) {
     if slot != HEAT_OFF && x != 0.0 {
-        let k = i * HEAT_LANES + slot;
+        let k = ledger_index(i, slot, params.n);
         heat[k] = ledger_add(heat[k], x, params.one);
     }
 }

@@ -5,8 +5,15 @@
 // HEAT_OFF, and a 128-byte placeholder for the lane.
 
 // The heat ledger (engine/src/backend/gpu/heat.rs): per particle, one (hi, lo) pair for each
-// cause the plan needs, at heat[i * HEAT_LANES + slot]; a cause that is off has slot HEAT_OFF.
+// cause the plan needs, at heat[ledger_index(i, slot, n)]; a cause that is off has slot HEAT_OFF.
 const HEAT_OFF: u32 = 255u;
+
+// Where particle i's pair for cause `slot` lies among n particles: cause by cause (every
+// particle's first cause, then the second), so the invocations of a warp book into
+// neighbouring words.
+fn ledger_index(i: u32, slot: u32, n: u32) -> u32 {
+    return slot * n + i;
+}
 override HEAT_LANES: u32 = 0u;
 override HEAT_DAMPING: u32 = 255u;
 override HEAT_CONTACT_DAMPING: u32 = 255u;

@@ -86,7 +86,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         }
     }
     if HEAT_DAMPING != HEAT_OFF && h != 0.0 {
-        let k = i * HEAT_LANES + HEAT_DAMPING;
+        let k = ledger_index(i, HEAT_DAMPING, params.n);
         heat[k] = ledger_add(heat[k], h, params.one);
     }
 }

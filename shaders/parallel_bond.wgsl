@@ -99,7 +99,7 @@ fn parallel_bond(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     force[i] = vec4<f32>(force[i].xyz + f, 0.0);
     torque[i] = vec4<f32>(torque[i].xyz + t, 0.0);
     if HEAT_BREAKAGE != HEAT_OFF && freed != 0.0 {
-        let k = i * HEAT_LANES + HEAT_BREAKAGE;
+        let k = ledger_index(i, HEAT_BREAKAGE, params.n);
         heat[k] = ledger_add(heat[k], freed, params.one);
     }
 }

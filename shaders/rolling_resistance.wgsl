@@ -151,7 +151,7 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     torque[i] = vec4<f32>(torque[i].xyz + t, 0.0);
     let h = 0.5 * pair_heat + wall_heat;
     if HEAT_FRICTION != HEAT_OFF && h != 0.0 {
-        let k = i * HEAT_LANES + HEAT_FRICTION;
+        let k = ledger_index(i, HEAT_FRICTION, params.n);
         heat[k] = ledger_add(heat[k], h, params.one);
     }
 }

@@ -140,7 +140,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
 // Adds x to particle i's ledger lane `slot` (nothing when the plan has no such lane).
 fn book(slot: u32, i: u32, x: f32) {
     if slot != HEAT_OFF && x != 0.0 {
-        let k = i * HEAT_LANES + slot;
+        let k = ledger_index(i, slot, params.n);
         heat[k] = ledger_add(heat[k], x, params.one);
     }
 }

@@ -59,7 +59,8 @@ impl Layout {
         for (lane, slot) in m.particles.heat.lanes_mut().into_iter().zip(self.slots) {
             let Some(slot) = slot else { continue };
             for (i, h) in lane.iter_mut().enumerate() {
-                let [hi, lo] = sums[i * lanes + slot as usize];
+                // Cause by cause, as ledger_index in heat.wgsl lays them.
+                let [hi, lo] = sums[slot as usize * d.n + i];
                 *h += f64::from(hi) + f64::from(lo);
             }
         }
