@@ -227,12 +227,10 @@ impl Kernels {
     /// One field step, in the kernels' order (each in the stage's debug group).
     /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
     pub fn cost(&self) -> (u64, u64) {
-        let sub = self.conduct.iter().chain([&self.settle]);
-        let once = self.feed.iter().chain(&self.expand);
-        let n = u64::from(self.substeps);
-        (
-            n * sub.clone().count() as u64 + once.clone().count() as u64,
-            n * sub.map(|k| k.bytes).sum::<u64>() + once.map(|k| k.bytes).sum::<u64>(),
+        super::shaders::cost(
+            self.substeps,
+            self.conduct.iter().chain([&self.settle]),
+            self.feed.iter().chain(&self.expand),
         )
     }
 

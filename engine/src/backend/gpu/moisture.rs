@@ -231,12 +231,10 @@ impl Kernels {
     /// One field step, in the kernels' order (each in the stage's debug group).
     /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
     pub fn cost(&self) -> (u64, u64) {
-        let sub = self.exchange.iter().chain([&self.settle]);
-        let once = self.shrink.iter().chain(&self.strengthen);
-        let n = u64::from(self.substeps);
-        (
-            n * sub.clone().count() as u64 + once.clone().count() as u64,
-            n * sub.map(|k| k.bytes).sum::<u64>() + once.map(|k| k.bytes).sum::<u64>(),
+        super::shaders::cost(
+            self.substeps,
+            self.exchange.iter().chain([&self.settle]),
+            self.shrink.iter().chain(&self.strengthen),
         )
     }
 
