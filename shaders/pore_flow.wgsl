@@ -196,11 +196,12 @@ fn pore_geometry(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         let e23 = between(v.z, v.w);
         let vol = abs(dot(e03, cross(e13, e23))) / 6.0;
         let r = vec4<f32>(origin[v.x].w, origin[v.y].w, origin[v.z].w, origin[v.w].w);
-        let sectors = solid_angle(e01, e02, e03) * r.x * r.x * r.x
-            + solid_angle(e12, e13, -e01) * r.y * r.y * r.y
-            + solid_angle(e23, -e02, -e12) * r.z * r.z * r.z
-            + solid_angle(-e03, -e13, -e23) * r.w * r.w * r.w;
-        empty += vol - sectors / 3.0;
+        // Each sector at most the tetrahedron (geometry.rs `sectors_volume`).
+        let sectors = min(solid_angle(e01, e02, e03) * r.x * r.x * r.x / 3.0, vol)
+            + min(solid_angle(e12, e13, -e01) * r.y * r.y * r.y / 3.0, vol)
+            + min(solid_angle(e23, -e02, -e12) * r.z * r.z * r.z / 3.0, vol)
+            + min(solid_angle(-e03, -e13, -e23) * r.w * r.w * r.w / 3.0, vol);
+        empty += vol - sectors;
         full += vol;
         // The corners' mean, relative to the first corner (its coordinate added last).
         c += (position(v.x) + 0.25 * (e01 + e02 + e03)) * vol;

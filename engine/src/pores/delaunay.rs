@@ -276,3 +276,24 @@ impl Tetrahedralisation {
         (a - d).dot(&(b - d).cross(&(c - d))) / 6.0
     }
 }
+
+impl Tetrahedralisation {
+    /// Keeps the tetrahedra `keep` marks, their faces towards the others becoming hull faces.
+    pub fn retain(&mut self, keep: &[bool]) {
+        let mut new_id = vec![HULL; self.tets.len()];
+        let mut next = 0u32;
+        for (t, &k) in keep.iter().enumerate() {
+            if k {
+                new_id[t] = next;
+                next += 1;
+            }
+        }
+        let mut tets = Vec::with_capacity(next as usize);
+        for (t, tet) in self.tets.iter().enumerate() {
+            if keep[t] {
+                tets.push(Tet { v: tet.v, n: tet.n.map(|n| if n == HULL { HULL } else { new_id[n as usize] }) });
+            }
+        }
+        self.tets = tets;
+    }
+}

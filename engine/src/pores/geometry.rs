@@ -29,12 +29,17 @@ pub fn pore_volume(v: [Vec3; 4], r: [f64; 4], floor: f64) -> f64 {
     (tet - sectors_volume(v, r)).max(floor * tet)
 }
 
-/// The volume of the four sphere sectors in a tetrahedron, Σ Ω_i r_i³ / 3.
+/// The volume of the four sphere sectors in a tetrahedron, Σ min(Ω_i r_i³ / 3, V): a
+/// sector lies inside the tetrahedron while its sphere stays short of the opposite face, and
+/// then never exceeds it; one that is larger reaches through that face, and of a flat
+/// tetrahedron (a sliver on the hull, Ω → 2π at a corner inside the others' triangle) would
+/// subtract a hemisphere of room that lies outside the packing.
 pub fn sectors_volume(v: [Vec3; 4], r: [f64; 4]) -> f64 {
+    let tet = tet_volume(v).abs();
     let mut solid = 0.0;
     for i in 0..4 {
         let o = [v[(i + 1) % 4], v[(i + 2) % 4], v[(i + 3) % 4]];
-        solid += solid_angle(v[i], o[0], o[1], o[2]) * r[i].powi(3) / 3.0;
+        solid += (solid_angle(v[i], o[0], o[1], o[2]) * r[i].powi(3) / 3.0).min(tet);
     }
     solid
 }

@@ -1,6 +1,7 @@
 //! The pore network of a packing: pores are the Delaunay tetrahedra of element centres
-//! (a near-flat or nearly filled tetrahedron is merged into its widest-open neighbour, so
-//! no pore has a vanishing volume), throats are the faces between two pores. Topology is
+//! inside the packing (the wide flat ones between the convex hull and the outer grains are
+//! open space), a pore with little room merged into its widest-open neighbour until none has
+//! a vanishing volume; throats are the faces between two pores. Topology is
 //! built once per rebuild; the geometry (pore volumes and centres, throat conductances)
 //! follows the elements every step.
 
@@ -14,9 +15,14 @@ use crate::physics::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// A tetrahedron whose empty volume is under this fraction of the mean is merged into a
+/// A tetrahedron reached from the hull with an edge whose gap between its two spheres is
+/// wider than this many times its corners' mean diameter is open space beyond the packing,
+/// not a pore: no grain lies between the two across a gap another grain would fit through.
+pub const OUTSIDE_GAP: f64 = 2.0;
+
+/// A pore whose room is under this fraction of a tetrahedron's mean is merged into a
 /// neighbour: slivers from co-spherical points and tightly filled corners would otherwise
-/// give pores with almost no room and a vanishing stable flow step.
+/// give pores with almost no room, a vanishing stable flow step and a stiff fluid.
 pub const SMALL_PORE_FRACTION: f64 = 0.05;
 
 /// A pore's fluid volume is kept above this fraction of its tetrahedra's volume (where
@@ -82,6 +88,31 @@ pub fn face_corners(v: [u32; 4], k: usize) -> [u32; 3] {
         }
     }
     f
+}
+
+/// The tetrahedra between the convex hull and the packing's outer grains: those reached from
+/// the hull through tetrahedra with an edge wider than [`OUTSIDE_GAP`]. The hull bridges the
+/// dips of a packing's surface with wide flat tetrahedra (a facet 0.4 m across over grains of
+/// 15 mm); as pores, their small volume under a wide face made the fluid a spring 400 times
+/// stiffer than the contacts.
+fn outside_the_packing(tri: &Tetrahedralisation, pos: &[Vec3], rad: &[f64]) -> Vec<bool> {
+    let wide = |t: usize| {
+        let v = tri.tets[t].v.map(|i| i as usize);
+        let diameter = v.iter().map(|&i| 2.0 * rad[i]).sum::<f64>() / 4.0;
+        (0..4).any(|a| {
+            (a + 1..4).any(|b| (pos[v[a]] - pos[v[b]]).norm() - rad[v[a]] - rad[v[b]] > OUTSIDE_GAP * diameter)
+        })
+    };
+    let mut outside = vec![false; tri.tets.len()];
+    let mut stack: Vec<usize> = (0..tri.tets.len()).filter(|&t| tri.tets[t].n.contains(&HULL)).collect();
+    while let Some(t) = stack.pop() {
+        if outside[t] || !wide(t) {
+            continue;
+        }
+        outside[t] = true;
+        stack.extend(tri.tets[t].n.iter().filter(|&&n| n != HULL).map(|&n| n as usize));
+    }
+    outside
 }
 
 fn bonded(m: &Model, i: u32, j: u32) -> bool {
@@ -193,14 +224,16 @@ impl PoreNetwork {
     pub fn build(m: &Model) -> Result<Self> {
         let pos = &m.particles.pos;
         let rad = &m.particles.radius;
-        let tri = tetrahedralise(pos)?;
+        let mut tri = tetrahedralise(pos)?;
+        let outside = outside_the_packing(&tri, pos, rad);
+        if outside.iter().any(|&o| o) && !outside.iter().all(|&o| o) {
+            tri.retain(&outside.iter().map(|&o| !o).collect::<Vec<_>>());
+        }
         let nt = tri.tets.len();
         let corners = |t: usize| tri.tets[t].v.map(|i| pos[i as usize]);
         let radii = |t: usize| tri.tets[t].v.map(|i| rad[i as usize]);
         let empty: Vec<f64> = (0..nt).map(|t| pore_volume(corners(t), radii(t), 0.0)).collect();
         let mean = empty.iter().sum::<f64>() / nt.max(1) as f64;
-
-        // Merge small tetrahedra into the neighbour across their widest-open face.
         let mut parent: Vec<u32> = (0..nt as u32).collect();
         fn root(parent: &mut [u32], mut x: u32) -> u32 {
             while parent[x as usize] != x {
@@ -209,28 +242,50 @@ impl PoreNetwork {
             }
             x
         }
-        for t in 0..nt {
-            if empty[t] >= SMALL_PORE_FRACTION * mean {
-                continue;
+        fn join(parent: &mut [u32], a: u32, b: u32) -> bool {
+            let (a, b) = (root(parent, a), root(parent, b));
+            if a != b {
+                parent[a.max(b) as usize] = a.min(b);
             }
-            let tet = tri.tets[t];
-            let mut best: Option<(f64, f64, u32)> = None;
-            for k in 0..4 {
-                if tet.n[k] == HULL {
+            a != b
+        }
+        // Merge small pores into the neighbour across their widest-open face, as often as it
+        // takes: a pore's room is that of its tetrahedra together, as `refresh` counts it.
+        let room: Vec<f64> =
+            (0..nt).map(|t| tet_volume(corners(t)).abs() - sectors_volume(corners(t), radii(t))).collect();
+        for _ in 0..nt {
+            let mut pore_room = vec![0.0; nt];
+            for t in 0..nt {
+                pore_room[root(&mut parent, t as u32) as usize] += room[t];
+            }
+            // The widest-open face from each small pore to another pore: (area, face area, neighbour).
+            let mut best: Vec<Option<(f64, f64, u32)>> = vec![None; nt];
+            for t in 0..nt {
+                let a = root(&mut parent, t as u32);
+                if pore_room[a as usize] >= SMALL_PORE_FRACTION * mean {
                     continue;
                 }
-                let f = face_corners(tet.v, k);
-                let o = opening(f.map(|i| pos[i as usize]), f.map(|i| rad[i as usize]));
-                let key = (o.area, o.face, tet.n[k]);
-                if best.is_none_or(|b| (key.0, key.1) > (b.0, b.1)) {
-                    best = Some(key);
+                let tet = tri.tets[t];
+                for k in 0..4 {
+                    if tet.n[k] == HULL || root(&mut parent, tet.n[k]) == a {
+                        continue;
+                    }
+                    let f = face_corners(tet.v, k);
+                    let o = opening(f.map(|i| pos[i as usize]), f.map(|i| rad[i as usize]));
+                    let key = (o.area, o.face, tet.n[k]);
+                    if best[a as usize].is_none_or(|b| (key.0, key.1) > (b.0, b.1)) {
+                        best[a as usize] = Some(key);
+                    }
                 }
             }
-            if let Some((_, _, nb)) = best {
-                let (a, b) = (root(&mut parent, t as u32), root(&mut parent, nb));
-                if a != b {
-                    parent[a.max(b) as usize] = a.min(b);
+            let mut merged = false;
+            for (a, b) in best.iter().enumerate() {
+                if let Some((_, _, nb)) = b {
+                    merged |= join(&mut parent, a as u32, *nb);
                 }
+            }
+            if !merged {
+                break;
             }
         }
         let mut id = vec![u32::MAX; nt];
