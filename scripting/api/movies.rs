@@ -33,7 +33,14 @@ fn number(v: &Dynamic) -> Option<f64> {
 }
 
 /// The settings of `movie_every`, every value checked; `stem` is the checked name.
-fn settings(host: &Host, d: &ModelHandle, steps: INT, field: &str, stem: &str, opts: &Map) -> RhaiResult<MovieSettings> {
+fn settings(
+    host: &Host,
+    d: &ModelHandle,
+    steps: INT,
+    field: &str,
+    stem: &str,
+    opts: &Map,
+) -> RhaiResult<MovieSettings> {
     let fail = |msg: String| err(format!("movie_every: {msg}"));
     if steps <= 0 {
         return Err(fail(format!(
@@ -66,7 +73,11 @@ fn settings(host: &Host, d: &ModelHandle, steps: INT, field: &str, stem: &str, o
         match key.as_str() {
             "slice" => match number(v) {
                 Some(w) if w.is_finite() && w > 0.0 => s.slice = Some(w),
-                _ => return Err(fail(format!("slice is the half-width of the slice about the mid-plane in y, a number > 0 (m), got {v}"))),
+                _ => {
+                    return Err(fail(format!(
+                        "slice is the half-width of the slice about the mid-plane in y, a number > 0 (m), got {v}"
+                    )))
+                }
             },
             "frames_png" => {
                 s.frames_png = v.as_bool().map_err(|_| fail(format!("frames_png must be true or false, got {v}")))?;
@@ -142,14 +153,18 @@ fn end(host: &Host, d: &ModelHandle) -> RhaiResult<Vec<std::path::PathBuf>> {
 }
 
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
+    // `d.movie_every(steps, field, "name")`: a picture coloured by `field` every `steps`
+    // steps of the runs that follow, written as `name.gif` when the movie ends.
     let h = host.clone();
     engine.register_fn("movie_every", move |d: &mut ModelHandle, steps: INT, field: &str, name: &str| {
         movie_every(&h, d, steps, field, name, &Map::new())
     });
+    // `d.movie_every(steps, field, "name", #{ slice, frames_png, max_frames, delay, range })`.
     let h = host.clone();
     engine.register_fn("movie_every", move |d: &mut ModelHandle, steps: INT, field: &str, name: &str, opts: Map| {
         movie_every(&h, d, steps, field, name, &opts)
     });
+    // `d.movie_end()`: writes the model's movie; returns the files written.
     engine.register_fn("movie_end", move |d: &mut ModelHandle| -> RhaiResult<Dynamic> {
         // Journaled: a resumed run does not end (and so rewrite) a movie finished before the
         // interruption; its replay took no frames anyway.

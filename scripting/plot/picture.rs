@@ -400,7 +400,11 @@ impl ParticlePicture {
 
     /// Draws everything but the particles, and returns where they go; with `fixed`, in its
     /// colouring and view rather than those of this picture's own data.
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, fixed: Option<&Fixed>) -> Result<Layout, PlotError> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        fixed: Option<&Fixed>,
+    ) -> Result<Layout, PlotError> {
         let drawable = self.drawable()?;
         let colouring = match fixed {
             Some(f) => f.colouring.clone(),
@@ -691,6 +695,34 @@ mod tests {
         // Eleven distinct integers are too many classes: back to the bar.
         let many = cloud(300, "id", |i, _| (i % 11) as f64);
         assert!(matches!(Colouring::of(many.value.iter().copied()), Colouring::Ramp { .. }));
+    }
+
+    #[test]
+    fn frames_drawn_with_one_fixed_scale_and_view_repaint_only_what_changed() {
+        // Two frames of two grains: the left one's value is the same in both, the right one's
+        // grows. With one scale over both frames only the right grain changes colour; with a
+        // scale per frame the left one does too.
+        let frame = |right: f64| {
+            let mut p = ParticlePicture::new("movie", "v");
+            p.push(0.0, 0.0, 0.3, 3.0).push(1.0, 0.0, 0.3, right);
+            p
+        };
+        let (a, b) = (frame(2.0), frame(5.0));
+        let mut scale = FixedBuilder::default();
+        for p in [&a, &b] {
+            for i in 0..p.x.len() {
+                scale.add(p.x[i], p.y[i], p.r[i], p.value[i]);
+            }
+        }
+        let fixed = scale.build(None).unwrap();
+        assert_eq!(fixed.colouring, Colouring::Ramp { lo: 2.0, hi: 5.0 });
+        let changed = |p: &[u8], q: &[u8]| p.chunks(3).zip(q.chunks(3)).filter(|(x, y)| x != y).count();
+        let with_one = changed(&a.render_rgb(Some(&fixed)).unwrap(), &b.render_rgb(Some(&fixed)).unwrap());
+        let per_frame = changed(&a.render_rgb(None).unwrap(), &b.render_rgb(None).unwrap());
+        assert!(with_one > 0 && (with_one as f64) < 0.6 * per_frame as f64, "{with_one} vs {per_frame} pixels");
+        // A given range wins; a builder that saw no particle gives none.
+        assert_eq!(scale.build(Some((0.0, 1.0))).unwrap().colouring, Colouring::Ramp { lo: 0.0, hi: 1.0 });
+        assert!(FixedBuilder::default().build(None).is_none());
     }
 
     #[test]
