@@ -704,10 +704,10 @@ mod tests {
         // scale per frame the left one does too.
         let frame = |right: f64| {
             let mut p = ParticlePicture::new("movie", "v");
-            p.push(0.0, 0.0, 0.3, 3.0).push(1.0, 0.0, 0.3, right);
+            p.push(0.0, 0.0, 0.3, 3.5).push(1.0, 0.0, 0.3, right);
             p
         };
-        let (a, b) = (frame(2.0), frame(5.0));
+        let (a, b) = (frame(2.25), frame(5.75));
         let mut scale = FixedBuilder::default();
         for p in [&a, &b] {
             for i in 0..p.x.len() {
@@ -715,7 +715,7 @@ mod tests {
             }
         }
         let fixed = scale.build(None).unwrap();
-        assert_eq!(fixed.colouring, Colouring::Ramp { lo: 2.0, hi: 5.0 });
+        assert_eq!(fixed.colouring, Colouring::Ramp { lo: 2.25, hi: 5.75 });
         let changed = |p: &[u8], q: &[u8]| p.chunks(3).zip(q.chunks(3)).filter(|(x, y)| x != y).count();
         let with_one = changed(&a.render_rgb(Some(&fixed)).unwrap(), &b.render_rgb(Some(&fixed)).unwrap());
         let per_frame = changed(&a.render_rgb(None).unwrap(), &b.render_rgb(None).unwrap());
