@@ -12,6 +12,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// `path`. Missing parent folders are created. On error the temporary file is removed and
 /// the target is left as it was.
 pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_with(path, |file| file.write_all(bytes))
+}
+
+/// [`write`] for data made piece by piece (a movie's frames): `fill` writes the temporary
+/// file, which is then flushed to disk and renamed over `path`, or removed if anything fails.
+pub fn write_with(path: &Path, fill: impl FnOnce(&mut fs::File) -> std::io::Result<()>) -> std::io::Result<()> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let name = path.file_name().ok_or_else(|| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} does not name a file", path.display()))
@@ -39,7 +45,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let tmp = dir.join(tmp_name);
     let result = (|| {
         let mut file = fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
+        fill(&mut file)?;
         file.sync_all()?;
         drop(file);
         fs::rename(&tmp, path)

@@ -9,6 +9,7 @@ pub mod atomic;
 pub mod bench;
 pub mod calibration;
 pub mod memory;
+pub mod movie;
 pub mod out_lock;
 pub mod package;
 pub mod plot;

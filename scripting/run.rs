@@ -318,7 +318,18 @@ fn compile_and_run(
     let mut scope = Scope::new();
     scope.push_constant("params", host.params.clone());
     scope.push_constant("out_dir", host.out_dir.display().to_string());
-    match engine.run_ast_with_scope(&mut scope, &ast) {
+    let outcome = engine.run_ast_with_scope(&mut scope, &ast);
+    // Movies end with the script, however it ends: an interrupted run keeps their frames for
+    // its resume (see crate::movie).
+    let interrupted = outcome.as_ref().err().and_then(|e| Stop::of(e)) == Some(Stop::Interrupted);
+    let movie_errors = host.finish_movies(interrupted);
+    if let (Ok(()), Some(e)) = (&outcome, movie_errors.first()) {
+        return Err(RunError::Script(format!("error: {}\n", crate::terminal_text::one_line(e))));
+    }
+    for e in &movie_errors {
+        eprintln!("warning: {}", crate::terminal_text::one_line(e));
+    }
+    match outcome {
         Ok(()) if host.replaying() => Err(RunError::Script(
             "error: cannot resume: the script ended before it reached the call that was interrupted; resume only \
              with the script and parameters that were interrupted, or start a fresh run\n"

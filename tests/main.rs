@@ -29,6 +29,7 @@ mod hydraulic_fracture_cli;
 mod land_subsidence_cli;
 mod material_provenance;
 mod model_surgery;
+mod movie_cli;
 mod packages;
 mod parallel_bond_cli;
 mod pore_flow_script;

@@ -20,7 +20,7 @@ pub enum Error {
     Unstable(Box<Instability>),
     #[error("run cancelled after {completed_steps} step(s)")]
     Cancelled { completed_steps: u64 },
-    /// A host observer (snapshots) failed; the message is the host's.
+    /// A host observer (snapshots, movie frames) failed; the message is the host's.
     #[error("{0}")]
     Observer(String),
     /// The GPU backend could not start or run (an environment problem, not the script's).

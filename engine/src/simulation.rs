@@ -30,8 +30,9 @@ pub enum Balance {
 /// A model and the backend that steps it. The plan is rebuilt when the model changes.
 pub struct Simulation {
     pub model: Model,
-    /// Called whenever the step count reaches a multiple of its period (snapshots).
-    pub observer: Option<Observer>,
+    /// Each called whenever the step count reaches a multiple of its period (snapshots,
+    /// movie frames), in this order.
+    pub observers: Vec<Observer>,
     /// Where the steps run.
     target: Target,
     /// The plan for the model's current revision, and the backend prepared for it once a
@@ -78,7 +79,7 @@ pub struct RunReport {
 impl Simulation {
     /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation { model, observer: None, target: Target::Cpu, prepared: None, stiff_warned: false }
+        Simulation { model, observers: Vec::new(), target: Target::Cpu, prepared: None, stiff_warned: false }
     }
 
     /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
@@ -148,7 +149,7 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
-        let Simulation { model, observer, target, prepared: cache, stiff_warned } = self;
+        let Simulation { model, observers, target, prepared: cache, stiff_warned } = self;
         let p = prepared(cache, model);
         let backend = match &mut p.backend {
             Some(b) => b,
@@ -157,8 +158,7 @@ impl Simulation {
                 slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?)
             }
         };
-        let observer = observer.as_mut();
-        run_loop(backend.as_mut(), model, observer, stiff_warned, steps, every, ctl, progress, sample)
+        run_loop(backend.as_mut(), model, observers, stiff_warned, steps, every, ctl, progress, sample)
     }
 
     /// MatDEM's `balance`: lets the model settle under the current loads.
@@ -285,21 +285,21 @@ pub fn run_steps(
         return Ok(RunReport { steps: 0, unbalanced_ratio: None });
     }
     check_time_step(model)?;
-    run_loop(backend, model, None, &mut false, steps, every, ctl, progress, sample)
+    run_loop(backend, model, &mut [], &mut false, steps, every, ctl, progress, sample)
 }
 
 /// The run loop. Chunks end every `guard_every` steps of the run (where the backend's guard
-/// checks the state), on the observer's steps of the model's clock, and at the end; each
+/// checks the state), on each observer's steps of the model's clock, and at the end; each
 /// chunk end also compares dt with the stiffest current contact (stop, or warn once when
 /// `stiff_warned` is still false and the model's guard mode is `warn`); between chunks come
-/// the observer (with the model brought up to date), `progress(done)`, and the cancellation
+/// the observers whose step it is (in order, with the model brought up to date once), `progress(done)`, and the cancellation
 /// check, which also brings the model up to date. Energies of every `every`-th step of the
 /// run go to `sample`.
 #[allow(clippy::too_many_arguments, reason = "the run loop's inputs, each used once; a struct would only rename them")]
 fn run_loop(
     backend: &mut dyn Backend,
     model: &mut Model,
-    observer: Option<&mut Observer>,
+    observers: &mut [Observer],
     stiff_warned: &mut bool,
     steps: u64,
     every: u64,
@@ -311,14 +311,15 @@ fn run_loop(
     // A change of gravity or of the water table since the last run is work done on the model
     // where it stands now (body_potential).
     model.book_body_work();
-    let mut observer = observer.filter(|o| o.every > 0);
+    // A period of 0 observes nothing.
+    let active = |o: &&mut Observer| o.every > 0;
     // The clock at the run's start: a backend that keeps the state on a device advances the
     // model's clock only when it syncs.
     let step0 = model.clock.step;
     let mut done = 0;
     while done < steps {
         let mut chunk = (guard_every - done % guard_every).min(steps - done);
-        if let Some(o) = &observer {
+        for o in observers.iter_mut().filter(active) {
             chunk = chunk.min(o.every - (step0 + done) % o.every);
         }
         backend.run_chunk(model, chunk, Sampling { every, first: done }, sample)?;
@@ -337,8 +338,12 @@ fn run_loop(
                 }
             }
         }
-        if let Some(o) = observer.as_mut().filter(|o| (step0 + done).is_multiple_of(o.every)) {
-            backend.sync(model)?;
+        let mut synced = false;
+        for o in observers.iter_mut().filter(active).filter(|o| (step0 + done).is_multiple_of(o.every)) {
+            if !synced {
+                backend.sync(model)?;
+                synced = true;
+            }
             (o.call)(model).map_err(Error::Observer)?;
         }
         progress(done);

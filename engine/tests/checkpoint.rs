@@ -184,13 +184,13 @@ fn an_observer_sees_every_nth_step_and_changes_no_result() {
     let mut watched = loaded_sample();
     let seen = Rc::new(RefCell::new(Vec::new()));
     let log = seen.clone();
-    watched.observer = Some(Observer {
+    watched.observers = vec![Observer {
         every: 37,
         call: Box::new(move |m| {
             log.borrow_mut().push(m.clock.step);
             Ok(())
         }),
-    });
+    }];
     run(&mut watched, 1000);
     let start = plain.model.clock.step - 1000;
     let expected: Vec<u64> = (start + 1..=start + 1000).filter(|s| s % 37 == 0).collect();
@@ -446,4 +446,38 @@ fn a_format_7_checkpoint_loads_with_no_body_work_and_its_table_as_seen() {
     m.settings.water.level = Some(0.4 * top);
     let change = buoyant(&m) - high;
     assert!(change < 0.0 && (m.body_work() - change).abs() < 1e-12 * change.abs(), "{} vs {change}", m.body_work());
+}
+
+#[test]
+fn two_observers_each_see_their_own_steps_and_change_no_result() {
+    use matdem_engine::simulation::Observer;
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    let mut plain = loaded_sample();
+    run(&mut plain, 400);
+    let mut watched = loaded_sample();
+    let seen: Rc<RefCell<Vec<(u64, u64)>>> = Rc::default();
+    let observer = |every: u64| {
+        let log = seen.clone();
+        Observer {
+            every,
+            call: Box::new(move |m| {
+                log.borrow_mut().push((every, m.clock.step));
+                Ok(())
+            }),
+        }
+    };
+    watched.observers = vec![observer(37), observer(50)];
+    run(&mut watched, 400);
+    let start = plain.model.clock.step - 400;
+    let mut expected = Vec::new();
+    for s in start + 1..=start + 400 {
+        for every in [37, 50] {
+            if s % every == 0 {
+                expected.push((every, s));
+            }
+        }
+    }
+    assert_eq!(*seen.borrow(), expected);
+    assert!(encode(&plain.model, b"") == encode(&watched.model, b""), "observing changed the run");
 }

@@ -32,13 +32,13 @@ fn trace(mut sim: Simulation, cancel_from: Option<u64>) -> Trace {
     run(&mut sim, 5).unwrap();
     let observed = Rc::new(RefCell::new(Vec::new()));
     let seen = observed.clone();
-    sim.observer = Some(Observer {
+    sim.observers = vec![Observer {
         every: 30,
         call: Box::new(move |m| {
             seen.borrow_mut().push(m.clock.step);
             Ok(())
         }),
-    });
+    }];
     let ctl = RunControl::default();
     let (mut progress, mut sampled) = (Vec::new(), Vec::new());
     let result = sim.run_sampled(

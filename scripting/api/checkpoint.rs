@@ -26,6 +26,9 @@ struct ModelAnnex {
     /// The snapshot series, so a resumed run keeps writing it (`load_model` starts none).
     #[serde(default)]
     snapshots: SnapshotLog,
+    /// The movie being taken, so a resumed run continues it (`load_model` starts none).
+    #[serde(default)]
+    movie: crate::movie::MovieState,
 }
 
 /// `name` with `.mdem` added when it has no extension.
@@ -45,6 +48,7 @@ pub fn checkpoint_bytes(data: &ModelData) -> Vec<u8> {
         status: t.columns.iter().map(|(c, v)| (c.clone(), v.iter().map(|x| x.to_bits()).collect())).collect(),
         rows: t.rows,
         snapshots: data.snapshots.borrow().clone(),
+        movie: data.movie.borrow().state.clone(),
     };
     let annex = ron::to_string(&annex).expect("strings and integers always serialise");
     encode(&data.sim.model, annex.as_bytes())
@@ -58,7 +62,13 @@ pub fn restore(data: &mut ModelData, ck: Checkpoint) -> Result<(), String> {
     data.name = annex.name;
     *data.status.0.borrow_mut() = table_of(annex.status, annex.rows);
     *data.snapshots.borrow_mut() = annex.snapshots;
-    super::snapshots::install(data);
+    {
+        // The movie the replayed script started took no frame: the restored one replaces it.
+        let mut movie = data.movie.borrow_mut();
+        movie.state = annex.movie;
+        movie.state.reopen();
+    }
+    super::model::install_observers(data);
     Ok(())
 }
 

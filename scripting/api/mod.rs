@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod materials;
 pub mod metrics;
 pub mod model;
+pub mod movies;
 pub mod plot;
 pub mod reference;
 pub mod runs;
@@ -235,6 +236,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     checkpoint::register(engine, host.clone());
     box_builder::register(engine, host.clone());
     snapshots::register(engine, host.clone());
+    movies::register(engine, host.clone());
     training::register(engine, host.clone());
     files::register(engine, host.clone());
     zones::register(engine, host.clone());

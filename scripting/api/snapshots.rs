@@ -7,7 +7,6 @@
 use super::model::{ModelData, ModelHandle};
 use super::{err, Host, RhaiResult};
 use crate::snapshot::{elements_csv, pores_vtp, pvd, vtp};
-use matdem_engine::simulation::Observer;
 use matdem_engine::Model;
 use rhai::{Dynamic, Engine, INT};
 use serde::{Deserialize, Serialize};
@@ -31,14 +30,11 @@ pub struct SnapshotLog {
 
 /// Makes the model's simulation write its series (or stop, when `every` is 0).
 pub fn install(data: &mut ModelData) {
-    let every = data.snapshots.borrow().every;
-    data.sim.observer = (every > 0).then(|| {
-        let log = data.snapshots.clone();
-        Observer { every, call: Box::new(move |m: &Model| write_next(&log, m)) }
-    });
+    super::model::install_observers(data);
 }
 
-fn write_next(log: &Rc<RefCell<SnapshotLog>>, m: &Model) -> Result<(), String> {
+/// Writes the series' next snapshot of `m` (its observer's call).
+pub(super) fn write_next(log: &Rc<RefCell<SnapshotLog>>, m: &Model) -> Result<(), String> {
     let mut log = log.borrow_mut();
     let file = format!("{}_{:09}.vtp", log.name, m.clock.step);
     let path = log.folder.join(&file);

@@ -110,6 +110,58 @@ pub(crate) fn save_figure(
     }
 }
 
+/// One palette of 256 colours for every frame of a movie (a GIF holds at most 256 colours a
+/// frame): 128 steps of the colour map, their outline shades, the class colours, "no value"
+/// and 64 greys for text, axes and the white background. Fixed rather than chosen per frame,
+/// so a colour is the same in every frame and no frame pays for choosing one (NeuQuant took
+/// about 60 ms a frame).
+pub struct GifPalette {
+    /// r, g, b of each entry.
+    pub rgb: Vec<u8>,
+    /// Palette index of each colour bucket (6 bits a channel), worked out when first needed;
+    /// `u16::MAX` for not yet.
+    nearest: Vec<u16>,
+}
+
+impl Default for GifPalette {
+    fn default() -> Self {
+        let mut colours: Vec<plotters::style::RGBColor> = Vec::with_capacity(256);
+        colours.extend((0..128).map(|k| style::colormap(k as f64 / 127.0)));
+        colours.extend((0..48).map(|k| style::darker(style::colormap(k as f64 / 47.0))));
+        colours.extend((0..10).map(style::categorical));
+        colours.extend((0..10).map(|k| style::darker(style::categorical(k))));
+        colours.push(style::NO_DATA);
+        colours.push(style::darker(style::NO_DATA));
+        let greys = 256 - colours.len();
+        colours.extend((0..greys).map(|k| {
+            let v = (k * 255 / (greys - 1)) as u8;
+            plotters::style::RGBColor(v, v, v)
+        }));
+        GifPalette { rgb: colours.iter().flat_map(|c| [c.0, c.1, c.2]).collect(), nearest: vec![u16::MAX; 1 << 18] }
+    }
+}
+
+impl GifPalette {
+    /// Each pixel of a packed RGB buffer as the index of the nearest palette colour (to the
+    /// centre of its bucket, so the answer does not depend on which pixel came first).
+    pub fn indices(&mut self, rgb: &[u8]) -> Vec<u8> {
+        let GifPalette { rgb: palette, nearest } = self;
+        rgb.chunks_exact(3)
+            .map(|p| {
+                let bucket = (usize::from(p[0] >> 2) << 12) | (usize::from(p[1] >> 2) << 6) | usize::from(p[2] >> 2);
+                if nearest[bucket] == u16::MAX {
+                    let centre = [p[0] & !3 | 2, p[1] & !3 | 2, p[2] & !3 | 2].map(i32::from);
+                    let distance = |c: &[u8]| -> i32 { (0..3).map(|k| (i32::from(c[k]) - centre[k]).pow(2)).sum() };
+                    let best =
+                        palette.chunks_exact(3).enumerate().min_by_key(|(_, c)| distance(c)).map_or(0, |(k, _)| k);
+                    nearest[bucket] = best as u16;
+                }
+                nearest[bucket] as u8
+            })
+            .collect()
+    }
+}
+
 /// Encodes a packed RGB buffer as PNG.
 pub(crate) fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, PlotError> {
     use image::ImageEncoder;

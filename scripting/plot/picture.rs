@@ -49,6 +49,7 @@ pub struct ParticlePicture {
 }
 
 /// How values become colours.
+#[derive(Debug, Clone, PartialEq)]
 enum Colouring {
     /// Continuous map over `[lo, hi]` (equal when every value is the same).
     Ramp { lo: f64, hi: f64 },
@@ -60,29 +61,9 @@ enum Colouring {
 
 impl Colouring {
     fn of(values: impl Iterator<Item = f64>) -> Colouring {
-        let finite: Vec<f64> = values.filter(|&v| style::plottable(v)).collect();
-        if finite.is_empty() {
-            return Colouring::Nothing;
-        }
-        if finite.iter().all(|v| v.fract() == 0.0 && v.abs() < 1e15) {
-            let mut classes: Vec<i64> = Vec::new();
-            for &v in &finite {
-                let v = v as i64;
-                if let Err(at) = classes.binary_search(&v) {
-                    if classes.len() == MAX_CLASSES {
-                        classes.clear();
-                        break;
-                    }
-                    classes.insert(at, v);
-                }
-            }
-            if !classes.is_empty() {
-                return Colouring::Classes(classes);
-            }
-        }
-        let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        Colouring::Ramp { lo, hi }
+        let mut scale = ValueScale::default();
+        values.for_each(|v| scale.add(v));
+        scale.colouring()
     }
 
     fn colour(&self, v: f64) -> RGBColor {
@@ -106,6 +87,102 @@ fn ramp_position(v: f64, lo: f64, hi: f64) -> f64 {
         (v - lo) / (hi - lo)
     } else {
         0.5
+    }
+}
+
+/// The values seen so far, for choosing a [`Colouring`]: their range, and their distinct
+/// integers while there are at most [`MAX_CLASSES`] and no other value.
+#[derive(Debug, Clone)]
+struct ValueScale {
+    lo: f64,
+    hi: f64,
+    /// `None` once a value is not an integer or there are too many.
+    classes: Option<Vec<i64>>,
+}
+
+impl Default for ValueScale {
+    fn default() -> Self {
+        ValueScale { lo: f64::INFINITY, hi: f64::NEG_INFINITY, classes: Some(Vec::new()) }
+    }
+}
+
+impl ValueScale {
+    fn add(&mut self, v: f64) {
+        if !style::plottable(v) {
+            return;
+        }
+        self.lo = self.lo.min(v);
+        self.hi = self.hi.max(v);
+        if let Some(classes) = &mut self.classes {
+            if v.fract() != 0.0 || v.abs() >= 1e15 {
+                self.classes = None;
+            } else if let Err(at) = classes.binary_search(&(v as i64)) {
+                if classes.len() == MAX_CLASSES {
+                    self.classes = None;
+                } else {
+                    classes.insert(at, v as i64);
+                }
+            }
+        }
+    }
+
+    fn colouring(&self) -> Colouring {
+        if self.lo > self.hi {
+            return Colouring::Nothing;
+        }
+        match &self.classes {
+            Some(classes) if !classes.is_empty() => Colouring::Classes(classes.clone()),
+            _ => Colouring::Ramp { lo: self.lo, hi: self.hi },
+        }
+    }
+}
+
+/// What a movie keeps the same in every frame, so that its frames compare: one colouring (one
+/// colour scale, or one set of classes) and one part of the plane shown. Made by
+/// [`FixedBuilder`] from every frame's data; used by [`ParticlePicture::render_rgb`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fixed {
+    colouring: Colouring,
+    /// The extent of the discs (x0, x1, y0, y1), before the picture's padding.
+    extent: (f64, f64, f64, f64),
+}
+
+/// Gathers, particle by particle over many frames, the range of the values and the extent of
+/// the discs, for a [`Fixed`] scale and view.
+#[derive(Debug, Clone)]
+pub struct FixedBuilder {
+    values: ValueScale,
+    extent: (f64, f64, f64, f64),
+}
+
+impl Default for FixedBuilder {
+    fn default() -> Self {
+        FixedBuilder { values: ValueScale::default(), extent: (f64::MAX, f64::MIN, f64::MAX, f64::MIN) }
+    }
+}
+
+impl FixedBuilder {
+    /// Takes one particle into account (one a picture would skip is left out here too).
+    pub fn add(&mut self, x: f64, y: f64, r: f64, value: f64) {
+        if !(style::plottable(x) && style::plottable(y) && style::plottable(r) && r >= 0.0) {
+            return;
+        }
+        let e = &mut self.extent;
+        *e = (e.0.min(x - r), e.1.max(x + r), e.2.min(y - r), e.3.max(y + r));
+        self.values.add(value);
+    }
+
+    /// The scale and view of every particle added; `range` = (lo, hi), when given, is the
+    /// colour scale instead of the values' own. `None` when no particle could be drawn.
+    pub fn build(&self, range: Option<(f64, f64)>) -> Option<Fixed> {
+        if self.extent.0 > self.extent.1 {
+            return None;
+        }
+        let colouring = match range {
+            Some((lo, hi)) => Colouring::Ramp { lo, hi },
+            None => self.values.colouring(),
+        };
+        Some(Fixed { colouring, extent: self.extent })
     }
 }
 
@@ -237,7 +314,7 @@ impl ParticlePicture {
         let layout;
         {
             let root = SVGBackend::with_string(&mut svg, PICTURE_SIZE).into_drawing_area();
-            layout = self.draw(&root)?;
+            layout = self.draw(&root, None)?;
             root.present().map_err(draw_err)?;
         }
         // Particles go in with sub-pixel precision; nothing else overlaps them.
@@ -257,19 +334,26 @@ impl ParticlePicture {
 
     /// Renders the picture as PNG-encoded bytes.
     pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
+        let (w, h) = PICTURE_SIZE;
+        super::encode_png(&self.render_rgb(None)?, w, h)
+    }
+
+    /// Renders the picture into a packed RGB buffer of [`PICTURE_SIZE`], with the colour scale
+    /// and view of `fixed` when given (a movie's frames) instead of its own data's.
+    pub fn render_rgb(&self, fixed: Option<&Fixed>) -> Result<Vec<u8>, PlotError> {
         style::ensure_fonts()?;
         let (w, h) = PICTURE_SIZE;
         let mut rgb = vec![0u8; w as usize * h as usize * 3];
         let layout;
         {
             let root = BitMapBackend::with_buffer(&mut rgb, PICTURE_SIZE).into_drawing_area();
-            layout = self.draw(&root)?;
+            layout = self.draw(&root, fixed)?;
             root.present().map_err(draw_err)?;
         }
         for d in &layout.discs {
             d.paint(&mut rgb, w as usize, layout.clip);
         }
-        super::encode_png(&rgb, w, h)
+        Ok(rgb)
     }
 
     /// Writes the picture to `path`: `.svg` or `.png` by extension, or both
@@ -314,10 +398,18 @@ impl ParticlePicture {
         Ok(ok)
     }
 
-    /// Draws everything but the particles, and returns where they go.
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<Layout, PlotError> {
+    /// Draws everything but the particles, and returns where they go; with `fixed`, in its
+    /// colouring and view rather than those of this picture's own data.
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        fixed: Option<&Fixed>,
+    ) -> Result<Layout, PlotError> {
         let drawable = self.drawable()?;
-        let colouring = Colouring::of(drawable.iter().map(|&i| self.value[i]));
+        let colouring = match fixed {
+            Some(f) => f.colouring.clone(),
+            None => Colouring::of(drawable.iter().map(|&i| self.value[i])),
+        };
 
         // Extent of the discs themselves, not just their centres.
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -327,6 +419,9 @@ impl ParticlePicture {
             x1 = x1.max(x + r);
             y0 = y0.min(y - r);
             y1 = y1.max(y + r);
+        }
+        if let Some(f) = fixed {
+            (x0, x1, y0, y1) = f.extent;
         }
         let pad = 0.03 * (x1 - x0).max(y1 - y0);
         let ((x0, x1), (y0, y1)) = if pad > 0.0 {
@@ -600,6 +695,34 @@ mod tests {
         // Eleven distinct integers are too many classes: back to the bar.
         let many = cloud(300, "id", |i, _| (i % 11) as f64);
         assert!(matches!(Colouring::of(many.value.iter().copied()), Colouring::Ramp { .. }));
+    }
+
+    #[test]
+    fn frames_drawn_with_one_fixed_scale_and_view_repaint_only_what_changed() {
+        // Two frames of two grains: the left one's value is the same in both, the right one's
+        // grows. With one scale over both frames only the right grain changes colour; with a
+        // scale per frame the left one does too.
+        let frame = |right: f64| {
+            let mut p = ParticlePicture::new("movie", "v");
+            p.push(0.0, 0.0, 0.3, 3.5).push(1.0, 0.0, 0.3, right);
+            p
+        };
+        let (a, b) = (frame(2.25), frame(5.75));
+        let mut scale = FixedBuilder::default();
+        for p in [&a, &b] {
+            for i in 0..p.x.len() {
+                scale.add(p.x[i], p.y[i], p.r[i], p.value[i]);
+            }
+        }
+        let fixed = scale.build(None).unwrap();
+        assert_eq!(fixed.colouring, Colouring::Ramp { lo: 2.25, hi: 5.75 });
+        let changed = |p: &[u8], q: &[u8]| p.chunks(3).zip(q.chunks(3)).filter(|(x, y)| x != y).count();
+        let with_one = changed(&a.render_rgb(Some(&fixed)).unwrap(), &b.render_rgb(Some(&fixed)).unwrap());
+        let per_frame = changed(&a.render_rgb(None).unwrap(), &b.render_rgb(None).unwrap());
+        assert!(with_one > 0 && (with_one as f64) < 0.6 * per_frame as f64, "{with_one} vs {per_frame} pixels");
+        // A given range wins; a builder that saw no particle gives none.
+        assert_eq!(scale.build(Some((0.0, 1.0))).unwrap().colouring, Colouring::Ramp { lo: 0.0, hi: 1.0 });
+        assert!(FixedBuilder::default().build(None).is_none());
     }
 
     #[test]

@@ -124,7 +124,8 @@ impl Outputs {
                 Some("svg") if is_picture(&p) && p.with_extension("png").is_file() => o.other.push(p),
                 Some("svg") => o.charts.push(p),
                 Some("png") if p.with_extension("svg").is_file() && !is_picture(&p.with_extension("svg")) => {}
-                Some("png") => o.pictures.push(p),
+                // A movie (`d.movie_every`) is an animated picture.
+                Some("png" | "gif") => o.pictures.push(p),
                 Some("csv") => o.tables.push(p),
                 _ => o.other.push(p),
             }

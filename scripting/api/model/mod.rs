@@ -55,6 +55,8 @@ pub struct ModelData {
     pub number: usize,
     /// The ParaView series `snapshot_every` set up (shared with the simulation's observer).
     pub snapshots: Rc<RefCell<super::snapshots::SnapshotLog>>,
+    /// The movie `movie_every` started, if any (shared with the simulation's observer).
+    pub movie: Rc<RefCell<crate::movie::Movie>>,
     /// Whether its plan was noted for the run page (and printed, in plan mode).
     plan_noted: bool,
 }
@@ -74,6 +76,7 @@ impl ModelHandle {
             status: Table::default(),
             number,
             snapshots: Rc::default(),
+            movie: Rc::default(),
             plan_noted: false,
         })))
     }
@@ -85,6 +88,24 @@ impl ModelHandle {
     fn model(&self) -> RefMut<'_, Model> {
         RefMut::map(self.0.borrow_mut(), |d| &mut d.sim.model)
     }
+}
+
+/// Puts the model's observers in place, each on its own period: its snapshot series
+/// (`snapshot_every`) and its movie (`movie_every`), whichever are on.
+pub fn install_observers(data: &mut ModelData) {
+    use matdem_engine::simulation::Observer;
+    let mut observers = Vec::new();
+    let every = data.snapshots.borrow().every;
+    if every > 0 {
+        let log = data.snapshots.clone();
+        observers.push(Observer { every, call: Box::new(move |m: &Model| super::snapshots::write_next(&log, m)) });
+    }
+    let movie_every = data.movie.borrow().state.settings.as_ref().map(|s| s.every);
+    if let Some(every) = movie_every {
+        let movie = data.movie.clone();
+        observers.push(Observer { every, call: Box::new(move |m: &Model| movie.borrow_mut().capture(m)) });
+    }
+    data.sim.observers = observers;
 }
 
 /// Particle ids named by a group, `"all"`, an array of ids or a mask.
