@@ -673,6 +673,9 @@ impl StepPlan {
         if self.buoyancy.is_none() {
             off.push("buoyancy");
         }
+        if self.applied_loads.is_none() {
+            off.push("applied loads");
+        }
         if self.moisture.is_none() {
             off.push("moisture");
         }
@@ -681,9 +684,6 @@ impl StepPlan {
         }
         if self.rolling.is_none() {
             off.push("rolling resistance");
-        }
-        if self.applied_loads.is_none() {
-            off.push("applied loads");
         }
         write!(f, "not simulated: {}", off.join(", "))
     }

@@ -75,7 +75,8 @@ where
         _ => (None, None),
     };
     let loads_lanes = (&mut p.force[..], torque, HeatLanes::of(&mut p.heat, &plan.heat));
-    let motion_lanes = (&mut p.pos[..], &mut p.vel[..], spin_lanes, Strided { items: &mut wall_contacts[..], stride: nw });
+    let motion_lanes =
+        (&mut p.pos[..], &mut p.vel[..], spin_lanes, Strided { items: &mut wall_contacts[..], stride: nw });
     let walls = &walls[..];
     for_blocks(
         0..radius.len(),

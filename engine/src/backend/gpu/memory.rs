@@ -159,10 +159,8 @@ impl MemoryPlan {
             (true, false) => 4 + 16,
             (true, true) => 4 + 16 + 4,
         };
-        let per_particle = (6 + rotation + scene.applied_loads) as u64 * 16
-            + 4 * 3
-            + HEAT_SLOT_BYTES * scene.heat_lanes as u64
-            + pore;
+        let per_particle =
+            (6 + rotation + scene.applied_loads) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64 + pore;
         // Neighbour id, pair state (and dashpot force) per slot; a state per wall.
         // (And the epsd rolling spring per slot and per wall.)
         let spring = if scene.rolling { 16 } else { 0 };
