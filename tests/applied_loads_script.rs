@@ -65,7 +65,7 @@ fn a_script_applies_forces_and_torques_by_ids_mask_and_group_and_reads_the_angle
         d.record();
         let e = d.energies();
         let row = d.status.last("applied_work");
-        [d.vx[0], d.vz[2], d.wz[1], d.az[1], d.x[0], d.z[2], d.mass[0], e.applied_work, e.total(), row,
+        [d.vx[0], d.vz[2], d.wz[1], d.az[1], d.x[0], d.z[2], d.mass[0], e.applied_work, e.total, row,
          plan0.contains("applied loads("), plan1.contains("applied loads(forces and torques on 3 element(s)"),
          d.applied_fx[0], d.applied_fz[2], d.applied_tz[1], d.applied_fx[1], d.ax[0]]"#,
     );
