@@ -622,7 +622,9 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
         p.force[i] = to64(&force[i]);
     }
     if let Some((w, t, a)) = spin {
-        let (w, t, a): (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[f32; 4]>) = (got.take(w), got.take(t), got.take(a));
+        let w: Vec<[f32; 4]> = got.take(w);
+        let t: Vec<[f32; 4]> = got.take(t);
+        let a: Vec<[f32; 4]> = got.take(a);
         if let Some(r) = &mut p.rotation {
             for i in 0..n {
                 r.ang_vel[i] = to64(&w[i]);
