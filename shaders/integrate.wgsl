@@ -1,6 +1,6 @@
 // The `integrate` stage on the GPU: gravity, MatDEM's viscous damping (semi-implicit), Cundall's
-// local damping, blocked degrees of freedom and leapfrog integration; rotation when the plan has
-// it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
+// local damping, blocked degrees of freedom and leapfrog integration; rotation (and its
+// accumulated angle) when the plan has it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
@@ -13,6 +13,8 @@
 @group(0) @binding(8) var<storage, read_write> ang_vel: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(10) var<storage, read_write> heat: array<vec2<f32>>;
+// The rotation since the upload (rad): θ += ω·dt with the half-step ω, as disp moves (rotation on).
+@group(0) @binding(11) var<storage, read_write> angle: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -80,6 +82,7 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
             w1.z = w0.z;
         }
         ang_vel[i] = vec4<f32>(w1, 0.0);
+        angle[i] = vec4<f32>(angle[i].xyz + w1 * dt, 0.0);
         if VISCOUS {
             let wm = 0.5 * (w0 + w1);
             h += body[i].y * inertia * dot(wm, wm) * dt;

@@ -283,8 +283,9 @@ pub fn model_bytes(m: &Model) -> usize {
         + cap(&p.fixed)
         + cap(&p.origin);
     if let Some(r) = &p.rotation {
-        bytes += cap(&r.ang_vel) + cap(&r.torque);
+        bytes += cap(&r.ang_vel) + cap(&r.torque) + cap(&r.angle);
     }
+    bytes += cap(&p.applied.force) + cap(&p.applied.torque) + cap(&p.applied.offset);
     bytes += p.heat.lanes().iter().map(|l| cap(l)).sum::<usize>();
     // The field stages' lanes (empty unless `bench --field` switched them on).
     bytes += p.thermal.bytes() + p.moisture.bytes();

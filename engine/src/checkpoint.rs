@@ -20,7 +20,9 @@
 //! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
 //! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
 //! network and fluid, moisture with its water lanes, the pore fluid's heat (its temperatures,
-//! thermal properties, permeability factors, region temperatures and totals) — from format 7, and
+//! thermal properties, permeability factors, region temperatures and totals), the applied loads
+//! with their work account, the rotation angles (a file without these sections loads with no
+//! loads and every angle at zero) — from format 7, and
 //! the energy account's body work with the body fields it last saw (format 8: an older file loads
 //! with no body work and the fields it holds as the ones seen, `BodyWork::from_fields`). The engine
 //! keeps no other state between steps and draws no random numbers while stepping (the box
@@ -41,6 +43,7 @@ use crate::pores::coupling::PoreSettings;
 use crate::pores::flow::{PoreBoundary, PoreFlow};
 use crate::pores::{Fluid, FluidHeat};
 use crate::provenance::Provenance;
+use crate::state::applied_loads::AppliedLoads;
 use crate::state::check_row_starts;
 use crate::state::moisture::MoistureLanes;
 use crate::state::parallel_bonds::ParallelBonds;
@@ -149,6 +152,12 @@ enum Section {
     /// temperatures and each region's booked mass and heat. A file without it loads with
     /// water's thermal properties, no factors, no region temperatures and zero totals.
     PoreHeat { settings: PoreHeatSettings, flow: Option<PoreHeatState> },
+    /// The applied loads: each element's force and torque and the work account's offsets (empty
+    /// once released) and its booked work. A file without it loads with no loads.
+    AppliedLoads { lanes: AppliedLoads },
+    /// The rotation lanes' accumulated angles (with rotation on). A file without it loads with
+    /// every angle at zero.
+    RotationAngle { angle: Vec<Vec3> },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -213,6 +222,13 @@ impl Section {
             let (settings, lanes) = (m.settings.moisture.clone(), m.particles.moisture.clone());
             out.push(Section::Moisture { settings, lanes });
         }
+        let applied = &m.particles.applied;
+        if applied.allocated(m.len()) || applied.booked != 0.0 {
+            out.push(Section::AppliedLoads { lanes: applied.clone() });
+        }
+        if let Some(r) = &m.particles.rotation {
+            out.push(Section::RotationAngle { angle: r.angle.clone() });
+        }
         out
     }
 
@@ -256,6 +272,22 @@ impl Section {
                 }
                 m.settings.moisture = settings;
                 m.particles.moisture = lanes;
+            }
+            Section::AppliedLoads { lanes } => {
+                if !lanes.consistent(m.len()) {
+                    return Err("applied loads do not match the particles, or are not finite".into());
+                }
+                m.particles.applied = lanes;
+            }
+            Section::RotationAngle { angle } => {
+                let n = m.len();
+                let Some(r) = m.particles.rotation.as_mut() else {
+                    return Err("rotation angles without the rotation lanes".into());
+                };
+                if angle.len() != n || !angle.iter().all(|a| a.iter().all(|c| c.is_finite())) {
+                    return Err("rotation angles do not match the particles, or are not finite".into());
+                }
+                r.angle = angle;
             }
             Section::PoreHeat { settings, flow } => {
                 let s = &mut m.settings.pores;
@@ -443,6 +475,11 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
     p.model.settings.heat = p.fields.heat;
     p.model.settings.water = p.fields.water;
     p.model.particles.thermal = p.fields.thermal;
+    // The angles travel in a section of their own (a file without it: every element at zero).
+    let n = p.model.len();
+    if let Some(r) = p.model.particles.rotation.as_mut() {
+        r.angle = vec![Vec3::zeros(); n];
+    }
     // After the fields, whose water table an older file's derived account takes as seen.
     p.model.body_work = p.body_work.unwrap_or_else(|| BodyWork::from_fields(BodyFields::of(&p.model)));
     for (m, prov) in p.model.materials.iter_mut().zip(p.provenance) {
@@ -527,7 +564,7 @@ fn check_particles(m: &Model) -> Result<(), String> {
         return Err(format!("thermal mode {k} of particle {i} is none of free (0), fixed (1), insulated (2)"));
     }
     if let Some(rot) = &p.rotation {
-        if rot.ang_vel.len() != n || rot.torque.len() != n {
+        if rot.ang_vel.len() != n || rot.torque.len() != n || rot.angle.len() != n {
             return Err("rotation lanes do not match the particles".into());
         }
     }

@@ -369,6 +369,68 @@ impl Model {
         Ok(())
     }
 
+    /// Applies an external force `force` (N) to each of `ids`, replacing the force it had, constant
+    /// until changed (the `applied_loads` stage). A zero force removes it; when no element keeps a
+    /// load the stage's lanes are released. The work the force does from here on is booked in the
+    /// energy account (`Energies::applied_work`). Ids and the vector are checked first: a refused
+    /// call changes nothing.
+    pub fn apply_force(&mut self, ids: &[u32], force: Vec3) -> Result<()> {
+        self.apply_loads(ids, Some(force), None)
+    }
+
+    /// Applies an external torque `torque` (N·m) to each of `ids`, as [`apply_force`](Self::apply_force)
+    /// does a force. A torque needs the elements to turn: rotation is switched on.
+    pub fn apply_torque(&mut self, ids: &[u32], torque: Vec3) -> Result<()> {
+        self.apply_loads(ids, None, Some(torque))
+    }
+
+    fn apply_loads(&mut self, ids: &[u32], force: Option<Vec3>, torque: Option<Vec3>) -> Result<()> {
+        self.check_ids(ids)?;
+        let (what, v) = match (force, torque) {
+            (Some(f), _) => ("applied force", f),
+            (None, Some(t)) => ("applied torque", t),
+            (None, None) => return Ok(()),
+        };
+        if !v.iter().all(|c| c.is_finite()) {
+            return Err(Error::InvalidScene(format!(
+                "{what} [{}, {}, {}] is not finite: give three finite numbers",
+                v.x, v.y, v.z
+            )));
+        }
+        let zero = v == Vec3::zeros();
+        let n = self.len();
+        if zero && !self.particles.applied.allocated(n) {
+            // Nothing is loaded and nothing will be.
+            return Ok(());
+        }
+        if torque.is_some() && !zero {
+            self.settings.rotation = true;
+            self.particles.enable_rotation();
+        }
+        self.particles.applied.fit(n);
+        let p = &mut self.particles;
+        for &i in ids {
+            let i = i as usize;
+            let angle = p.angle(i);
+            p.applied.set(i, &p.pos[i], &angle, force, torque);
+        }
+        if p.applied.loaded() == 0 {
+            let work = p.applied_work();
+            p.applied.release(work);
+        }
+        self.touch();
+        Ok(())
+    }
+
+    /// Removes every applied force and torque (their work to date stays in the account).
+    pub fn clear_applied_loads(&mut self) {
+        if self.particles.applied.allocated(self.len()) {
+            let work = self.particles.applied_work();
+            self.particles.applied.release(work);
+            self.touch();
+        }
+    }
+
     pub fn add_wall(&mut self, wall: Wall) -> Result<usize> {
         if self.walls.len() >= MAX_WALLS {
             return Err(Error::InvalidScene(format!("a scene may have at most {MAX_WALLS} walls")));

@@ -45,6 +45,11 @@ pub enum Stage {
     /// the fluid flows between pores in sub-steps under its stable step, and each pore's
     /// pressure pushes the elements at its corners (pores/coupling.rs). A force stage.
     PoreFlow,
+    /// Optional: applied loads, the external force and torque a script put on each element
+    /// (`d.apply_force`, `d.apply_torque`), constant until changed, added to the force and torque
+    /// lanes before integration (and before the buoyancy's drag, which reads their sum). Its lanes
+    /// (state/applied_loads.rs) exist only while some element carries a load.
+    AppliedLoads,
     /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
     /// below the level (fields.rs), a force stage: added to the force lane before integration,
     /// so local damping sees it.
@@ -69,7 +74,7 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 13] = [
+    pub const ALL: [Stage; 14] = [
         Stage::Walls,
         Stage::Neighbours,
         Stage::ContactForces,
@@ -77,6 +82,7 @@ impl Stage {
         Stage::ParallelBond,
         Stage::RollingResistance,
         Stage::PoreFlow,
+        Stage::AppliedLoads,
         Stage::Buoyancy,
         Stage::Integrate,
         Stage::Heat,
@@ -95,6 +101,7 @@ impl Stage {
             Stage::ParallelBond => "parallel_bond",
             Stage::RollingResistance => "rolling_resistance",
             Stage::PoreFlow => "pore_flow",
+            Stage::AppliedLoads => "applied_loads",
             Stage::Integrate => "integrate",
             Stage::Heat => "heat",
             Stage::Buoyancy => "buoyancy",
@@ -149,6 +156,29 @@ pub struct StepPlan {
     pub rolling: Option<RollingResistance>,
     /// Pore density flow (the scene enables it).
     pub pore_flow: Option<PoreFlowPlan>,
+    /// Applied loads (some element carries an applied force or torque).
+    pub applied_loads: Option<AppliedLoadsPlan>,
+}
+
+/// What the `applied_loads` stage has to do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AppliedLoadsPlan {
+    /// Elements with a force or a torque.
+    pub loaded: usize,
+    /// Some element carries a torque (the stage then writes the torque lane too).
+    pub torques: bool,
+}
+
+impl AppliedLoadsPlan {
+    /// The stage, when some element of `m` carries a load.
+    pub fn of(m: &Model) -> Option<Self> {
+        let a = &m.particles.applied;
+        if !a.allocated(m.len()) {
+            return None;
+        }
+        let loaded = a.loaded();
+        (loaded > 0).then(|| AppliedLoadsPlan { loaded, torques: a.has_torque() })
+    }
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -210,13 +240,17 @@ impl StepPlan {
         } else {
             HeatCauses::default()
         };
+        let applied_loads = AppliedLoadsPlan::of(m);
         StepPlan {
             normal: s.normal,
             tangential: s.tangential,
             dashpot,
-            // Parallel bonds carry moments and rolling resistance is a torque: both need the
-            // particles to turn.
-            rotation: s.rotation || parallel_bond.is_some() || rolling.is_some(),
+            // Parallel bonds carry moments, rolling resistance and an applied torque are torques:
+            // they need the particles to turn.
+            rotation: s.rotation
+                || parallel_bond.is_some()
+                || rolling.is_some()
+                || applied_loads.is_some_and(|a| a.torques),
             gravity: s.gravity.norm() > 0.0,
             damping: s.damping,
             local_damping: s.local_damping,
@@ -235,6 +269,7 @@ impl StepPlan {
             buoyancy: BuoyancyPlan::of(m),
             rolling,
             pore_flow: PoreFlowPlan::of(m),
+            applied_loads,
         }
     }
 
@@ -253,6 +288,7 @@ impl StepPlan {
             Stage::RollingResistance => self.rolling.is_some(),
             Stage::PoreFlow => self.pore_flow.is_some(),
             Stage::Buoyancy => self.buoyancy.is_some(),
+            Stage::AppliedLoads => self.applied_loads.is_some(),
             Stage::Conduction => self.conduction.is_some(),
             Stage::Moisture => self.moisture.is_some(),
             Stage::Neighbours | Stage::ContactForces | Stage::Integrate | Stage::Guard => true,
@@ -275,8 +311,8 @@ impl StepPlan {
         if self.rotation {
             sets.push(LaneSet {
                 stage: "rotation",
-                lanes: vec!["ang_vel", "torque"],
-                bytes_per_particle: 2 * v,
+                lanes: vec!["ang_vel", "torque", "angle"],
+                bytes_per_particle: 3 * v,
                 bytes_per_entry: 0,
                 bytes_per_row_entry: 0,
             });
@@ -328,6 +364,15 @@ impl StepPlan {
                 bytes_per_row_entry: 0,
             });
         }
+        if self.has(Stage::AppliedLoads) {
+            sets.push(LaneSet {
+                stage: Stage::AppliedLoads.name(),
+                lanes: vec!["applied_force", "applied_torque", "applied_work_offset"],
+                bytes_per_particle: 2 * v + f,
+                bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
+            });
+        }
         // Buoyancy reads the core's lanes and keeps none of its own.
         sets
     }
@@ -349,12 +394,13 @@ impl StepPlan {
     }
 
     /// Whether a force stage runs between the core's forces and the move (parallel bonds,
-    /// rolling resistance, pore flow, buoyancy): the CPU then runs the core's passes apart
-    /// instead of fused.
+    /// rolling resistance, pore flow, applied loads, buoyancy): the CPU then runs the core's
+    /// passes apart instead of fused.
     pub fn has_force_stage(&self) -> bool {
         self.has(Stage::ParallelBond)
             || self.has(Stage::RollingResistance)
             || self.has(Stage::PoreFlow)
+            || self.has(Stage::AppliedLoads)
             || self.has(Stage::Buoyancy)
     }
 
@@ -534,6 +580,10 @@ impl StepPlan {
             w.push(')');
             stages.push(w);
         }
+        if let Some(a) = &self.applied_loads {
+            let what = if a.torques { "forces and torques" } else { "forces" };
+            stages.push(format!("applied loads({what} on {} element(s), work booked)", a.loaded));
+        }
         if let Some(b) = &self.buoyancy {
             let drag =
                 if b.viscosity > 0.0 { format!(", stokes drag μ = {:.3e} Pa·s", b.viscosity) } else { String::new() };
@@ -622,6 +672,9 @@ impl StepPlan {
         }
         if self.buoyancy.is_none() {
             off.push("buoyancy");
+        }
+        if self.applied_loads.is_none() {
+            off.push("applied loads");
         }
         if self.moisture.is_none() {
             off.push("moisture");

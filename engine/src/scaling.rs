@@ -99,6 +99,21 @@ pub fn scaled_model(m: &Model, lambda: f64, origin: Vec3, scale_materials: bool)
             *e *= f_normal * l;
         }
     }
+    // Applied loads as the contacts' forces (× f_normal, torques × f_normal·λ), their work to
+    // date as the heat (× f_normal·λ): each offset set so that the element's work at its new
+    // position is the original's scaled (angles are kept).
+    let e = f_normal * l;
+    if p.applied.allocated(p.len()) {
+        for i in 0..p.len() {
+            let (was, angle) = (&m.particles, p.angle(i));
+            let work = was.applied.work_at(i, &was.pos[i], &angle);
+            let a = &mut p.applied;
+            a.force[i] *= f_normal;
+            a.torque[i] *= e;
+            a.offset[i] = e * work - a.force[i].dot(&p.pos[i]) - a.torque[i].dot(&angle);
+        }
+    }
+    p.applied.booked *= e;
     for s in out.contacts.state.iter_mut().chain(out.wall_contacts.iter_mut()) {
         s.shear *= f_shear;
         s.dashpot = (s.dashpot as f64 * f_normal) as f32;

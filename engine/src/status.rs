@@ -13,7 +13,7 @@ use crate::walls::WallShape;
 use serde::{Deserialize, Serialize};
 
 /// Energy account of the model (J). With no damping and no breakage the mechanical sum
-/// is constant; otherwise mechanical + heat − wall work − body work is.
+/// is constant; otherwise mechanical + heat − wall work − body work − applied work is.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Energies {
     pub kinetic: f64,
@@ -33,6 +33,11 @@ pub struct Energies {
     /// (`body_potential`): the change of the body potential where the elements stood.
     #[serde(default)]
     pub body_work: f64,
+    /// Work done on the model by the applied forces and torques (`d.apply_force`,
+    /// `d.apply_torque`): Σ F·Δx + T·Δθ over each load's constant stretches
+    /// (state/applied_loads.rs).
+    #[serde(default)]
+    pub applied_work: f64,
 }
 
 /// One energy sample of a run: the account at the start of step `step` (time `time`).
@@ -52,10 +57,10 @@ impl Energies {
         self.heat_damping + self.heat_contact_damping + self.heat_friction + self.heat_breakage
     }
 
-    /// Mechanical energy plus heat minus the work walls and changes of the body forces did:
-    /// constant in a closed system.
+    /// Mechanical energy plus heat minus the work walls, changes of the body forces and the
+    /// applied loads did: constant in a closed system.
     pub fn total(&self) -> f64 {
-        self.mechanical() + self.heat() - self.wall_work - self.body_work
+        self.mechanical() + self.heat() - self.wall_work - self.body_work - self.applied_work
     }
 }
 
@@ -74,6 +79,7 @@ pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
     e.gravity = body.gravity_potential(m);
     e.buoyancy = body.buoyant_potential(m);
     e.body_work = m.body_work();
+    e.applied_work = m.particles.applied_work();
     let h = &m.particles.heat;
     e.heat_damping = h.damping.iter().sum();
     e.heat_contact_damping = h.contact_damping.iter().sum();

@@ -69,6 +69,9 @@ fn bonded_box() -> Model {
     let dt = m.clock.dt;
     let r = m.mean_radius();
     m.wall_mut("top_platen").unwrap().motion = WallMotion::Servo { stress: 2e3, max_speed: 2e-3 * r / dt };
+    // Applied loads (their lanes and work account) beside the rotation angles.
+    m.apply_force(&[0, 1], Vec3::new(1e-5, 0.0, -1e-5)).unwrap();
+    m.apply_torque(&[2], Vec3::new(0.0, 1e-9, 0.0)).unwrap();
     let mut sim = Simulation::new(m);
     sim.run(50, &RunControl::default(), &mut |_| {}).unwrap();
     sim.model
@@ -235,6 +238,9 @@ const LANES: &[(&str, LaneFn)] = &[
     ("radius", |m, e, v| set(&mut m.particles.radius, e, v.map(|x| x as f64 * 1e-4 - 1e-3))),
     ("pos", |m, e, v| set(&mut m.particles.pos, e, v.map(|x| Vec3::repeat(f64::from_bits(x as u64 * 0x1234_5677))))),
     ("ang_vel", |m, e, v| v.is_none() && m.particles.rotation.as_mut().is_some_and(|r| set(&mut r.ang_vel, e, None))),
+    ("angle", |m, e, v| v.is_none() && m.particles.rotation.as_mut().is_some_and(|r| set(&mut r.angle, e, None))),
+    ("applied force", |m, e, v| v.is_none() && set(&mut m.particles.applied.force, e, None)),
+    ("applied offset", |m, e, v| v.is_none() && set(&mut m.particles.applied.offset, e, None)),
     ("heat ledger", |m, e, v| v.is_none() && set(&mut m.particles.heat.damping, e, None)),
     ("thermal mode", |m, e, v| set(&mut m.particles.thermal.mode, e, v.map(|x| x as u8))),
     ("radius0", |m, e, v| v.is_none() && set(&mut m.particles.thermal.radius0, e, None)),

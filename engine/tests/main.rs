@@ -4,6 +4,7 @@
 
 mod common;
 
+mod applied_loads;
 mod buoyancy;
 mod buoyancy_energy;
 mod checkpoint;

@@ -90,7 +90,7 @@ fn cpu_lanes(e: Effects) -> (Vec<&'static str>, usize, usize, Simulation) {
 // Without friction, dashpot, damping, moving walls, bonds or rotation nothing can release heat:
 // the plan has the core lanes only, and that is what the model holds (117 B a particle), even
 // with the ledger switched on. Each effect then adds exactly its lanes: friction and the dashpot
-// a heat lane each (8 B), bonds the breakage lane, rotation ang_vel and torque (48 B); with the
+// a heat lane each (8 B), bonds the breakage lane, rotation ang_vel, torque and angle (72 B); with the
 // ledger off no heat lane at all.
 #[test]
 fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
@@ -109,13 +109,13 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
         (
             Effects { rotation: true, friction: true, ..on },
             vec!["core", "rotation", "heat"],
-            CORE + 48 + 8,
+            CORE + 72 + 8,
             vec!["friction"],
         ),
         (
             Effects { rotation: true, friction: true, dashpot: true, bonds: true, ledger: false, parallel: false },
             vec!["core", "rotation"],
-            CORE + 48,
+            CORE + 72,
             vec![],
         ),
         // Parallel bonds: rotation (which they need), their rows (a u32 row start a particle,
@@ -123,13 +123,13 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
         (
             Effects { bonds: true, parallel: true, ..on },
             vec!["core", "rotation", "parallel_bond", "heat"],
-            CORE + 48 + 4 + 8,
+            CORE + 72 + 4 + 8,
             vec!["breakage"],
         ),
         (
             Effects { bonds: true, parallel: true, ledger: false, ..on },
             vec!["core", "rotation", "parallel_bond"],
-            CORE + 52,
+            CORE + 76,
             vec![],
         ),
     ];
@@ -181,7 +181,8 @@ fn the_heat_ledger_changes_no_motion() {
 
 // On the GPU the same plans: the heat ledger's buffer holds one 8-byte (hi, lo) f32 pair per
 // particle and cause the plan has, a 128-byte placeholder without the ledger; the rotation lanes
-// (two vec4<f32>, 32 B a particle) exist only with rotation. Measured as differences of the
+// (angular velocity, torque and angle: three vec4<f32>, 48 B a particle) exist only with rotation;
+// the applied loads' force (and, with a torque, torque) lanes only with loads. Measured as differences of the
 // device's buffer bytes between plans that differ in that one stage.
 #[cfg(feature = "gpu")]
 #[test]
@@ -201,7 +202,22 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
     let on = device_bytes(Effects { ledger: true, ..base });
     assert_eq!(on - off, N * 2 * 8 - 128, "heat ledger: 2 causes");
     let rot = device_bytes(Effects { rotation: true, ..base });
-    assert_eq!(rot - off, 2 * (N * 16 - 128), "rotation lanes");
+    assert_eq!(rot - off, 3 * (N * 16 - 128), "rotation lanes");
+    // Applied forces: a vec4<f32> a particle, the torque lane a 128-byte placeholder; with a
+    // torque, both lanes (against the same rotation plan).
+    let loads = |torque: bool| {
+        let mut m = block(Effects { rotation: true, ..base });
+        m.apply_force(&[0, 1], Vec3::new(1e-4, 0.0, 0.0)).unwrap();
+        if torque {
+            m.apply_torque(&[2], Vec3::new(0.0, 0.0, 1e-8)).unwrap();
+        }
+        let mut b = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+        matdem_engine::simulation::run_steps(&mut b, &mut m, 5, 0, &RunControl::default(), &mut |_| {}, &mut |_| {})
+            .unwrap();
+        b.bytes()
+    };
+    assert_eq!(loads(false) - rot, N * 16 + 128, "applied force lane");
+    assert_eq!(loads(true) - rot, 2 * N * 16, "applied force and torque lanes");
     // Parallel bonds against the same bonds as MatDEM's, rotation on in both: their row starts
     // (N + 1 u32), per bond end an id and a 48-byte f32 state, and a 32-byte uniform.
     let bonded = Effects { rotation: true, bonds: true, ..base };
@@ -303,8 +319,8 @@ fn rolling_resistance_allocates_lanes_only_for_epsd() {
     let mut cdt = with(RollingModel::Cdt, 0.1);
     let sets: Vec<&str> = cdt.plan().lane_sets().iter().map(|s| s.stage).collect();
     assert_eq!(sets, ["core", "rotation"]);
-    assert_eq!(cdt.plan().bytes_per_particle(), CORE + 48);
-    assert_eq!(cdt.model.particles.bytes(), N * (CORE + 48));
+    assert_eq!(cdt.plan().bytes_per_particle(), CORE + 72);
+    assert_eq!(cdt.model.particles.bytes(), N * (CORE + 72));
     assert!(cdt.model.contacts.rolling.is_empty() && cdt.model.wall_rolling.is_empty());
     assert!(cdt.plan().stages().contains(&Stage::RollingResistance));
 
@@ -313,7 +329,7 @@ fn rolling_resistance_allocates_lanes_only_for_epsd() {
     let sets: Vec<&str> = plan.lane_sets().iter().map(|s| s.stage).collect();
     assert_eq!(sets, ["core", "rotation", "rolling_resistance"]);
     // One wall: 24 B a particle; 24 B per row entry.
-    assert_eq!(plan.bytes_per_particle(), CORE + 48 + 24);
+    assert_eq!(plan.bytes_per_particle(), CORE + 72 + 24);
     assert_eq!(plan.row_entry_bytes(), 24);
     let c = &epsd.model.contacts;
     assert_eq!(c.rolling.len(), c.other.len());

@@ -2,6 +2,7 @@
 //! (0-based), so a stage touches only the lanes it needs and a GPU upload is a lane copy.
 
 use crate::physics::Vec3;
+use crate::state::applied_loads::AppliedLoads;
 use crate::state::moisture::MoistureLanes;
 use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
@@ -55,13 +56,24 @@ pub struct Particles {
     /// off). Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub moisture: MoistureLanes,
+    /// The `applied_loads` stage's lanes: external forces and torques and their work account
+    /// (empty until a scene applies a load). Saved in a checkpoint's sections.
+    #[serde(skip)]
+    pub applied: AppliedLoads,
 }
 
-/// Angular velocity and torque lanes.
+/// Angular velocity, torque and rotation angle lanes.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Rotation {
     pub ang_vel: Vec<Vec3>,
     pub torque: Vec<Vec3>,
+    /// The accumulated rotation θ = ∫ω dt (rad), advanced with the angular velocity (θ += ω·dt
+    /// with the half-step ω, as positions are). A vector, not an orientation: about a fixed axis
+    /// it is the angle turned; about changing axes it is the integral of ω, which is what an
+    /// applied torque's work T·Δθ needs (docs/physics.md). Saved in a checkpoint's sections,
+    /// so that older checkpoints still read (their elements start at zero).
+    #[serde(skip)]
+    pub angle: Vec<Vec3>,
 }
 
 /// Per-particle energy ledger: heat released by each cause and work done by walls (J).
@@ -99,8 +111,10 @@ impl Particles {
         if let Some(rot) = &mut self.rotation {
             rot.ang_vel.push(Vec3::zeros());
             rot.torque.push(Vec3::zeros());
+            rot.angle.push(Vec3::zeros());
         }
         let n = self.len() - 1;
+        self.applied.push(n);
         // Only allocated lanes grow; a plan allocates the others when it needs them.
         for lane in self.heat.lanes_mut() {
             if n > 0 && lane.len() == n {
@@ -138,7 +152,9 @@ impl Particles {
         if let Some(rot) = &mut self.rotation {
             filter(&mut rot.ang_vel, keep);
             filter(&mut rot.torque, keep);
+            filter(&mut rot.angle, keep);
         }
+        self.applied.retain(keep);
         for lane in self.heat.lanes_mut() {
             if lane.len() == keep.len() {
                 filter(lane, keep);
@@ -152,17 +168,39 @@ impl Particles {
     /// Allocates the angular lanes (rotation switched on).
     pub fn enable_rotation(&mut self) {
         if self.rotation.is_none() {
-            self.rotation =
-                Some(Rotation { ang_vel: vec![Vec3::zeros(); self.len()], torque: vec![Vec3::zeros(); self.len()] });
+            let zeros = vec![Vec3::zeros(); self.len()];
+            self.rotation = Some(Rotation { ang_vel: zeros.clone(), torque: zeros.clone(), angle: zeros });
         }
     }
 
-    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal, moisture).
+    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal, moisture,
+    /// applied loads).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         let core = self.pos.len() * (4 * size_of::<Vec3>() + 2 * size_of::<f64>() + size_of::<u32>() + 1);
-        let rotation = self.rotation.as_ref().map_or(0, |r| (r.ang_vel.len() + r.torque.len()) * size_of::<Vec3>());
-        core + rotation + self.heat.bytes() + self.thermal.bytes() + self.moisture.bytes()
+        let rotation = self
+            .rotation
+            .as_ref()
+            .map_or(0, |r| (r.ang_vel.len() + r.torque.len() + r.angle.len()) * size_of::<Vec3>());
+        core + rotation + self.heat.bytes() + self.thermal.bytes() + self.moisture.bytes() + self.applied.bytes()
+    }
+
+    /// Element `i`'s accumulated rotation (zero without the rotation lanes).
+    #[inline]
+    pub fn angle(&self, i: usize) -> Vec3 {
+        self.rotation.as_ref().and_then(|r| r.angle.get(i).copied()).unwrap_or_else(Vec3::zeros)
+    }
+
+    /// The work the applied loads have done on the model (J): Σ W_i over the elements
+    /// (`state::applied_loads`), plus what released lanes booked.
+    pub fn applied_work(&self) -> f64 {
+        let a = &self.applied;
+        let lanes: f64 = if a.allocated(self.len()) {
+            (0..self.len()).map(|i| a.work_at(i, &self.pos[i], &self.angle(i))).sum()
+        } else {
+            0.0
+        };
+        a.booked + lanes
     }
 
     /// Moment of inertia of a solid sphere, 2/5·m·r².

@@ -6,8 +6,8 @@
 //! servos), `running` (run and balance, journaled for resume), `observation` (records,
 //! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
 //! `regions` (masks from geometry, layers), `fields` (temperature, heat conduction, the
-//! water table), `moisture` (water content, evaporation, drying shrinkage) and `pores`
-//! (pore density flow).
+//! water table), `moisture` (water content, evaporation, drying shrinkage), `pores`
+//! (pore density flow) and `loads` (applied forces and torques, rotation angles).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -26,6 +26,7 @@ mod elements;
 mod fields;
 mod groups;
 mod lanes;
+mod loads;
 mod moisture;
 mod observation;
 mod pores;
@@ -186,6 +187,7 @@ fn positive(name: &str, v: f64) -> RhaiResult<f64> {
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     engine.register_type_with_name::<ModelHandle>("Model");
     lanes::register(engine, &host);
+    loads::register(engine, &host);
     settings::register(engine, &host);
     groups::register(engine, &host);
     boundaries::register(engine, &host);

@@ -35,6 +35,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     ("heat_breakage", e.heat_breakage),
                     ("wall_work", e.wall_work),
                     ("body_work", e.body_work),
+                    ("applied_work", e.applied_work),
                     ("total", e.total()),
                 ] {
                     map.insert(k.into(), v.into());
@@ -151,6 +152,10 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
         let total = m.total_water();
         row.push(("mean_water".to_string(), total / m.particles.mass.iter().sum::<f64>()));
         row.push(("total_water".to_string(), total));
+    }
+    // The applied loads' work, once a scene has applied some.
+    if m.particles.applied.allocated(m.len()) || m.particles.applied.booked != 0.0 {
+        row.push(("applied_work".to_string(), e.applied_work));
     }
     row.extend(extra);
     Ok(row.into_iter().map(|(k, v)| Dynamic::from_array(vec![k.into(), v.into()])).collect())

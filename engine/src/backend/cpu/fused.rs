@@ -70,19 +70,20 @@ where
     let (row_start, pair_start, pair, near) = (&c.row_start[..], &c.pair_start[..], &c.pair[..], &c.wall_near[..]);
     debug_assert_eq!(near.len(), p.pos.len(), "wall mask out of date: rebuild the rows first");
     let (radius, mass, material, fixed) = (&p.radius[..], &p.mass[..], &p.material[..], &p.fixed[..]);
-    let (ang_vel, torque) = match &mut p.rotation {
-        Some(r) if ROT => (Some(&mut r.ang_vel[..]), Some(&mut r.torque[..])),
+    let (spin_lanes, torque) = match &mut p.rotation {
+        Some(r) if ROT => (Some((&mut r.ang_vel[..], &mut r.angle[..])), Some(&mut r.torque[..])),
         _ => (None, None),
     };
     let loads_lanes = (&mut p.force[..], torque, HeatLanes::of(&mut p.heat, &plan.heat));
-    let motion_lanes = (&mut p.pos[..], &mut p.vel[..], ang_vel, Strided { items: &mut wall_contacts[..], stride: nw });
+    let motion_lanes =
+        (&mut p.pos[..], &mut p.vel[..], spin_lanes, Strided { items: &mut wall_contacts[..], stride: nw });
     let walls = &walls[..];
     for_blocks(
         0..radius.len(),
         Rows::None,
         (loads_lanes, motion_lanes),
         (),
-        &|range, ((force, mut torque, mut heat), (pos, vel, mut ang_vel, wall_state)), ()| {
+        &|range, ((force, mut torque, mut heat), (pos, vel, mut spin_lanes, wall_state)), ()| {
             let mut loads = WallLoads::default();
             let mut unobserved = Observed::default();
             for i in range.clone() {
@@ -111,7 +112,7 @@ where
                         radius: ri,
                         vel: vel[li],
                         mass: mass[i],
-                        ang_vel: ang_vel.as_deref().map(|a| a[li]),
+                        ang_vel: spin_lanes.as_ref().map(|(a, _)| a[li]),
                         material: material[i],
                     };
                     let mut out = ParticleOut {
@@ -126,7 +127,7 @@ where
                 let c = if DAMP { damping_c[i] } else { 0.0 };
                 let b = Translation { mass: mass[i], damping_c: c, fixed: fixed[i], force: f };
                 advance::<DAMP, LOCAL, false>(&k, &b, &mut pos[li], &mut vel[li], heat.damping_at(li), &mut unobserved);
-                if let (Some(tq), Some(w)) = (torque.as_deref_mut(), ang_vel.as_deref_mut()) {
+                if let (Some(tq), Some((w, angle))) = (torque.as_deref_mut(), spin_lanes.as_mut()) {
                     tq[li] = t;
                     spin::<DAMP, false>(
                         k.dt,
@@ -136,6 +137,7 @@ where
                         fixed[i],
                         t,
                         &mut w[li],
+                        &mut angle[li],
                         heat.damping_at(li),
                         &mut unobserved,
                     );

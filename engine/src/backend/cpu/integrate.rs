@@ -57,7 +57,7 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, plan: &Ste
     let p = &mut m.particles;
     let n = p.len();
     let (mass, force, fixed, radius) = (&p.mass, &p.force, &p.fixed, &p.radius);
-    let rot = p.rotation.as_mut().filter(|_| rotation).map(|r| (&mut r.ang_vel[..], &r.torque[..]));
+    let rot = p.rotation.as_mut().filter(|_| rotation).map(|r| (&mut r.ang_vel[..], &r.torque[..], &mut r.angle[..]));
     let mut obs = for_blocks(
         0..n,
         Rows::None,
@@ -74,14 +74,14 @@ fn integrate_loop<const DAMP: bool, const LOCAL: bool>(m: &mut Model, plan: &Ste
             obs
         },
     );
-    if let Some((ang_vel, torque)) = rot {
+    if let Some((ang_vel, torque, angle)) = rot {
         // A plain loop after the translations, so the energies an observed step sums come
         // out in the same order as ever; unobserved steps spin in the fused pass (fused.rs).
         let mut heat = HeatLanes::of(&mut p.heat, &plan.heat);
         for i in 0..n {
             let c = if DAMP { damping_c[i] } else { 0.0 };
-            let (ti, wi) = (torque[i], &mut ang_vel[i]);
-            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, fixed[i], ti, wi, heat.damping_at(i), &mut obs);
+            let (ti, wi, ai) = (torque[i], &mut ang_vel[i], &mut angle[i]);
+            spin::<DAMP, true>(k.dt, mass[i], radius[i], c, fixed[i], ti, wi, ai, heat.damping_at(i), &mut obs);
         }
     }
     obs
@@ -157,8 +157,10 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
 }
 
 /// Advances one particle's angular velocity by a step under `torque`, with the same damping
-/// form as the translation; books its damping heat. A component whose rotation is fixed
-/// (`dof::RX`, `RY`, `RZ` in `fixed`) keeps its value, as a fixed translation does.
+/// form as the translation, and its accumulated rotation by the new (half-step) angular
+/// velocity times dt, as the position moves with the velocity; books its damping heat. A
+/// component whose rotation is fixed (`dof::RX`, `RY`, `RZ` in `fixed`) keeps its value, as a
+/// fixed translation does.
 #[inline(always)]
 pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     dt: f64,
@@ -168,6 +170,7 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     fixed: u8,
     torque: Vec3,
     ang_vel: &mut Vec3,
+    angle: &mut Vec3,
     mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
@@ -198,4 +201,5 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
         obs.kinetic += 0.5 * inertia * w_mean.norm_squared();
     }
     *ang_vel = w1;
+    *angle += w1 * dt;
 }

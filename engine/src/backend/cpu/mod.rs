@@ -3,6 +3,7 @@
 //! steps on are the engine's ([`crate::neighbours`]); the run loop around its chunks is the
 //! simulation's ([`crate::simulation`]).
 
+pub mod applied_loads;
 pub mod blocks;
 pub mod buoyancy;
 pub mod conduction;
@@ -120,6 +121,11 @@ impl CpuBackend {
             self.pore_flow(m);
             times.add(Stage::PoreFlow, t.elapsed());
         }
+        if let Some(a) = &self.plan.applied_loads {
+            let t = Instant::now();
+            applied_loads::applied_loads(m, a);
+            times.add(Stage::AppliedLoads, t.elapsed());
+        }
         if let Some(b) = &self.plan.buoyancy {
             let t = Instant::now();
             buoyancy::buoyancy(m, b, &self.plan.heat);
@@ -178,7 +184,7 @@ impl CpuBackend {
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
         }
-        // A force stage (parallel bonds, rolling resistance, pore flow, buoyancy) adds its loads
+        // A force stage (parallel bonds, rolling resistance, pore flow, applied loads, buoyancy) adds its loads
         // between the core's forces and the move, so a plan with one runs the core's passes
         // apart instead of fused.
         if !observe && !self.plan.has_force_stage() {
@@ -203,6 +209,9 @@ impl CpuBackend {
         }
         if self.plan.has(Stage::PoreFlow) {
             self.pore_flow(m);
+        }
+        if let Some(a) = &self.plan.applied_loads {
+            applied_loads::applied_loads(m, a);
         }
         let mut drag_heat = 0.0;
         if let Some(b) = &self.plan.buoyancy {

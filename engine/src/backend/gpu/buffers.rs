@@ -108,6 +108,10 @@ pub struct HostLanes {
     pub force: Vec<[f32; 4]>,
     pub ang_vel: Vec<[f32; 4]>,
     pub torque: Vec<[f32; 4]>,
+    /// The accumulated rotation at the upload, in f64 (empty without rotation): the device's
+    /// angle lane starts at zero and counts the rotation since, as the displacement counts the
+    /// move since the origin, and a download adds the two.
+    pub angle0: Vec<Vec3>,
     pub built: Vec<[f32; 4]>,
     pub row_len: Vec<u32>,
     pub other: Vec<u32>,
@@ -146,11 +150,13 @@ impl HostLanes {
         let body =
             (0..n).map(|i| [p.mass[i] as f32, damping_rate.get(i).copied().unwrap_or(0.0) as f32, 0.0, 0.0]).collect();
         let kind = (0..n).map(|i| p.material[i] | (u32::from(p.fixed[i]) << 24)).collect();
-        let (ang_vel, torque) = match (&p.rotation, plan.rotation) {
-            (Some(r), true) => {
-                (r.ang_vel.iter().map(|w| v4(w, 0.0)).collect(), r.torque.iter().map(|t| v4(t, 0.0)).collect())
-            }
-            _ => (Vec::new(), Vec::new()),
+        let (ang_vel, torque, angle0) = match (&p.rotation, plan.rotation) {
+            (Some(r), true) => (
+                r.ang_vel.iter().map(|w| v4(w, 0.0)).collect(),
+                r.torque.iter().map(|t| v4(t, 0.0)).collect(),
+                r.angle.clone(),
+            ),
+            _ => (Vec::new(), Vec::new(), Vec::new()),
         };
         let epsd = plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd);
         let slots = rows::to_slots(&m.contacts, n, cap, plan.dashpot, epsd);
@@ -213,6 +219,7 @@ impl HostLanes {
             force: p.force.iter().map(|f| v4(f, 0.0)).collect(),
             ang_vel,
             torque,
+            angle0,
             built,
             row_len: slots.row_len,
             other: slots.other,
@@ -316,6 +323,8 @@ pub struct DeviceLanes {
     pub force: wgpu::Buffer,
     pub ang_vel: wgpu::Buffer,
     pub torque: wgpu::Buffer,
+    /// The rotation since the upload (rad), zero at upload ([`HostLanes::angle0`]).
+    pub angle: wgpu::Buffer,
     pub built: wgpu::Buffer,
     pub row_len: wgpu::Buffer,
     pub slabs: Vec<SlabLanes>,
@@ -413,6 +422,7 @@ impl DeviceLanes {
             force: make("force", bytes_of(&h.force))?,
             ang_vel: make("angular velocity", bytes_of(&h.ang_vel))?,
             torque: make("torque", bytes_of(&h.torque))?,
+            angle: make("rotation angle", &vec![0u8; 16 * h.angle0.len()])?,
             built: make("row build positions", bytes_of(&h.built))?,
             row_len: make("row lengths", bytes_of(&h.row_len))?,
             slabs,
@@ -580,7 +590,9 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
     let disp = rb.add::<[f32; 4]>(&d.disp, n);
     let vel = rb.add::<[f32; 4]>(&d.vel, n);
     let force = rb.add::<[f32; 4]>(&d.force, n);
-    let spin = rotation.then(|| (rb.add::<[f32; 4]>(&d.ang_vel, n), rb.add::<[f32; 4]>(&d.torque, n)));
+    let spin = rotation.then(|| {
+        (rb.add::<[f32; 4]>(&d.ang_vel, n), rb.add::<[f32; 4]>(&d.torque, n), rb.add::<[f32; 4]>(&d.angle, n))
+    });
     let slabs: Vec<SlabParts> = d
         .slabs
         .iter()
@@ -609,12 +621,16 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
         p.vel[i] = to64(&vel[i]);
         p.force[i] = to64(&force[i]);
     }
-    if let Some((w, t)) = spin {
-        let (w, t): (Vec<[f32; 4]>, Vec<[f32; 4]>) = (got.take(w), got.take(t));
+    if let Some((w, t, a)) = spin {
+        let w: Vec<[f32; 4]> = got.take(w);
+        let t: Vec<[f32; 4]> = got.take(t);
+        let a: Vec<[f32; 4]> = got.take(a);
         if let Some(r) = &mut p.rotation {
             for i in 0..n {
                 r.ang_vel[i] = to64(&w[i]);
                 r.torque[i] = to64(&t[i]);
+                // The device's rotation since the upload, added to the angle then in f64.
+                r.angle[i] = h.angle0[i] + to64(&a[i]);
             }
         }
     }

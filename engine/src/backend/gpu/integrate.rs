@@ -23,6 +23,7 @@ pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes)
         &d.ang_vel,
         &d.counters,
         &d.heat,
+        &d.angle,
     ];
     Kernel::bind(device, p, &buffers, groups_for(d.n))
 }

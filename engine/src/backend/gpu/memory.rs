@@ -65,6 +65,9 @@ pub struct Scene {
     pub pore_corners: usize,
     /// The pore fluid has a temperature: each element also keeps its exchange's carry (4 bytes).
     pub pore_heat: bool,
+    /// The applied_loads stage's lanes a particle: 0 without it, 1 (forces) or 2 (forces and
+    /// torques), a vec4<f32> each.
+    pub applied_loads: usize,
 }
 
 /// Slot width for rows whose longest is `longest`: room for a quarter more (at least four),
@@ -145,8 +148,9 @@ impl MemoryPlan {
         let table = scan + 4 * (buckets(n) as u64 + 1);
         // One event per bond that may break, as far as one binding holds.
         let max_events = scene.bonds.clamp(1, (lane / 16) as usize);
-        let rotation = if scene.rotation { 2 } else { 0 };
-        // origin, displacement, velocity, body, force, build position (+ angular velocity, torque).
+        let rotation = if scene.rotation { 3 } else { 0 };
+        // origin, displacement, velocity, body, force, build position (+ angular velocity, torque,
+        // angle).
         // + kind, row length, cell item, and a (hi, lo) f32 pair per heat cause.
         // The pore network's per-element lanes (its per-pore and per-throat lanes are the stage's
         // own, `pore_flow::PoreSession::bytes`).
@@ -155,7 +159,8 @@ impl MemoryPlan {
             (true, false) => 4 + 16,
             (true, true) => 4 + 16 + 4,
         };
-        let per_particle = (6 + rotation) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64 + pore;
+        let per_particle =
+            (6 + rotation + scene.applied_loads) as u64 * 16 + 4 * 3 + HEAT_SLOT_BYTES * scene.heat_lanes as u64 + pore;
         // Neighbour id, pair state (and dashpot force) per slot; a state per wall.
         // (And the epsd rolling spring per slot and per wall.)
         let spring = if scene.rolling { 16 } else { 0 };
@@ -211,6 +216,7 @@ mod tests {
                 rolling: false,
                 pore_corners: 0,
                 pore_heat: false,
+                applied_loads: 0,
             };
             let plan = MemoryPlan::new(scene, H100).unwrap();
             let per = plan.bytes_per_particle();
@@ -240,6 +246,7 @@ mod tests {
             rolling: false,
             pore_corners: 0,
             pore_heat: false,
+            applied_loads: 0,
         };
         let limits = Limits { binding: 1 << 30, buffer: 1 << 30 };
         let bare = MemoryPlan::new(scene, limits).unwrap();
@@ -263,6 +270,7 @@ mod tests {
             rolling: false,
             pore_corners: 0,
             pore_heat: false,
+            applied_loads: 0,
         };
         let plan = MemoryPlan::new(scene, Limits { binding: 64 * 16 * 16 * 3 + 5, buffer: 1 << 30 }).unwrap();
         assert_eq!(plan.cap, 16);
@@ -284,6 +292,7 @@ mod tests {
             rolling: false,
             pore_corners: 0,
             pore_heat: false,
+            applied_loads: 0,
         };
         let e = MemoryPlan::new(scene, Limits { binding: 128 << 20, buffer: 1 << 40 }).unwrap_err().to_string();
         assert!(e.contains("`positions`") && e.contains("134217728") && e.contains("fewer particles"), "{e}");

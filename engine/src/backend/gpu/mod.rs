@@ -5,8 +5,8 @@
 //! and speed, the guard's findings), at the end of the run the state a script reads; the
 //! next run continues on the device when the model is as that sync left it ([`Resident`]). One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
-//! wall forces → parallel bonds, rolling resistance, pore flow, buoyancy (when the scene has
-//! them) → integration; when the drift reaches half the skin the rows are rebuilt on the
+//! wall forces → parallel bonds, rolling resistance, pore flow, applied loads, buoyancy (when the
+//! scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on the
 //! device ([`rows`]). The pore network's topology is built on the host and rebuilt through it
 //! ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
@@ -30,6 +30,7 @@
 //! slots out wider; [`RowStats`] counts them), and energy samples (the state comes back to
 //! the host for each sample).
 
+pub mod applied_loads;
 pub mod buffers;
 pub mod buoyancy;
 pub mod conduction;
@@ -98,7 +99,9 @@ struct Pipelines {
     pore_flow: Option<pore_flow::Pipelines>,
     integrate: wgpu::ComputePipeline,
     guard: wgpu::ComputePipeline,
-    /// The optional buoyancy (a force stage) and field stages, only when the plan has them.
+    /// The optional applied loads and buoyancy (force stages) and field stages, only when the
+    /// plan has them.
+    applied_loads: Option<wgpu::ComputePipeline>,
     buoyancy: Option<wgpu::ComputePipeline>,
     conduction: Option<conduction::Pipelines>,
     moisture: Option<moisture::Pipelines>,
@@ -124,6 +127,7 @@ struct Kernels {
     rolling_resistance: Vec<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
+    applied_loads: Option<Kernel>,
     buoyancy: Option<Kernel>,
     conduction: Option<conduction::Kernels>,
     moisture: Option<moisture::Kernels>,
@@ -260,6 +264,7 @@ impl GpuBackend {
             pore_flow: plan.pore_flow.map(|f| pore_flow::pipelines(device, &constants, f.thermal)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
+            applied_loads: plan.applied_loads.as_ref().map(|a| applied_loads::pipeline(device, &constants, a)),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
             conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
             moisture: plan.moisture.as_ref().map(|w| moisture::pipelines(device, &constants, w)),
@@ -378,6 +383,7 @@ impl GpuBackend {
                 _ => 0,
             },
             pore_heat: self.plan.pore_flow.is_some_and(|p| p.thermal),
+            applied_loads: self.plan.applied_loads.map_or(0, |a| 1 + usize::from(a.torques)),
         };
         let limits = self.limits();
         let layout = memory::MemoryPlan::new(scene, limits)?;
@@ -415,6 +421,10 @@ impl GpuBackend {
         let p = &self.pipelines;
         let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
         let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
+        let applied = match &self.plan.applied_loads {
+            Some(a) => Some(applied_loads::Lanes::upload(&self.ctx, m, a, limit)?),
+            None => None,
+        };
         let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let pores = match &p.pore_flow {
             Some(pipelines) => {
@@ -441,6 +451,11 @@ impl GpuBackend {
                 .map_or_else(Vec::new, |r| rolling_resistance::kernels(device, r, &lanes)),
             integrate: integrate::kernel(device, &p.integrate, &lanes),
             guard: guard::kernels(device, &p.guard, &lanes),
+            applied_loads: p
+                .applied_loads
+                .as_ref()
+                .zip(applied.as_ref())
+                .map(|(a, loads)| applied_loads::kernel(device, a, &lanes, loads)),
             buoyancy: p.buoyancy.as_ref().zip(water.as_ref()).map(|(b, w)| buoyancy::kernel(device, b, &lanes, w)),
             conduction: p
                 .conduction
@@ -459,10 +474,12 @@ impl GpuBackend {
             + bonds.as_ref().map_or(0, |b| b.bytes)
             + thermal.as_ref().map_or(0, |t| t.bytes)
             + moist.as_ref().map_or(0, |w| w.bytes)
-            + pores.as_ref().map_or(0, |f| f.bytes);
+            + pores.as_ref().map_or(0, |f| f.bytes)
+            + applied.as_ref().map_or(0, |a| a.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
+        // The applied loads' lanes live in their kernel's bind group (read only: nothing to download).
         Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal, water: moist, pores })
     }
 
@@ -532,6 +549,9 @@ impl GpuBackend {
         }
         if let Some(f) = &s.pores {
             out.push((Stage::PoreFlow, StageWork::Pores(f)));
+        }
+        if let Some(a) = &kr.applied_loads {
+            out.push((Stage::AppliedLoads, StageWork::Kernels(vec![a])));
         }
         if let Some(b) = &kr.buoyancy {
             out.push((Stage::Buoyancy, StageWork::Kernels(vec![b])));

@@ -20,6 +20,7 @@ pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
 pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
 pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
 pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
+pub const APPLIED_LOADS: &str = include_str!("../../../../shaders/applied_loads.wgsl");
 /// The conduction stage: the diffusion core it shares with moisture (diffusion.wgsl), then its
 /// own file.
 pub const CONDUCTION: &str = concat!(
@@ -43,7 +44,7 @@ pub const PORE_HEAT: &str = concat!(
 );
 
 /// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 16] = [
+pub const STAGES: [(&str, &str); 17] = [
     ("neighbours", NEIGHBOURS),
     ("cell_list", CELL_LIST),
     ("scan", SCAN),
@@ -55,6 +56,7 @@ pub const STAGES: [(&str, &str); 16] = [
     ("rolling_resistance", ROLLING_RESISTANCE),
     ("integrate", INTEGRATE),
     ("guard", GUARD),
+    ("applied_loads", APPLIED_LOADS),
     ("buoyancy", BUOYANCY),
     ("conduction", CONDUCTION),
     ("moisture", MOISTURE),

@@ -1,0 +1,50 @@
+//! The `applied_loads` stage on the GPU (shaders/applied_loads.wgsl): each element's applied force
+//! (and torque, `APPLIED_TORQUE`, a constant of this pipeline alone) added to its force (and
+//! torque) lane, every step, after the other force stages but buoyancy and before `integrate`.
+//! Built only when the plan has the stage; its lanes (the loads as vec4<f32>, the torques a
+//! 128-byte placeholder without any) are uploaded with the model and only read: a download brings
+//! nothing back (the loads are the model's, their work is booked on the host). CPU twin:
+//! `backend/cpu/applied_loads.rs`.
+
+use super::buffers::{storage_lane, DeviceLanes};
+use super::device::GpuContext;
+use super::shaders::{self, groups_for, Kernel};
+use crate::error::Result;
+use crate::model::Model;
+use crate::plan::{AppliedLoadsPlan, Stage};
+
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLoadsPlan) -> wgpu::ComputePipeline {
+    let mut constants = constants.to_vec();
+    constants.push(("APPLIED_TORQUE", if plan.torques { 1.0 } else { 0.0 }));
+    let name = Stage::AppliedLoads.name();
+    shaders::pipeline(device, name, shaders::APPLIED_LOADS, name, &constants)
+}
+
+/// The stage's lanes on the device.
+pub struct Lanes {
+    /// Each element's applied force (N), xyz of a vec4<f32>.
+    pub force: wgpu::Buffer,
+    /// Each element's applied torque (N·m); a placeholder when the plan has no torque.
+    pub torque: wgpu::Buffer,
+    /// Bytes of both.
+    pub bytes: u64,
+}
+
+impl Lanes {
+    /// Uploads the model's loads (f32) for `plan`, refusing a lane over `limit` bytes.
+    pub fn upload(ctx: &GpuContext, m: &Model, plan: &AppliedLoadsPlan, limit: u64) -> Result<Self> {
+        let a = &m.particles.applied;
+        let v4 = |v: &crate::physics::Vec3| [v.x as f32, v.y as f32, v.z as f32, 0.0f32];
+        let force: Vec<[f32; 4]> = a.force.iter().map(v4).collect();
+        let torque: Vec<[f32; 4]> = if plan.torques { a.torque.iter().map(v4).collect() } else { Vec::new() };
+        let mut bytes = 0;
+        let force = storage_lane(ctx, "applied force", bytemuck::cast_slice(&force), 128, limit, &mut bytes)?;
+        let torque = storage_lane(ctx, "applied torque", bytemuck::cast_slice(&torque), 128, limit, &mut bytes)?;
+        Ok(Lanes { force, torque, bytes })
+    }
+}
+
+pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, loads: &Lanes) -> Kernel {
+    let buffers = [&d.params, &d.kind, &loads.force, &loads.torque, &d.force, &d.torque];
+    Kernel::bind(device, p, &buffers, groups_for(d.n))
+}

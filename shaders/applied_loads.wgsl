@@ -1,0 +1,28 @@
+// The `applied_loads` stage on the GPU, a force stage after the others (and before buoyancy,
+// whose drag reads their sum) and `integrate`: each loaded element adds its applied force to its
+// own force lane and, when the plan has torques (APPLIED_TORQUE), its applied torque to its own
+// torque lane. Killed elements feel nothing. No atomics. Their work is booked on the host, from
+// the positions and angles a download brings back (state/applied_loads.rs).
+// CPU twin: backend/cpu/applied_loads.rs.
+
+// Some element carries a torque: the torque lane is written (it exists only with rotation).
+override APPLIED_TORQUE: bool = false;
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> kind: array<u32>;
+@group(0) @binding(2) var<storage, read> applied_force: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> applied_torque: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> force: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> torque: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn applied_loads(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n || (kind[i] & KILLED) != 0u {
+        return;
+    }
+    force[i] = vec4<f32>(force[i].xyz + applied_force[i].xyz, force[i].w);
+    if APPLIED_TORQUE {
+        torque[i] = vec4<f32>(torque[i].xyz + applied_torque[i].xyz, torque[i].w);
+    }
+}
