@@ -474,4 +474,18 @@ mod tests {
         m.walls[1].normal_force = 2.0;
         assert_eq!(wall_stress(&m, 1), 2.0 / 4e-4);
     }
+
+    #[test]
+    fn a_segment_counts_by_its_share_inside_each_region() {
+        let (a, b) = (Vec3::new(-1.0, 0.5, 0.5), Vec3::new(1.0, 0.5, 0.5));
+        let cube = Region::Box { lo: Vec3::zeros(), hi: Vec3::repeat(1.0) };
+        assert!((cube.segment_share(a, b) - 0.5).abs() < 1e-15);
+        assert_eq!(cube.segment_share(a + Vec3::z() * 2.0, b + Vec3::z() * 2.0), 0.0);
+        let ball = Region::Sphere { center: Vec3::new(0.0, 0.5, 0.5), radius: 0.5 };
+        assert!((ball.segment_share(a, b) - 0.5).abs() < 1e-15);
+        let can = Region::Cylinder { center: Vec3::new(0.0, 0.5, 0.0), radius: 0.25, z0: 0.0, z1: 1.0 };
+        assert!((can.segment_share(a, b) - 0.25).abs() < 1e-15);
+        // A vertical segment on the cylinder's axis: inside between z0 and z1.
+        assert!((can.segment_share(Vec3::new(0.0, 0.5, -1.0), Vec3::new(0.0, 0.5, 1.0)) - 0.5).abs() < 1e-15);
+    }
 }

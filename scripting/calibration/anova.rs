@@ -460,7 +460,7 @@ mod tests {
     /// in 500-digit arithmetic, https://www.itl.nist.gov/div898/strd/anova/SiRstv.html):
     /// between instrument dof 4, SS 5.11462616000000E-02, MS 1.27865654000000E-02,
     /// F 1.18046237440255E+00; within instrument dof 20, SS 2.16636560000000E-01,
-    /// MS 1.08318280000000E-02. Matched to 1e-8 relative (measured: ≤ 2e-12).
+    /// MS 1.08318280000000E-02. Matched to 1e-8 relative (measured: 3.8e-13).
     #[test]
     fn one_way_anova_of_nist_sirstv_gives_its_certified_values() {
         let groups: Vec<Vec<f64>> = vec![

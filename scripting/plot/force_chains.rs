@@ -14,6 +14,9 @@ use super::{draw_err, PlotError};
 /// Widest chain line, in pixels (the largest force); the smallest drawn is 1 px.
 const MAX_WIDTH: f64 = 9.0;
 
+/// One chain: the two centres in the picture's plane and the normal force (N).
+pub type Chain = ((f64, f64), (f64, f64), f64);
+
 /// A force chain picture in the plane of its two axes.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ForceChainPicture {
@@ -23,7 +26,7 @@ pub struct ForceChainPicture {
     /// Elements of the section: (x, y, r).
     pub elements: Vec<(f64, f64, f64)>,
     /// Chains: the two centres and the normal force (N, compression > 0).
-    pub chains: Vec<((f64, f64), (f64, f64), f64)>,
+    pub chains: Vec<Chain>,
     /// Wall sections as segments.
     pub walls: Vec<((f64, f64), (f64, f64))>,
 }
@@ -104,7 +107,7 @@ impl ForceChainPicture {
                 .map_err(draw_err)?;
         }
         let top = self.chains.iter().map(|c| c.2).fold(0.0, f64::max);
-        let mut order: Vec<&((f64, f64), (f64, f64), f64)> = self.chains.iter().filter(|c| c.2 > 0.0).collect();
+        let mut order: Vec<&Chain> = self.chains.iter().filter(|c| c.2 > 0.0).collect();
         // The strongest on top.
         order.sort_by(|a, b| a.2.total_cmp(&b.2));
         for &(a, b, f) in order {

@@ -76,7 +76,7 @@ impl Rose {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let sectors = self.sectors();
         let top = sectors.iter().copied().fold(0.0, f64::max);
-        if !(top > 0.0) {
+        if top.is_nan() || top <= 0.0 {
             return Err(PlotError::Empty { figure: self.title.clone(), reason: "no direction to count".into() });
         }
         root.fill(&WHITE).map_err(draw_err)?;

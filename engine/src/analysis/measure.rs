@@ -147,7 +147,7 @@ pub fn strain(reference: &[Vec3], current: &[Vec3], selected: &[bool]) -> Result
     // A set in one plane (or on a line) has a singular second moment: its gradient out of
     // that plane is undetermined.
     let (moments, _) = principal(&xx);
-    if !(moments[2] > 1e-12 * moments[0]) {
+    if moments[2].is_nan() || moments[2] <= 1e-12 * moments[0] {
         return Err(Error::InvalidScene(format!(
             "strain: the {} elements of the region lie in one plane (or on a line) in the reference state, so the \
              displacement gradient across it is undetermined; use a region that holds a 3-D set of elements",

@@ -274,4 +274,18 @@ mod tests {
         let want = PI * a * a * 2.0 * (R * R - a * a).sqrt() + 2.0 * cap(hc);
         assert!(rel(v, want) < 1e-12, "{v} vs {want}");
     }
+
+    #[test]
+    fn two_spheres_share_their_lens() {
+        let r = 2.0;
+        // Equal spheres a radius apart: the lens is 5πr³/12.
+        let lens = sphere_sphere_volume(Vec3::zeros(), r, Vec3::new(r, 0.0, 0.0), r);
+        assert!((lens / (5.0 * PI * r * r * r / 12.0) - 1.0).abs() < 1e-14, "{lens}");
+        assert_eq!(sphere_sphere_volume(Vec3::zeros(), 0.5, Vec3::new(1.0, 0.0, 0.0), 3.0), sphere_volume(0.5));
+        assert_eq!(sphere_sphere_volume(Vec3::zeros(), 1.0, Vec3::new(3.0, 0.0, 0.0), 2.0), 0.0);
+        // Against the box code: a sphere whose centre is on a huge sphere's surface is halved.
+        let big = 1e4;
+        let half = sphere_sphere_volume(Vec3::new(big, 0.0, 0.0), 1.0, Vec3::zeros(), big);
+        assert!((half / (sphere_volume(1.0) / 2.0) - 1.0).abs() < 1e-3, "{half}");
+    }
 }

@@ -151,7 +151,7 @@ fn force_chains(d: &ModelHandle, slice: Option<f64>, threshold: f64) -> RhaiResu
             "show_force_chains: no element within {w:e} m of the mid-plane y = {y_mid:e}; widen the slice"
         )));
     }
-    let mut chains: Vec<((f64, f64), (f64, f64), f64)> = list
+    let mut chains: Vec<crate::plot::force_chains::Chain> = list
         .rows
         .iter()
         .filter(|r| r.is_active() && r.normal_force > 0.0 && in_slice(r.point.y))
