@@ -30,6 +30,10 @@ fn oedometer_package_quick_writes_outputs_and_strain_and_coordination_grow() {
         "class_force_sample3.svg",
         "sample1_size_class.png",
         "sample2_contact_load.svg",
+        "sample1_chains_50kPa.png",
+        "sample3_chains_3200kPa.svg",
+        "sample2_rose_50kPa.svg",
+        "sample3_rose_3200kPa.png",
     ] {
         assert!(dir.join(f).is_file(), "missing {f}");
     }

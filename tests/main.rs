@@ -4,6 +4,7 @@
 
 mod common;
 
+mod analysis_script;
 mod applied_loads_script;
 mod auto_backend_cli;
 mod bench_cli;

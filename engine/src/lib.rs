@@ -21,6 +21,8 @@
 //!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage);
 //!   [`moisture`] the water content with evaporation, drying shrinkage and bond strength (the
 //!   `moisture` stage); both diffuse through the shared core [`diffusion`].
+//! - [`analysis`] reads a settled model: the contact list by the contact laws, fabric,
+//!   Love–Weber stress, porosity and strain in a region.
 //! - [`status`] measures energies, heat, coordination number and porosity;
 //!   [`body_potential`] the water table's buoyant potential and the work of changing gravity
 //!   or the table between runs.
@@ -34,6 +36,7 @@
 //!
 //! Units are SI; particle ids are 0-based.
 
+pub mod analysis;
 pub mod backend;
 pub mod bench;
 pub mod body_potential;

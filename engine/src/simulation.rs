@@ -259,6 +259,15 @@ impl Simulation {
         crate::status::contact_loads(&self.model, plan)
     }
 
+    /// Every contact and bond as the model holds them now, with each element's force and
+    /// torque sums ([`crate::analysis::contact_list`]), the rows rebuilt first if they do not
+    /// cover the current positions.
+    pub fn contact_list(&mut self) -> crate::analysis::ContactList {
+        self.refresh_rows();
+        let plan = &prepared(&mut self.prepared, &self.model).plan;
+        crate::analysis::contact_list(&self.model, plan)
+    }
+
     /// Rebuilds the neighbour rows if they do not cover the current positions (never built,
     /// particles added, or drifted past half the skin), so observers see every contact.
     fn refresh_rows(&mut self) {

@@ -104,7 +104,7 @@ fn grains(nx: usize, ny: usize, nz: usize, pitch: f64, seed: u64) -> Model {
     m
 }
 
-const GRAIN_R: f64 = 0.002;
+pub(crate) const GRAIN_R: f64 = 0.002;
 const PITCH: f64 = 2.3 * GRAIN_R;
 
 /// [`grains`] on a loose grid dropped into a box of five walls under gravity `g` (MatDEM's

@@ -10,6 +10,7 @@ mod buoyancy_energy;
 mod checkpoint;
 mod conduction;
 mod cone;
+mod contact_analysis;
 mod contact_laws;
 mod energy_and_stability;
 mod field_parity;

@@ -6,11 +6,20 @@
 //! lists below name every table, and [`functions`] and [`properties`] read them all.
 
 /// Every table of functions: this file's and those kept where their names are registered.
-pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] =
-    &[DOCS, super::geometry::DOCS, super::model::cutting::DOCS, super::statistics::DOCS, crate::size_checks::DOCS];
+pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] = &[
+    DOCS,
+    super::geometry::DOCS,
+    super::model::cutting::DOCS,
+    super::statistics::DOCS,
+    crate::size_checks::DOCS,
+    super::model::contacts::DOCS,
+    super::model::fabric::DOCS,
+    super::model::measure::DOCS,
+];
 
 /// Every table of properties, as [`FUNCTION_TABLES`].
-pub const PROPERTY_TABLES: &[&[(&str, &str, &str)]] = &[PROPERTIES, super::geometry::PROPERTIES];
+pub const PROPERTY_TABLES: &[&[(&str, &str, &str)]] =
+    &[PROPERTIES, super::geometry::PROPERTIES, super::model::contacts::PROPERTIES];
 
 /// Every documented function: (name, usage, what it does).
 pub fn functions() -> impl Iterator<Item = &'static (&'static str, &'static str, &'static str)> {

@@ -1,5 +1,6 @@
 //! Statistics of whole arrays: percentiles (and the median) and histograms of a `Field`,
-//! e.g. the distribution of displacements, contact loads or radii in a region.
+//! e.g. the distribution of displacements, contact loads or radii in a region; and the
+//! one-way analysis of variance of groups of any sizes (`anova_oneway`).
 //!
 //! Conventions are NumPy's defaults, so numbers match a user's notebook: a percentile
 //! interpolates linearly between order statistics (rank (n − 1)·p/100); histogram bins are
@@ -15,6 +16,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("percentile", "f.percentile(p) -> f64", "the p-th percentile (0 ≤ p ≤ 100), linear between order statistics (NumPy's default); refuses an empty field and NaN/inf elements, naming the first"),
     ("percentiles", "f.percentiles([p1, p2, …]) -> Field", "several percentiles at once (one sort)"),
     ("median", "f.median() -> f64", "the 50th percentile"),
+    ("anova_oneway", "anova_oneway([f1, f2, …]) -> map", "one-way analysis of variance of two or more groups of any sizes (Fields or arrays of numbers): #{ ss_between, ss_within, ss_total, dof_between, dof_within, dof_total, ms_between, ms_within, f, p, grand_mean, means } with F = MS_between/MS_within and p = P(F(g − 1, N − g) > F); checked against NIST StRD SiRstv"),
     ("histogram", "f.histogram(bins) / f.histogram(edges) -> map", "counts per bin: bins equal bins over [min, max], or the bins between increasing edges (each [eₖ, eₖ₊₁), the last closed); #{ edges: Field, counts: Field, outside: int } (values beyond the edges are counted in outside)"),
 ];
 
@@ -82,7 +84,36 @@ fn histogram_map(edges: Vec<f64>, counts: Vec<f64>, outside: INT) -> Map {
     ])
 }
 
+/// `anova_oneway`'s map.
+fn one_way(groups: Array) -> RhaiResult<Map> {
+    let groups = groups
+        .iter()
+        .enumerate()
+        .map(|(k, g)| to_numbers(g, &format!("anova_oneway: group {}", k + 1)))
+        .collect::<RhaiResult<Vec<_>>>()?;
+    let a = crate::calibration::anova::one_way(&groups).map_err(|e| err(format!("anova_oneway: {e}")))?;
+    let mut m = Map::new();
+    for (k, v) in [
+        ("ss_between", a.ss_between),
+        ("ss_within", a.ss_within),
+        ("ss_total", a.ss_total),
+        ("ms_between", a.ms_between),
+        ("ms_within", a.ms_within),
+        ("f", a.f),
+        ("p", a.p),
+        ("grand_mean", a.grand_mean),
+    ] {
+        m.insert(k.into(), Dynamic::from_float(v));
+    }
+    for (k, v) in [("dof_between", a.dof_between), ("dof_within", a.dof_within), ("dof_total", a.dof_total)] {
+        m.insert(k.into(), Dynamic::from_int(v as INT));
+    }
+    m.insert("means".into(), Dynamic::from(Field::new(a.means)));
+    Ok(m)
+}
+
 pub fn register(engine: &mut Engine) {
+    engine.register_fn("anova_oneway", one_way);
     engine
         .register_fn("percentile", |f: &mut Field, p: Dynamic| -> RhaiResult<f64> {
             let p = number(&p, "percentile")?;

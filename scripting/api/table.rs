@@ -1,5 +1,6 @@
 //! Tables of records (MatDEM's `d.status` history): named columns of numbers, one row per
-//! `record`, saved as CSV.
+//! `record`, saved as CSV. A table the host makes may also carry columns of text (the
+//! contact table's wall names and bond states), read as arrays of strings.
 
 use super::field::{number, Field};
 use super::{err, write_atomic, Host, RhaiResult};
@@ -18,6 +19,17 @@ pub struct TableData {
     index: HashMap<String, usize>,
     /// The table's numbers in the run's memory budget.
     charge: Charge,
+    /// Columns of text, each placed before the numeric column of index `at` (after them all
+    /// when `at` is their count); host-made tables only (`add_row` and CSV give numbers).
+    pub text: Vec<TextColumn>,
+}
+
+/// A column of text in a [`TableData`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextColumn {
+    pub name: String,
+    pub at: usize,
+    pub values: Vec<String>,
 }
 
 /// A shared table handle: every copy in the script refers to the same rows.
@@ -43,7 +55,39 @@ impl TableData {
             index.entry(name.clone()).or_insert(k);
         }
         let bytes = columns.iter().map(|(_, v)| 8 * v.capacity() as u64).sum();
-        TableData { columns, rows, index, charge: Charge::counted(bytes) }
+        TableData { columns, rows, index, charge: Charge::counted(bytes), text: Vec::new() }
+    }
+
+    /// Adds a column of text (one value per row) before the numeric column `at`.
+    pub fn with_text(mut self, name: &str, at: usize, values: Vec<String>) -> Self {
+        debug_assert_eq!(values.len(), self.rows, "a text column of {} values for {} rows", values.len(), self.rows);
+        self.charge.add(values.iter().map(|v| v.len() as u64 + 24).sum());
+        self.text.push(TextColumn { name: name.to_string(), at: at.min(self.columns.len()), values });
+        self
+    }
+
+    /// The column names in order, text columns in their places.
+    pub fn names(&self) -> Vec<&str> {
+        let mut out = Vec::with_capacity(self.columns.len() + self.text.len());
+        for k in 0..=self.columns.len() {
+            out.extend(self.text.iter().filter(|t| t.at == k).map(|t| t.name.as_str()));
+            if let Some((name, _)) = self.columns.get(k) {
+                out.push(name.as_str());
+            }
+        }
+        out
+    }
+
+    /// Row `r`'s cells as text, in the order of [`names`](Self::names).
+    fn cells(&self, r: usize) -> Vec<String> {
+        let mut out = Vec::with_capacity(self.columns.len() + self.text.len());
+        for k in 0..=self.columns.len() {
+            out.extend(self.text.iter().filter(|t| t.at == k).map(|t| t.values[r].clone()));
+            if let Some((_, v)) = self.columns.get(k) {
+                out.push(format!("{}", v[r]));
+            }
+        }
+        out
     }
 
     /// Appends a row; a new column is back-filled with NaN, a missing value is NaN. A name
@@ -51,6 +95,10 @@ impl TableData {
     pub fn push(&mut self, row: &[(String, f64)]) {
         for (_, col) in &mut self.columns {
             col.push(f64::NAN);
+        }
+        // A text column gets an empty cell (rows add numbers only).
+        for t in &mut self.text {
+            t.values.push(String::new());
         }
         let mut slots = Vec::with_capacity(row.len());
         for (name, _) in row {
@@ -74,8 +122,11 @@ impl TableData {
     }
 
     pub fn column(&self, name: &str) -> RhaiResult<&[f64]> {
+        if self.text.iter().any(|t| t.name == name) {
+            return Err(err(format!("column `{name}` holds text, not numbers; read it with t[\"{name}\"] (an array)")));
+        }
         self.index.get(name).map(|&k| self.columns[k].1.as_slice()).ok_or_else(|| {
-            let known: Vec<&str> = self.columns.iter().map(|(c, _)| c.as_str()).collect();
+            let known = self.names();
             let hint = matdem_engine::error::did_you_mean(name, &known);
             err(format!("no column `{name}`{hint}; columns: {}", known.join(", ")))
         })
@@ -158,14 +209,14 @@ impl TableData {
     /// quoted per RFC 4180 where they need it (a comma, a quote, a line break); numbers are
     /// written as Rust's `{}` writes them, NaN (a missing value) as `NaN`.
     pub fn to_csv(&self) -> String {
-        if self.columns.is_empty() {
+        if self.columns.is_empty() && self.text.is_empty() {
             // NOTE: a CSV writer spells an empty record `""`; a table without columns has
             // always been written as empty lines.
             return "\n".repeat(self.rows + 1);
         }
         let mut w = csv::Writer::from_writer(Vec::new());
-        let rows = std::iter::once(self.columns.iter().map(|(c, _)| c.clone()).collect::<Vec<_>>())
-            .chain((0..self.rows).map(|r| self.columns.iter().map(|(_, v)| format!("{}", v[r])).collect()));
+        let header: Vec<String> = self.names().into_iter().map(str::to_string).collect();
+        let rows = std::iter::once(header).chain((0..self.rows).map(|r| self.cells(r)));
         for row in rows {
             w.write_record(&row).expect("a CSV record of equal length written to memory cannot fail");
         }
@@ -202,21 +253,21 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         .register_get("rows", |t: &mut Table| t.0.borrow().rows as INT)
         .register_fn("len", |t: &mut Table| t.0.borrow().rows as INT)
         .register_get("columns", |t: &mut Table| {
-            t.0.borrow().columns.iter().map(|(c, _)| Dynamic::from(c.clone())).collect::<rhai::Array>()
+            t.0.borrow().names().into_iter().map(|c| Dynamic::from(c.to_string())).collect::<rhai::Array>()
         })
-        .register_indexer_get(|t: &mut Table, name: &str| -> RhaiResult<Field> {
-            Ok(Field::new(t.0.borrow().column(name)?.to_vec()))
+        .register_indexer_get(|t: &mut Table, name: &str| -> RhaiResult<Dynamic> {
+            let d = t.0.borrow();
+            if let Some(text) = d.text.iter().find(|c| c.name == name) {
+                return Ok(Dynamic::from_array(text.values.iter().map(|v| Dynamic::from(v.clone())).collect()));
+            }
+            Ok(Dynamic::from(Field::new(d.column(name)?.to_vec())))
         })
         .register_fn("last", |t: &mut Table, name: &str| -> RhaiResult<f64> {
             t.0.borrow().column(name)?.last().copied().ok_or_else(|| err("the table has no rows yet"))
         })
         .register_fn("to_string", |t: &mut Table| {
             let d = t.0.borrow();
-            format!(
-                "Table({} rows; {})",
-                d.rows,
-                d.columns.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>().join(", ")
-            )
+            format!("Table({} rows; {})", d.rows, d.names().join(", "))
         });
     // Journaled: a resumed run does not rewrite the tables finished before its interruption.
     engine.register_fn("save", move |t: &mut Table, name: &str| -> RhaiResult<Dynamic> {
@@ -265,6 +316,15 @@ mod tests {
         assert_eq!(t.to_csv(), "b,a,c\n1,2,NaN\nNaN,4,3\n");
         let e = TableData::from_csv("x,y,x\n1,2,3\n").unwrap_err().to_string();
         assert!(e.contains("column `x` is given twice (columns 1 and 3)"), "{e}");
+    }
+
+    #[test]
+    fn text_columns_are_written_in_their_places_and_quoted_where_needed() {
+        let t = TableData::from_columns(vec![("i".into(), vec![0.0, 1.0]), ("fn".into(), vec![2.5, -1.0])], 2)
+            .with_text("wall", 1, vec![String::new(), "top, platen".into()]);
+        assert_eq!(t.names(), ["i", "wall", "fn"]);
+        assert_eq!(t.to_csv(), "i,wall,fn\n0,,2.5\n1,\"top, platen\",-1\n");
+        assert!(t.column("wall").unwrap_err().to_string().contains("holds text"));
     }
 
     #[test]

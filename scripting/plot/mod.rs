@@ -6,6 +6,8 @@
 //!   radius on equal-scale axes, coloured by a per-particle value through a
 //!   perceptual colour map with a colour bar, or through a discrete palette
 //!   with a legend when the values are a few integer classes.
+//! - [`ForceChainPicture`]: a section with a line per contact, width and colour by force.
+//! - [`Rose`]: a polar histogram of directions (contact normals) in a plane.
 //!
 //! Text uses the DejaVu Sans font compiled into the binary, so rendering needs
 //! no system fonts, fontconfig or display. Every figure has `render_svg`,
@@ -14,7 +16,9 @@
 
 pub mod bars;
 pub mod chart;
+pub mod force_chains;
 pub mod picture;
+pub mod rose;
 mod style;
 pub mod thin;
 
@@ -22,7 +26,9 @@ use std::path::{Path, PathBuf};
 
 pub use bars::BarChart;
 pub use chart::{Gap, LineChart, Series};
+pub use force_chains::ForceChainPicture;
 pub use picture::ParticlePicture;
+pub use rose::Rose;
 
 /// Why a figure could not be rendered or written.
 #[derive(Debug, thiserror::Error)]

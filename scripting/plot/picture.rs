@@ -589,10 +589,13 @@ impl ParticlePicture {
 }
 
 /// A `(low, high)` axis range.
-type Span = (f64, f64);
+pub(super) type Span = (f64, f64);
 
 /// Builder for the particle axes, identical for the probe and the real chart.
-fn plot_builder<'a, 'b, DB: DrawingBackend>(area: &'a DrawingArea<DB, Shift>, y_area: u32) -> ChartBuilder<'a, 'b, DB> {
+pub(super) fn plot_builder<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    y_area: u32,
+) -> ChartBuilder<'a, 'b, DB> {
     let mut builder = ChartBuilder::on(area);
     builder.margin(style::MARGIN).x_label_area_size(style::X_LABEL_AREA).y_label_area_size(y_area);
     builder
@@ -600,7 +603,7 @@ fn plot_builder<'a, 'b, DB: DrawingBackend>(area: &'a DrawingArea<DB, Shift>, y_
 
 /// Widens `xr` or `yr` about its centre so that one data unit spans the same
 /// number of pixels on both axes of the plotting area.
-fn equal_scale<DB: DrawingBackend>(
+pub(super) fn equal_scale<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     y_area: u32,
     (x0, x1): (f64, f64),

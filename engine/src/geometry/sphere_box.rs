@@ -45,6 +45,21 @@ pub fn sphere_box_volume(c: Vec3, r: f64, lo: Vec3, hi: Vec3) -> f64 {
     integrate_pieces(cuts, a, b, |x| disc_rectangle_area((r * r - x * x).max(0.0).sqrt(), y0, y1, z0, z1))
 }
 
+/// Volume shared by the sphere (`c`, `r`) and the sphere (`center`, `radius`) (m³): the lens
+/// of two intersecting spheres in closed form, π(R + r − e)²(e² + 2e(r + R) − 3(r − R)²)/(12e)
+/// at centre distance e, or the smaller sphere whole when it lies inside the other.
+pub fn sphere_sphere_volume(c: Vec3, r: f64, center: Vec3, radius: f64) -> f64 {
+    let e = (c - center).norm();
+    if r.is_nan() || r <= 0.0 || radius <= 0.0 || e >= r + radius {
+        return 0.0;
+    }
+    if e + r.min(radius) <= r.max(radius) {
+        return sphere_volume(r.min(radius));
+    }
+    let gap = radius + r - e;
+    PI * gap * gap * (e * e + 2.0 * e * (r + radius) - 3.0 * (r - radius).powi(2)) / (12.0 * e)
+}
+
 /// Volume shared by the sphere (`c`, `r`) and the vertical cylinder of radius `radius` about
 /// the axis through `axis` (its x, y), between heights `z0` and `z1` (m³).
 pub fn sphere_cylinder_volume(c: Vec3, r: f64, axis: Vec3, radius: f64, z0: f64, z1: f64) -> f64 {
@@ -258,5 +273,19 @@ mod tests {
         let hc = R - (R * R - a * a).sqrt();
         let want = PI * a * a * 2.0 * (R * R - a * a).sqrt() + 2.0 * cap(hc);
         assert!(rel(v, want) < 1e-12, "{v} vs {want}");
+    }
+
+    #[test]
+    fn two_spheres_share_their_lens() {
+        let r = 2.0;
+        // Equal spheres a radius apart: the lens is 5πr³/12.
+        let lens = sphere_sphere_volume(Vec3::zeros(), r, Vec3::new(r, 0.0, 0.0), r);
+        assert!((lens / (5.0 * PI * r * r * r / 12.0) - 1.0).abs() < 1e-14, "{lens}");
+        assert_eq!(sphere_sphere_volume(Vec3::zeros(), 0.5, Vec3::new(1.0, 0.0, 0.0), 3.0), sphere_volume(0.5));
+        assert_eq!(sphere_sphere_volume(Vec3::zeros(), 1.0, Vec3::new(3.0, 0.0, 0.0), 2.0), 0.0);
+        // Against the box code: a sphere whose centre is on a huge sphere's surface is halved.
+        let big = 1e4;
+        let half = sphere_sphere_volume(Vec3::new(big, 0.0, 0.0), 1.0, Vec3::zeros(), big);
+        assert!((half / (sphere_volume(1.0) / 2.0) - 1.0).abs() < 1e-3, "{half}");
     }
 }

@@ -21,12 +21,15 @@ macro_rules! observed {
 }
 
 mod boundaries;
+pub mod contacts;
 pub mod cutting;
 mod elements;
+pub mod fabric;
 mod fields;
 mod groups;
 mod lanes;
 mod loads;
+pub mod measure;
 mod moisture;
 mod observation;
 mod pores;
@@ -35,7 +38,7 @@ mod running;
 mod settings;
 
 use super::field::{number, to_numbers, Field, Mask};
-use super::table::{row_from_map, Table};
+use super::table::{row_from_map, Table, TableData};
 use super::{err, raise, Host, RhaiResult};
 use crate::resume::{self, SavedBalance};
 use crate::stop::Stop;
@@ -199,4 +202,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     moisture::register(engine, &host);
     cutting::register(engine, &host);
     pores::register(engine, &host);
+    contacts::register(engine, &host);
+    fabric::register(engine, &host);
+    measure::register(engine, &host);
 }
