@@ -32,6 +32,7 @@ mod land_subsidence_cli;
 mod material_provenance;
 mod model_surgery;
 mod movie_cli;
+mod oedometer_seeds;
 mod packages;
 mod parallel_bond_cli;
 mod pore_flow_script;
