@@ -39,3 +39,28 @@ fn hydraulic_fracture_quick_mode_breaks_bonds_at_the_well_and_writes_its_charts(
     assert!(get("distinct_cracks") >= 0.0 && gaps.0 <= gaps.1 && gaps.1 <= 360.0, "{m:?}");
     assert!(get("pressure_overshoot") >= 1.0 - 1e-9, "{m:?}");
 }
+
+// The default size (ball_r 0.015 m, ~2,250 elements, ~10,000 pores) through its pressure stages
+// to breakdown and a short hold. Before, it stopped in the first stage (step 119,300): the hull's
+// bridges over the slab's dips were pores whose fluid pushed back like a 2e12 N/m spring, and
+// the guard's fix, K_f = 9.8e4 Pa, lay below the manifest's floor of 1e5.
+#[test]
+fn hydraulic_fracture_default_size_runs_through_its_pressure_stages() {
+    let out = temp_dir("hydraulic_fracture_default").join("out");
+    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
+    let o = bin()
+        .arg("run")
+        .arg(&pkg)
+        .args(["--backend", "cpu", "--set", "hold_steps=250", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let m = metrics(&out);
+    let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
+    assert!(get("elements") > 2000.0 && get("pores") > 5000.0, "{m:?}");
+    let pb = get("breakdown_pressure");
+    assert!(pb > 4e6 && pb < 1e8 && get("broken_bonds") >= 3.0, "{m:?}");
+    assert!(get("nearest_break") < 2.0, "the first break is at the well: {m:?}");
+    assert!(get("pressure_overshoot") < 1.05, "no pore squeezed above the well's pressure: {m:?}");
+}
