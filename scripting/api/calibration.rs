@@ -14,7 +14,7 @@ use crate::calibration::refine::Refinement;
 use crate::calibration::regression::{self, Fit, Form};
 use crate::calibration::response_surface::{Inversion, Surface};
 use crate::calibration::{mohr_coulomb, CalibrationError};
-use crate::plot::{BarChart, LineChart};
+use crate::plot::{BarChart, Figure, LineChart};
 use rhai::{Array, Dynamic, Engine, FnPtr, Map, NativeCallContext, FLOAT, INT};
 use std::cell::RefCell;
 use std::rc::Rc;

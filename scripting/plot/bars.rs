@@ -1,14 +1,13 @@
 //! Bar charts: one named bar per category with optional horizontal threshold lines, e.g.
 //! the F value of each factor of an ANOVA against the critical F at 0.05 and 0.01.
 
-use std::path::{Path, PathBuf};
-
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::chart::CHART_SIZE;
 use super::style::{self, FONT};
+use super::Figure;
 use super::{draw_err, PlotError};
 
 #[derive(Debug, Clone, PartialEq)]
@@ -25,34 +24,10 @@ impl BarChart {
     pub fn new(title: impl Into<String>, y_label: impl Into<String>) -> Self {
         BarChart { title: title.into(), y_label: y_label.into(), bars: Vec::new(), thresholds: Vec::new() }
     }
+}
 
-    pub fn render_svg(&self) -> Result<String, PlotError> {
-        style::ensure_fonts()?;
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, CHART_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        Ok(svg)
-    }
-
-    pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
-        style::ensure_fonts()?;
-        let (w, h) = CHART_SIZE;
-        let mut rgb = vec![0u8; w as usize * h as usize * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut rgb, CHART_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        super::encode_png(&rgb, w, h)
-    }
-
-    /// Writes `.svg`, `.png`, or both when `path` has no extension.
-    pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
-        super::save_figure(path, || self.render_svg(), || self.render_png())
-    }
+impl Figure for BarChart {
+    const SIZE: (u32, u32) = CHART_SIZE;
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         if self.bars.is_empty() {

@@ -2,13 +2,12 @@
 //! pair in contact, its width and colour by the contact's normal force, the elements as
 //! faint outlines and the walls as dark lines.
 
-use std::path::{Path, PathBuf};
-
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::picture::{equal_scale, plot_builder, PICTURE_SIZE};
 use super::style::{self, FONT};
+use super::Figure;
 use super::{draw_err, PlotError};
 
 /// Widest chain line, in pixels (the largest force); the smallest drawn is 1 px.
@@ -31,34 +30,8 @@ pub struct ForceChainPicture {
     pub walls: Vec<((f64, f64), (f64, f64))>,
 }
 
-impl ForceChainPicture {
-    pub fn render_svg(&self) -> Result<String, PlotError> {
-        style::ensure_fonts()?;
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, PICTURE_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        Ok(svg)
-    }
-
-    pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
-        style::ensure_fonts()?;
-        let (w, h) = PICTURE_SIZE;
-        let mut rgb = vec![0u8; w as usize * h as usize * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut rgb, PICTURE_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        super::encode_png(&rgb, w, h)
-    }
-
-    /// Writes `.svg` or `.png` by extension, or both without one.
-    pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
-        super::save_figure(path, || self.render_svg(), || self.render_png())
-    }
+impl Figure for ForceChainPicture {
+    const SIZE: (u32, u32) = PICTURE_SIZE;
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         if self.elements.is_empty() {

@@ -22,6 +22,8 @@ pub mod rose;
 mod style;
 pub mod thin;
 
+use plotters::coord::Shift;
+use plotters::prelude::{BitMapBackend, DrawingArea, DrawingBackend, IntoDrawingArea, SVGBackend};
 use std::path::{Path, PathBuf};
 
 pub use bars::BarChart;
@@ -79,6 +81,43 @@ pub(crate) fn draw_err(e: impl std::fmt::Display) -> PlotError {
 /// the path when it fails.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
     crate::atomic::write(path, bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
+}
+
+/// A figure that draws itself on any plotters backend at a fixed size: SVG, PNG and `save`
+/// come with it.
+pub trait Figure {
+    /// Width and height in pixels.
+    const SIZE: (u32, u32);
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError>;
+
+    fn render_svg(&self) -> Result<String, PlotError> {
+        style::ensure_fonts()?;
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, Self::SIZE).into_drawing_area();
+            self.draw(&root)?;
+            root.present().map_err(draw_err)?;
+        }
+        Ok(svg)
+    }
+
+    fn render_png(&self) -> Result<Vec<u8>, PlotError> {
+        style::ensure_fonts()?;
+        let (w, h) = Self::SIZE;
+        let mut rgb = vec![0u8; w as usize * h as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, Self::SIZE).into_drawing_area();
+            self.draw(&root)?;
+            root.present().map_err(draw_err)?;
+        }
+        encode_png(&rgb, w, h)
+    }
+
+    /// Writes `.svg` or `.png` by extension, or both without one.
+    fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        save_figure(path, || self.render_svg(), || self.render_png())
+    }
 }
 
 /// Shared body of every figure's `save`: `.svg` writes SVG, `.png` writes PNG,

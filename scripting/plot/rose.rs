@@ -2,12 +2,11 @@
 //! weighted by their normal force). Directions are axial (n and −n are one contact), so
 //! every direction is counted at θ and θ + π and the rose is symmetric.
 
-use std::path::{Path, PathBuf};
-
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::style::{self, FONT};
+use super::Figure;
 use super::{draw_err, PlotError};
 
 /// Size of a rendered rose in pixels.
@@ -44,34 +43,10 @@ impl Rose {
         }
         out
     }
+}
 
-    pub fn render_svg(&self) -> Result<String, PlotError> {
-        style::ensure_fonts()?;
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, ROSE_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        Ok(svg)
-    }
-
-    pub fn render_png(&self) -> Result<Vec<u8>, PlotError> {
-        style::ensure_fonts()?;
-        let (w, h) = ROSE_SIZE;
-        let mut rgb = vec![0u8; w as usize * h as usize * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut rgb, ROSE_SIZE).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(draw_err)?;
-        }
-        super::encode_png(&rgb, w, h)
-    }
-
-    /// Writes `.svg` or `.png` by extension, or both without one.
-    pub fn save(&self, path: &Path) -> Result<Vec<PathBuf>, PlotError> {
-        super::save_figure(path, || self.render_svg(), || self.render_png())
-    }
+impl Figure for Rose {
+    const SIZE: (u32, u32) = ROSE_SIZE;
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let sectors = self.sectors();

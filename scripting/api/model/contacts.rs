@@ -9,7 +9,7 @@
 
 use super::*;
 use crate::api::plot::save_figure;
-use crate::plot::ForceChainPicture;
+use crate::plot::{Figure, ForceChainPicture};
 use matdem_engine::analysis::{ContactList, Other};
 use matdem_engine::WallShape;
 

@@ -6,7 +6,7 @@
 use super::measure::{region, tensor, vector};
 use super::*;
 use crate::api::plot::save_figure;
-use crate::plot::Rose;
+use crate::plot::{Figure, Rose};
 use matdem_engine::analysis::fabric;
 
 /// The documentation of every name registered here: (name, usage, what it does).
