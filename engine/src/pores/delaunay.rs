@@ -275,9 +275,7 @@ impl Tetrahedralisation {
         // Shewchuk's positive orientation is det[a−d, b−d, c−d] > 0.
         (a - d).dot(&(b - d).cross(&(c - d))) / 6.0
     }
-}
 
-impl Tetrahedralisation {
     /// Keeps the tetrahedra `keep` marks, their faces towards the others becoming hull faces.
     pub fn retain(&mut self, keep: &[bool]) {
         let mut new_id = vec![HULL; self.tets.len()];
