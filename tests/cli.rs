@@ -204,3 +204,21 @@ fn energies_and_record_show_the_heat_of_a_gpu_run() {
     }
     assert!(((heat[1] - heat[0]) / heat[0]).abs() < 1e-2, "heat cpu {:e} gpu {:e}", heat[0], heat[1]);
 }
+
+// The paper's full ring (~290,000 elements a sample) would take hours on 2 cores: the run says
+// so with its estimate before depositing anything, and what to use instead.
+#[test]
+fn oedometer_full_ring_says_before_depositing_that_it_takes_hours_and_what_to_use_instead() {
+    let dir = temp_dir("compress_full_estimate");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/oedometer");
+    let o = bin()
+        .args(["run", example, "--backend", "cpu", "--set", "full=true", "--set", "samples=1", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("No.1 would take about") && err.contains(" h on 2 CPU cores"), "{err}");
+    assert!(err.contains("--backend gpu --set long=true") && err.contains("--set ring_mm=7"), "{err}");
+    assert!(!dir.join("stages_sample1.csv").exists(), "nothing was deposited or loaded");
+}
