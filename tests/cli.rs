@@ -219,6 +219,6 @@ fn oedometer_full_ring_says_before_depositing_that_it_takes_hours_and_what_to_us
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("No.1 would take about") && err.contains(" h on 2 CPU cores"), "{err}");
-    assert!(err.contains("--backend gpu --set long=true") && err.contains("--set ring_mm=7"), "{err}");
+    assert!(err.contains("--backend gpu --set allow_hours=true") && err.contains("--set ring_mm=7"), "{err}");
     assert!(!dir.join("stages_sample1.csv").exists(), "nothing was deposited or loaded");
 }
