@@ -5,7 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::picture::{equal_scale, plot_builder, PICTURE_SIZE};
+use super::picture::{equal_scale, plot_builder, section_axes, PICTURE_SIZE};
 use super::style::{self, FONT};
 use super::Figure;
 use super::{draw_err, PlotError};
@@ -50,20 +50,7 @@ impl Figure for ForceChainPicture {
         let y_area = 70;
         let ((x0, x1), (y0, y1)) = equal_scale(&main, y_area, (x0, x1), (y0, y1))?;
         let mut chart = plot_builder(&main, y_area).build_cartesian_2d(x0..x1, y0..y1).map_err(draw_err)?;
-        let (fx, fy) = (style::tick_formatter(x0, x1), style::tick_formatter(y0, y1));
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc(self.x_label.as_str())
-            .y_desc(self.y_label.as_str())
-            .x_label_formatter(&fx)
-            .y_label_formatter(&fy)
-            .x_labels(8)
-            .y_labels(8)
-            .label_style((FONT, style::TICK_SIZE))
-            .axis_desc_style((FONT, style::LABEL_SIZE))
-            .draw()
-            .map_err(draw_err)?;
+        section_axes(&mut chart, &self.x_label, &self.y_label, (x0, x1), (y0, y1))?;
         let (xs, _) = chart.plotting_area().get_pixel_range();
         let scale = f64::from(xs.end - xs.start) / (x1 - x0);
         let faint = RGBColor(205, 205, 205);

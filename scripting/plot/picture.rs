@@ -465,21 +465,7 @@ impl ParticlePicture {
         let ((x0, x1), (y0, y1)) = ranges;
 
         let mut chart = plot_builder(&main, y_area).build_cartesian_2d(x0..x1, y0..y1).map_err(draw_err)?;
-        let fmt_x = style::tick_formatter(x0, x1);
-        let fmt_y = style::tick_formatter(y0, y1);
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc(self.x_label.as_str())
-            .y_desc(self.y_label.as_str())
-            .x_label_formatter(&fmt_x)
-            .y_label_formatter(&fmt_y)
-            .x_labels(8)
-            .y_labels(8)
-            .label_style((FONT, style::TICK_SIZE))
-            .axis_desc_style((FONT, style::LABEL_SIZE))
-            .draw()
-            .map_err(draw_err)?;
+        section_axes(&mut chart, &self.x_label, &self.y_label, (x0, x1), (y0, y1))?;
 
         // Place the discs in backend pixels; the caller paints them (see `Disc`).
         let (xs, ys) = chart.plotting_area().get_pixel_range();
@@ -641,6 +627,34 @@ fn wrap<DB: DrawingBackend>(
         lines.push(current);
     }
     Ok(lines)
+}
+
+/// The axes of a section picture: labelled ticks, no grid (the discs are the picture).
+pub(crate) fn section_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    x_label: &str,
+    y_label: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<(), PlotError> {
+    let (fmt_x, fmt_y) = (style::tick_formatter(x0, x1), style::tick_formatter(y0, y1));
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .x_label_formatter(&fmt_x)
+        .y_label_formatter(&fmt_y)
+        .x_labels(8)
+        .y_labels(8)
+        .label_style((FONT, style::TICK_SIZE))
+        .axis_desc_style((FONT, style::LABEL_SIZE))
+        .draw()
+        .map_err(draw_err)
 }
 
 #[cfg(test)]

@@ -82,6 +82,27 @@ pub struct ContactRow {
 }
 
 impl ContactRow {
+    /// The row of elements `i` (at `xi`, radius `ri`) and `j` (branch vector `d` from i to j,
+    /// radius `rj`), its forces zero until the law sets them: the contact point midway
+    /// through the overlap along the unit normal.
+    fn between(i: usize, j: usize, xi: Vec3, d: Vec3, ri: f64, rj: f64, bond: Bond) -> Self {
+        let dist = d.norm();
+        let normal = if dist > 0.0 { d / dist } else { Vec3::z() };
+        let overlap = ri + rj - dist;
+        ContactRow {
+            i: i as u32,
+            other: Other::Element(j as u32),
+            point: xi + normal * (ri - 0.5 * overlap),
+            normal,
+            overlap,
+            branch: d,
+            normal_force: 0.0,
+            shear_force: Vec3::zeros(),
+            force: Vec3::zeros(),
+            bond,
+        }
+    }
+
     /// Whether the row carries force: a touching pair, an intact bond or a wall contact (a
     /// broken bond whose elements have come apart does not).
     pub fn is_active(&self) -> bool {
@@ -156,21 +177,9 @@ fn evaluate<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(m: &Model, plan
                 if broke.is_some() {
                     seen_broken.push(j as u32);
                 }
-                let nrm = if dist > 0.0 { d / dist } else { Vec3::z() };
-                let overlap = touch - dist;
                 let bond = if st.bonded { Bond::Intact } else { broke.map_or(Bond::None, Bond::Broken) };
-                let mut row = ContactRow {
-                    i: i as u32,
-                    other: Other::Element(j as u32),
-                    point: xi + nrm * (ri - 0.5 * overlap),
-                    normal: nrm,
-                    overlap,
-                    branch: d,
-                    normal_force: 0.0,
-                    shear_force: Vec3::zeros(),
-                    force: Vec3::zeros(),
-                    bond,
-                };
+                let mut row = ContactRow::between(i, j, xi, d, ri, rj, bond);
+                let (nrm, overlap) = (row.normal, row.overlap);
                 if st.bonded || overlap > 0.0 {
                     let mut v_rel = vi - p.vel[j];
                     if ang.is_some() {
@@ -205,22 +214,7 @@ fn evaluate<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(m: &Model, plan
                 continue;
             }
             let kind = broken[&(i as u32, bj)];
-            let d = p.pos[j] - xi;
-            let dist = d.norm();
-            let nrm = if dist > 0.0 { d / dist } else { Vec3::z() };
-            let overlap = ri + p.radius[j] - dist;
-            out.rows.push(ContactRow {
-                i: i as u32,
-                other: Other::Element(bj),
-                point: xi + nrm * (ri - 0.5 * overlap),
-                normal: nrm,
-                overlap,
-                branch: d,
-                normal_force: 0.0,
-                shear_force: Vec3::zeros(),
-                force: Vec3::zeros(),
-                bond: Bond::Broken(kind),
-            });
+            out.rows.push(ContactRow::between(i, j, xi, p.pos[j] - xi, ri, p.radius[j], Bond::Broken(kind)));
         }
         for (w, wall) in m.walls.iter().enumerate() {
             let (inward, gap, _) = wall.normal_distance_part(&xi);
