@@ -64,3 +64,32 @@ fn hydraulic_fracture_default_size_runs_through_its_pressure_stages() {
     assert!(get("nearest_break") < 2.0, "the first break is at the well: {m:?}");
     assert!(get("pressure_overshoot") < 1.05, "no pore squeezed above the well's pressure: {m:?}");
 }
+
+// In-situ stresses: the grains confined by servo walls before they are bonded hold σx and σz
+// within 2 % when the walls stop (bonding zeroes the contacts' shear springs, so the walls take
+// the load back up first); a borehole is drilled and held at a pressure below the breakdown,
+// so nothing breaks, and every measure still reads (no crack, no direction).
+#[test]
+fn a_confined_block_holds_its_in_situ_stresses_and_a_drilled_well_below_breakdown_breaks_nothing() {
+    let out = temp_dir("hydraulic_fracture_confined").join("out");
+    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
+    let o = bin()
+        .arg("run")
+        .arg(&pkg)
+        .args(["--backend", "cpu", "--out"])
+        .arg(&out)
+        .args(["--set", "quick=true", "--set", "sigma_x=8e6", "--set", "sigma_z=2e6"])
+        .args(["--set", "well_r=0.075", "--set", "p_well=5e5", "--set", "hold_steps=250"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let m = metrics(&out);
+    let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
+    for (held, set) in [("sigma_x_held", 8e6), ("sigma_z_held", 2e6)] {
+        assert!((get(held) - set).abs() <= 0.02 * set, "{held} {} against {set}: {m:?}", get(held));
+    }
+    assert!(get("drilled") >= 5.0, "{m:?}");
+    assert_eq!(get("broken_bonds"), 0.0, "{m:?}");
+    assert_eq!(get("nearest_break"), -1.0, "{m:?}");
+    assert_eq!(get("axis_concentration"), 0.0, "{m:?}");
+}
