@@ -4,6 +4,8 @@
 //! against them before anything runs, `pack` writes the archive. An archive is read into
 //! memory and never extracted.
 
+pub mod fixes;
+
 use crate::sandbox::ReadRoot;
 use rhai::Dynamic;
 use serde::Deserialize;

@@ -260,6 +260,7 @@ fn evaluate(
     host.backend = RefCell::new(backend);
     host.read_root = read_root;
     host.limits = cfg.limits;
+    host.parameters = cfg.package.as_ref().map(|p| p.manifest.parameters.clone()).unwrap_or_default();
     if cfg.resume.is_some() {
         for (k, v) in &session.params {
             host.params.insert(k.as_str().into(), parse_value(v));

@@ -222,3 +222,51 @@ fn oedometer_full_ring_says_before_depositing_that_it_takes_hours_and_what_to_us
     assert!(err.contains("--backend gpu --set allow_hours=true") && err.contains("--set ring_mm=7"), "{err}");
     assert!(!dir.join("stages_sample1.csv").exists(), "nothing was deposited or loaded");
 }
+
+// The paper's CPT chamber at the paper's cone speed (~149,000 grains over the five groups,
+// ~420,000 steps each) would take hours on 2 cores: the run says so with its estimate before
+// packing any chamber (the estimate counts the grains from the chambers' volumes), and what to
+// use instead, every suggestion within the manifest's ranges.
+#[test]
+fn cpt_full_chamber_at_the_papers_speed_says_before_packing_that_it_takes_hours_and_what_to_use_instead() {
+    let dir = temp_dir("cpt_full_estimate");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
+    let started = std::time::Instant::now();
+    let o = bin()
+        .args(["run", example, "--backend", "cpu", "--set", "full=true", "--set", "speed=0.02", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(started.elapsed().as_secs_f64() < 20.0, "the estimate comes before any packing");
+    assert!(out.contains("estimate: ") && out.contains(" grains over 5 group(s)") && out.contains(" MB)"), "{out}");
+    assert!(out.contains("min (assuming 1e8 grain-steps/s there"), "the GPU rate is named as an assumption: {out}");
+    assert!(!out.contains("packed in"), "nothing was packed: {out}");
+    assert!(err.contains("this CPT run would take about") && err.contains(" h on 2 CPU cores"), "{err}");
+    assert!(err.contains("--backend gpu --set allow_hours=true") && err.contains("--set scale=0.6"), "{err}");
+    assert!(err.contains("--set speed=0.2"), "{err}");
+    assert!(!dir.join("runs.csv").exists());
+}
+
+// The hot and cold injection's finest slab (ball_r 0.008 m, ~5,400 elements, its sweep cut
+// by the step cap) would take hours on 2 cores: the run says so before depositing, with the
+// estimate, where the step cap ends the sweep, and what to use instead.
+#[test]
+fn hot_cold_injection_finest_slab_says_before_depositing_that_it_takes_hours_and_what_to_use_instead() {
+    let dir = temp_dir("hot_cold_fine_estimate");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/hot_cold_injection");
+    let started = std::time::Instant::now();
+    let o =
+        bin().args(["run", example, "--backend", "cpu", "--set", "ball_r=0.008", "--out"]).arg(&dir).output().unwrap();
+    let (out, err) = (stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(started.elapsed().as_secs_f64() < 20.0, "the estimate comes before deposition");
+    assert!(out.contains("estimate: ~") && out.contains(" elements, ~") && out.contains(" MB)"), "{out}");
+    assert!(out.contains("min (assuming 20 µs a sub-step there)"), "the GPU rate is named as an assumption: {out}");
+    assert!(out.contains("max_steps = 400000 would end the sweep near"), "{out}");
+    assert!(!out.contains("built:"), "nothing was deposited: {out}");
+    assert!(err.contains("would take about") && err.contains(" h on 2 CPU cores"), "{err}");
+    assert!(err.contains("--backend gpu --set allow_hours=true") && err.contains("--set ball_r=0.02"), "{err}");
+    assert!(!dir.join("history.csv").exists());
+}

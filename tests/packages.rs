@@ -275,3 +275,90 @@ fn the_oedometer_runs_the_same_from_its_folder_and_from_its_packed_archive() {
     assert_eq!(csv("folder").lines().count(), 9, "header, preload and 7 stages");
     assert_eq!(csv("folder"), csv("archive"), "same package, same results, bit for bit");
 }
+
+/// A package whose fluid is far too stiff for the pores of its bonded column (the scene of
+/// engine/tests/pore_coupling.rs's stiff-fluid test, K_f = 1e13 Pa): `bulk_modulus` is
+/// limited to `k_range`, and `dt_rate` (dt in standard steps) is offered when `with_dt_rate`.
+fn stiff_fluid_package(dir: &Path, k_range: &str, with_dt_rate: bool) -> PathBuf {
+    let pkg = dir.join("stiff");
+    std::fs::create_dir_all(&pkg).unwrap();
+    let dt_rate = if with_dt_rate {
+        r#"(name: "dt_rate", type: float, default: 1.0, unit: "× standard dt", range: (0.01, 1.0), help: "dt"),"#
+    } else {
+        ""
+    };
+    std::fs::write(
+        pkg.join("simulator.ron"),
+        format!(
+            r#"(name: "stiff", version: "0.1.0", description: "a stiff fluid in a bonded column", entry: "main.rhai",
+                parameters: [
+                    (name: "bulk_modulus", type: float, default: 1e13, unit: "Pa", range: {k_range}, help: "K_f"),
+                    {dt_rate}
+                ])"#
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        pkg.join("main.rhai"),
+        r#"let a = 1e-3;
+           let d = new_model("column");
+           let m = material_micro("grain", #{ kn: 1e6, ks: 4e5, mu_p: 0.5, r: 0.5 * a, density: 2650.0 });
+           d.add_elements(make_lattice("sc", 3, 3, 4, a), m, "sample");
+           d.fix("sample", "xy");
+           d.add_group("bottom", d.z < 0.5 * a);
+           d.fix("bottom", "xyz");
+           d.connect("sample", 1e-3 * a);
+           d.gravity = [0.0, 0.0, -9.81];
+           d.damping = 0.3;
+           d.set_standard_dt();
+           d.dt = d.standard_dt() * (params.dt_rate ?? 1.0);
+           d.fluid = #{ bulk_modulus: params.bulk_modulus, viscosity: 1e3, max_substeps: 1000 };
+           d.enable("pore_flow");
+           d.run(3000);
+           print(`ran ${d.step} steps`);"#,
+    )
+    .unwrap();
+    pkg
+}
+
+/// The number after `key` in `text`, up to the next space, comma or parenthesis.
+fn number_after(text: &str, key: &str) -> f64 {
+    let tail = text.split(key).nth(1).unwrap_or_else(|| panic!("no `{key}` in {text}"));
+    let end = tail.find([' ', ',', ')', '\n']).unwrap_or(tail.len());
+    tail[..end].trim_end_matches('.').parse().unwrap_or_else(|_| panic!("`{key}` is not followed by a number: {text}"))
+}
+
+// Issue 30: a guard's fix lies inside the manifest's ranges. The stiff-fluid guard names a
+// bulk modulus under this package's range: the message says it lies outside and offers the
+// other fix, dt, as the package's dt_rate within its range, and that value runs. Without a
+// dt_rate no fix lies within, and the message says to change the scene or widen a range.
+#[test]
+fn a_stiff_fluids_fix_outside_the_manifests_range_is_named_so_with_one_that_lies_inside() {
+    let dir = temp_dir("pkg_stiff_fluid");
+    let pkg = stiff_fluid_package(&dir, "(1e11, 1e14)", true);
+    let o = bin().arg("run").arg(&pkg).args(["--backend", "cpu", "--out"]).arg(dir.join("out")).output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let k_f = number_after(&err, "soften it below K_f = ");
+    assert!(k_f < 1e11, "the scene must ask for a K_f under the range: {err}");
+    assert!(err.contains(&format!("bulk_modulus below {k_f:.3e} Pa lies outside its range 1e11 … 1e14")), "{err}");
+    let dt_rate = number_after(&err, "Within its ranges: --set dt_rate=");
+    assert!((0.01..=1.0).contains(&dt_rate), "the offer lies within dt_rate's range: {err}");
+    let o = bin()
+        .arg("run")
+        .arg(&pkg)
+        .args(["--backend", "cpu", "--set", &format!("dt_rate={dt_rate}"), "--out"])
+        .arg(dir.join("fixed"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "the offered dt_rate={dt_rate} must run: {}", stderr(&o));
+    assert!(stdout(&o).contains("ran 3000 steps"), "{}", stdout(&o));
+
+    let dir = temp_dir("pkg_stiff_fluid_no_dt");
+    let pkg = stiff_fluid_package(&dir, "(1e11, 1e14)", false);
+    let o = bin().arg("run").arg(&pkg).args(["--backend", "cpu", "--out"]).arg(dir.join("out")).output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("dt is not among its parameters"), "{err}");
+    assert!(err.contains("None of these fixes lies within this simulator's parameters"), "{err}");
+}

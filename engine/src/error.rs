@@ -64,6 +64,42 @@ pub struct Instability {
     pub standard_dt: f64,
     /// The fix, when the check that stopped the run knows it better than the general one.
     pub fix: Option<String>,
+    /// The fix's numbers, for a host that knows what its user may set (a packaged simulator's
+    /// parameter ranges) and can check them without reading the message: each a quantity of
+    /// the scene, by the name scripts set it under, and the side of a bound the run needs it
+    /// on. Empty when the fix has no number.
+    pub suggest: Vec<Suggestion>,
+}
+
+/// One number of a fix: set `parameter` below or above `bound`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Suggestion {
+    /// The quantity as scripts name it: the fluid's `bulk_modulus`, `viscosity`, `nusselt`,
+    /// `max_substeps` (`d.fluid = #{ … }`), or the time step `dt` (s).
+    pub parameter: &'static str,
+    /// Where the fix begins: the run needs the quantity strictly beyond it.
+    pub bound: f64,
+    /// Which side of `bound` the fix lies on.
+    pub side: Side,
+    /// The quantity's unit, for messages ("" for a count or a ratio).
+    pub unit: &'static str,
+}
+
+/// Below or above a bound.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    Below,
+    Above,
+}
+
+impl Suggestion {
+    pub fn below(parameter: &'static str, bound: f64, unit: &'static str) -> Self {
+        Suggestion { parameter, bound, side: Side::Below, unit }
+    }
+
+    pub fn above(parameter: &'static str, bound: f64, unit: &'static str) -> Self {
+        Suggestion { parameter, bound, side: Side::Above, unit }
+    }
 }
 
 impl std::fmt::Display for Instability {
@@ -187,6 +223,7 @@ mod tests {
             critical_dt: 1e-6,
             standard_dt: 1e-7,
             fix: None,
+            suggest: Vec::new(),
         }
     }
 

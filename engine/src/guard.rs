@@ -8,7 +8,7 @@
 //! wall contact — so that a step too long for the loaded sample stops (or warns once) with
 //! the contact named, instead of finishing with wrong physics.
 
-use crate::error::{Error, Instability, Result};
+use crate::error::{Error, Instability, Result, Suggestion};
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams, TangentialLaw};
 use crate::physics::timestep::critical_step;
@@ -180,6 +180,8 @@ pub(crate) fn unstable(m: &Model, particle: usize, what: String) -> Error {
         critical_dt,
         standard_dt: m.standard_dt().unwrap_or(f64::NAN),
         fix: None,
+        // The general fix's number (see `Instability`'s Display): a dt under the critical step.
+        suggest: if m.clock.dt > critical_dt { vec![Suggestion::below("dt", critical_dt, "s")] } else { Vec::new() },
     }))
 }
 

@@ -6,6 +6,7 @@
 use crate::common::pore_column;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
+use matdem_engine::error::Side;
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::{Stage, StepPlan};
 use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
@@ -322,6 +323,11 @@ fn a_fluid_too_stiff_for_its_pores_is_named_with_the_bulk_modulus_that_runs() {
     assert!(i.critical_dt < i.dt, "{s}");
     let k_f = suggested_bulk_modulus(&s);
     assert!(k_f > 0.0 && k_f < 1e13, "{s}");
+    // The same numbers ride on the error for a host to check against what its user may set.
+    let named = |p: &str| i.suggest.iter().find(|x| x.parameter == p && x.side == Side::Below).map(|x| x.bound);
+    let k_bound = named("bulk_modulus").unwrap_or_else(|| panic!("no bulk_modulus in {:?}", i.suggest));
+    assert!((k_bound - k_f).abs() <= 1e-3 * k_f, "{k_bound:e} against the message's {k_f:e}");
+    assert_eq!(named("dt"), Some(i.critical_dt));
     let mut soft = scene(0.5 * k_f);
     soft.run(3000, &RunControl::default(), &mut |_| {}).unwrap();
     assert!(soft.model.particles.vel.iter().all(|v| v.norm().is_finite()));

@@ -318,6 +318,13 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
          unsettled), ratio (unbalanced force ratio at the end), mean_speed (radii a step), deepest_stray (radii), \
          grains: #{ zone1: n, … } }",
     ),
+    (
+        "expected_grains",
+        "Zoned (read)",
+        "the grains a build of the zones as set now will make, known before packing (each region's solid volume at \
+         its target porosity over its grains' mean volume; the build's draw differs by a few per cent): what a \
+         chamber will cost, before it is packed",
+    ),
     ("elements", "TestSample (read)", "elements in a test sample"),
     ("kn", "Material (read, set)", "normal stiffness Kn, N/m"),
     ("ks", "Material (read, set)", "shear stiffness Ks, N/m"),

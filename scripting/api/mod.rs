@@ -39,7 +39,8 @@ pub fn err(msg: impl Into<String>) -> Box<EvalAltResult> {
     msg.into().into()
 }
 
-/// The only way an engine error becomes a script error.
+/// The only way an engine error becomes a script error (a run's and a build's through
+/// [`Host::raise_engine`], which adds a package's view of the fix).
 pub fn raise(e: matdem_engine::Error) -> Box<EvalAltResult> {
     err(e.to_string())
 }
@@ -80,6 +81,9 @@ pub struct Host {
     pub plans: RefCell<Vec<(String, String)>>,
     /// How to start runs of this run's own source (`run_points`); `matdem-rs run` only.
     pub self_run: Option<runs::SelfRun>,
+    /// A packaged simulator's parameters (empty for a plain script): an engine's suggested
+    /// fix is checked against their ranges ([`Host::raise_engine`]).
+    pub parameters: Vec<crate::package::Parameter>,
 }
 
 impl Host {
@@ -101,7 +105,20 @@ impl Host {
             warnings: RefCell::new(Vec::new()),
             plans: RefCell::new(Vec::new()),
             self_run: None,
+            parameters: Vec::new(),
         }
+    }
+
+    /// An engine error from a run or a build as a script error ([`raise`]), the numbers of its
+    /// fix checked against a package's parameter ranges: where a fix lies outside what the
+    /// user can set, the message says so and names what lies within.
+    pub fn raise_engine(&self, e: matdem_engine::Error) -> Box<EvalAltResult> {
+        if let matdem_engine::Error::Unstable(inst) = &e {
+            if let Some(note) = crate::package::fixes::fixes_in_range(&self.parameters, inst) {
+                return err(format!("{e}\n{note}"));
+            }
+        }
+        raise(e)
     }
 
     /// Reads a file the script asks for by name (a checkpoint for `load_model`, a trained
@@ -195,7 +212,7 @@ impl Host {
 pub fn raise_build(host: &Host, e: matdem_engine::Error) -> Box<EvalAltResult> {
     match e {
         matdem_engine::Error::Cancelled { .. } if host.resumable => crate::stop::Stop::Stopped.unwind(),
-        e => raise(e),
+        e => host.raise_engine(e),
     }
 }
 

@@ -95,6 +95,17 @@ fn pack_report(z: &ZonedBuilder) -> RhaiResult<Map> {
     Ok(m)
 }
 
+/// The grains a build of the zones as set now will make, before packing (the solid volume
+/// at each region's target porosity over its grains' mean volume; the build's own count
+/// differs by its random draw), so that a script can say what a chamber costs before it
+/// packs one.
+fn expected_grains(z: &ZonedBuilder) -> RhaiResult<INT> {
+    let data = z.0.borrow();
+    data.spec.validate().map_err(raise)?;
+    let n: usize = data.spec.counts().iter().flat_map(|(_, sizes)| sizes.iter().map(|&(_, n)| n)).sum();
+    Ok(n as INT)
+}
+
 fn report(z: &ZonedBuilder) -> RhaiResult<Array> {
     let data = z.0.borrow();
     let handle =
@@ -187,6 +198,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 .ok_or_else(|| err("the zoned model is not built yet: call build_initial_model() first"))
         })
         .register_get("pack_report", |z: &mut ZonedBuilder| pack_report(z))
+        .register_get("expected_grains", |z: &mut ZonedBuilder| expected_grains(z))
         .register_get("name", |z: &mut ZonedBuilder| z.0.borrow().name.clone())
         .register_get("regions", |z: &mut ZonedBuilder| -> Array {
             let d = z.0.borrow();

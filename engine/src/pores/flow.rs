@@ -13,7 +13,7 @@
 
 use super::network::PoreNetwork;
 use super::Fluid;
-use crate::error::{Error, Instability, Result};
+use crate::error::{Error, Instability, Result, Suggestion};
 use crate::model::Model;
 use crate::physics::Vec3;
 use rayon::prelude::*;
@@ -496,9 +496,25 @@ impl PoreFlow {
                     "Fix: raise the fluid's max_substeps to {n} or more, lower its bulk_modulus or raise its \
                      viscosity (the flow step scales with μ/K_f), or lower dt"
                 )),
+                suggest: self.substep_fixes(n, dt, crit),
             })));
         }
         Ok(n as u32)
+    }
+
+    /// The numbers of the fix for a flow that needs `n` sub-steps of its stable step `crit`
+    /// where `max_substeps` are allowed: the flow step scales with μ/K_f, so each of max_substeps,
+    /// K_f, μ and dt alone brings `n` within the cap when moved by the ratio n / max_substeps.
+    fn substep_fixes(&self, n: f64, dt: f64, crit: f64) -> Vec<Suggestion> {
+        let cap = self.fluid.max_substeps as f64;
+        // The largest dt that max_substeps sub-steps cover: n = ⌈dt / (FLOW_SAFETY·crit)⌉.
+        let fits = FLOW_SAFETY * crit * cap / dt;
+        vec![
+            Suggestion::above("max_substeps", n - 1.0, ""),
+            Suggestion::below("bulk_modulus", self.fluid.bulk_modulus * fits, "Pa"),
+            Suggestion::above("viscosity", self.fluid.viscosity / fits, "Pa·s"),
+            Suggestion::below("dt", dt * fits, "s"),
+        ]
     }
 
     /// One explicit Euler step of length `h`.

@@ -26,7 +26,7 @@
 
 use super::flow::PoreFlow;
 use super::geometry::solid_angle;
-use crate::error::{Error, Instability, Result};
+use crate::error::{Error, Instability, Result, Suggestion};
 use crate::model::Model;
 use crate::state::thermal::{FIXED, INSULATED};
 use rayon::prelude::*;
@@ -186,6 +186,18 @@ impl PoreFlow {
                     "Fix: raise the fluid's max_substeps to {n} or more, lower its nusselt or conductivity, raise \
                      its specific_heat or the elements' specific heat, or lower dt"
                 )),
+                // The exchange's conductances scale with nusselt: each of these alone brings n
+                // within the cap (n = ⌈dt / (0.9·crit)⌉).
+                suggest: if crit.is_finite() && crit > 0.0 {
+                    let fits = 0.9 * crit * self.fluid.max_substeps as f64 / dt;
+                    vec![
+                        Suggestion::above("max_substeps", n - 1.0, ""),
+                        Suggestion::below("nusselt", self.fluid.heat.nusselt * fits, ""),
+                        Suggestion::below("dt", dt * fits, "s"),
+                    ]
+                } else {
+                    Vec::new()
+                },
             })));
         }
         Ok((g, n as u32))

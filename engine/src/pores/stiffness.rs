@@ -8,7 +8,7 @@
 //! explains the failure, named instead.
 
 use super::flow::PoreFlow;
-use crate::error::{Error, Instability};
+use crate::error::{Error, Instability, Suggestion};
 use crate::model::Model;
 use crate::physics::timestep::critical_step;
 use crate::physics::Vec3;
@@ -161,6 +161,7 @@ impl Model {
                 "Fix: the pores around it are small for so stiff a fluid: soften it below K_f = {k_f_stable:.3e} Pa \
                  (d.fluid = #{{ bulk_modulus: … }}; the flow step grows with it too) or lower dt below {crit:.3e} s"
             )),
+            suggest: vec![Suggestion::below("bulk_modulus", k_f_stable, "Pa"), Suggestion::below("dt", crit, "s")],
         }))
     }
 }

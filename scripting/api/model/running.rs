@@ -103,7 +103,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
                 cancelled = Some(completed_steps);
                 return Err(Stop::Interrupted.unwind());
             }
-            other => other.map_err(raise)?,
+            other => other.map_err(|e| host.raise_engine(e))?,
         };
         let mut map = Map::new();
         map.insert("steps".into(), (rep.steps as INT).into());
