@@ -666,57 +666,6 @@ fn fused_step_matches_separate_passes_bit_for_bit() {
     }
 }
 
-// The fused step's block-local pass (backend/cpu/fused.rs) evaluates the pairs between nodes
-// of eight blocks first and each node's inner pairs just before its particles move. 2,304
-// particles are two such nodes, so both kinds of pair and the node boundary are exercised;
-// with bonds (some break), damping and a moving wall the fused steps must still match
-// separate passes bit for bit.
-#[test]
-fn block_local_fused_step_matches_separate_passes_across_nodes() {
-    use matdem_engine::backend::cpu::CpuBackend;
-    use matdem_engine::WallMotion;
-    for variant in 0..2 {
-        let mut lanes = Vec::new();
-        for observed in [false, true] {
-            let mut m = shaken_box(16, 12, 12, 11);
-            if variant == 1 {
-                m.settings.damping = 0.2;
-                m.settings.local_damping = 0.1;
-                m.materials[0].xb = 2e-4;
-                m.materials[0].fs0 = 1.0;
-                assert!(m.connect(None, 1e-3).unwrap() > 1000, "the scene must hold bonds");
-                m.walls[0].motion = WallMotion::Velocity(Vec3::new(0.0, 0.0, 0.05));
-            }
-            let mut cpu = CpuBackend::prepare(&m);
-            for _ in 0..150 {
-                cpu.step(&mut m, observed);
-            }
-            let p = &m.particles;
-            let rot = p.rotation.as_ref().unwrap();
-            let h = &p.heat;
-            let heat: Vec<u64> = [&h.damping, &h.contact_damping, &h.friction, &h.breakage, &h.wall_work]
-                .iter()
-                .flat_map(|lane| lane.iter().map(|x| x.to_bits()))
-                .collect();
-            let states: Vec<_> = m.contacts.state.iter().chain(&m.wall_contacts).map(|s| format!("{s:?}")).collect();
-            let walls: Vec<_> = m.walls.iter().map(|w| bits(&[w.force])).collect();
-            let breaks: Vec<_> = m.breakages.iter().map(|b| (b.step, b.i, b.j)).collect();
-            let lane = (bits(&p.pos), bits(&p.vel), bits(&rot.ang_vel), bits(&p.force), bits(&rot.torque));
-            lanes.push((lane, heat, states, walls, breaks));
-        }
-        let (fused, separate) = (&lanes[0], &lanes[1]);
-        eprintln!("block-local fused vs separate, variant {variant}: {} breakages", separate.4.len());
-        if variant == 1 {
-            assert!(separate.4.len() > 1, "some bonds must break");
-        }
-        assert!(fused.0 == separate.0, "variant {variant}: particle lanes differ");
-        assert!(fused.1 == separate.1, "variant {variant}: heat ledger differs");
-        assert!(fused.2 == separate.2, "variant {variant}: contact states differ");
-        assert!(fused.3 == separate.3, "variant {variant}: wall loads differ");
-        assert!(fused.4 == separate.4, "variant {variant}: breakages differ (or their order)");
-    }
-}
-
 // The stability guard (guard.rs; timestep.rs: the explicit step is stable up to
 // dt = T/(√2·π) = √2·√(m/k) for an element of mass m on its stiffest spring k = 2·kn).
 // Three spheres, the smallest (id 2) has the shortest critical step; at dt = 10× that step

@@ -81,12 +81,6 @@ impl Reduce for () {
     fn combine(self, _: Self) -> Self {}
 }
 
-impl<A: Reduce, B: Reduce> Reduce for (A, B) {
-    fn combine(self, other: Self) -> Self {
-        (self.0.combine(other.0), self.1.combine(other.1))
-    }
-}
-
 /// How particles map to entries of the row lanes.
 #[derive(Clone, Copy)]
 pub enum Rows<'a> {
@@ -111,8 +105,8 @@ where
         return leaf(particles, p, s);
     }
     // Split at a multiple of BLOCK so the tree is the same for every thread count.
-    let mid = split_point(&particles);
-    let mid_count = mid - particles.start;
+    let mid_count = n.div_ceil(BLOCK) / 2 * BLOCK;
+    let mid = particles.start + mid_count;
     let (pl, pr) = p.split_at(mid_count);
     let (sl, sr) = match rows {
         Rows::Csr(rs) => s.split_at((rs[mid] - rs[particles.start]) as usize),
@@ -124,44 +118,4 @@ where
         || for_blocks(mid..particles.end, rows, pr, sr, leaf),
     );
     a.combine(b)
-}
-
-/// Where [`for_blocks`] splits `particles`: at a multiple of [`BLOCK`] from its start, so the
-/// tree is the same for every thread count.
-#[inline(always)]
-fn split_point(particles: &Range<usize>) -> usize {
-    particles.start + particles.len().div_ceil(BLOCK) / 2 * BLOCK
-}
-
-/// Runs `node(range, particle_lanes)` on the nodes of [`for_blocks`]' tree that hold at most
-/// `blocks` blocks (the largest such nodes), in parallel; their results combine in the tree's
-/// order. A node that calls `for_blocks` on its range gets the very subtree `for_blocks`
-/// would have run there, so results reduce in the same order as one `for_blocks` over all.
-pub fn for_nodes<P, R, F>(particles: Range<usize>, blocks: usize, p: P, node: &F) -> R
-where
-    P: Split,
-    R: Reduce,
-    F: Fn(Range<usize>, P) -> R + Sync,
-{
-    if particles.len().div_ceil(BLOCK) <= blocks.max(1) {
-        return node(particles, p);
-    }
-    let mid = split_point(&particles);
-    let (pl, pr) = p.split_at(mid - particles.start);
-    let (a, b) = rayon::join(
-        || for_nodes(particles.start..mid, blocks, pl, node),
-        || for_nodes(mid..particles.end, blocks, pr, node),
-    );
-    a.combine(b)
-}
-
-/// The ends of the nodes [`for_nodes`] runs `node` on, in order.
-pub fn node_ends(particles: Range<usize>, blocks: usize, ends: &mut Vec<usize>) {
-    if particles.len().div_ceil(BLOCK) <= blocks.max(1) {
-        ends.push(particles.end);
-        return;
-    }
-    let mid = split_point(&particles);
-    node_ends(particles.start..mid, blocks, ends);
-    node_ends(mid..particles.end, blocks, ends);
 }
