@@ -217,17 +217,19 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
                     }
                 } else {
                     let dist = dist2.sqrt();
-                    // Four of the five divisions in two (`div2`).
-                    let [nx, ny] = div2([d.x, d.y], [dist, dist]);
-                    let [nz, r_star] = div2([d.z, ri * rj], [dist, touch]);
-                    nrm = Vec3::new(nx, ny, nz);
+                    nrm = d / dist;
                     let mut v_rel = vi - vel[j];
                     if let Some(w) = ang_vel {
                         v_rel += wi.cross(&(nrm * ri)) - w[j].cross(&(nrm * -rj));
                     }
                     let mj = mass[j];
-                    let g =
-                        ContactGeometry { n: nrm, overlap: touch - dist, v_rel, r_star, m_star: mi * mj / (mi + mj) };
+                    let g = ContactGeometry {
+                        n: nrm,
+                        overlap: touch - dist,
+                        v_rel,
+                        r_star: ri * rj / touch,
+                        m_star: mi * mj / (mi + mj),
+                    };
                     let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), &mut st, dt);
                     normal_force = r.normal_force;
                     heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
@@ -244,24 +246,6 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
         }
         breaks
     })
-}
-
-/// `a / b` lane by lane, as one packed division (SSE2, x86_64's baseline): a division is
-/// correctly rounded either way, so the quotients are bit for bit those of two `/`, and the
-/// divider, which bounds the pair pass, takes the two in the time of one.
-#[inline(always)]
-fn div2(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_div_pd, _mm_loadu_pd, _mm_storeu_pd};
-        let mut q = [0.0; 2];
-        // SAFETY: SSE2 is always present on x86_64; the loads and the store are of two f64
-        // arrays of two.
-        unsafe { _mm_storeu_pd(q.as_mut_ptr(), _mm_div_pd(_mm_loadu_pd(a.as_ptr()), _mm_loadu_pd(b.as_ptr()))) };
-        q
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    [a[0] / b[0], a[1] / b[1]]
 }
 
 /// Pass 2: each particle sums its row in row order and mirrors the new pair states.
