@@ -82,8 +82,13 @@ fn pore_boundaries_from_groups_boxes_and_points() {
         d.seal_pores();
         d.fix_pore_pressure_at([0.002, 0.002, 0.0015], 100.0);
         let plan2 = d.plan();
+        d.seal_pores();
+        d.fix_pore_pressure(#{{ center: [0.002, 0.002, 0.002], axis: [0, 1, 0], radius: 0.001 }}, 300.0);
+        d.run(5);
+        let bore = 0;
+        for x in d.pore_pressures {{ if (x - 300.0).abs() < 1e-6 {{ bore += 1; }} }}
         d.disable("pore_flow");
-        #{{ held: held, plan: plan, plan2: plan2, off: d.plan() }}"#
+        #{{ held: held, plan: plan, plan2: plan2, bore: bore, off: d.plan() }}"#
     );
     let out: rhai::Map = engine("pore_bounds").eval(&script).unwrap_or_else(|e| panic!("{e}"));
     assert!(out["held"].as_int().unwrap() > 0);
@@ -91,6 +96,7 @@ fn pore_boundaries_from_groups_boxes_and_points() {
     assert!(plan.contains("2 fixed-pressure"), "{plan}");
     let plan2 = out["plan2"].clone().into_string().unwrap();
     assert!(plan2.contains("1 fixed-pressure"), "{plan2}");
+    assert!(out["bore"].as_int().unwrap() > 0, "no pore held in the borehole");
     let off = out["off"].clone().into_string().unwrap();
     assert!(!off.contains("pore_flow"), "{off}");
 }
@@ -110,6 +116,23 @@ fn bad_pore_flow_input_is_refused_with_what_to_do() {
         &format!("{SMALL_BOX} d.fix_pore_pressure(#{{ lo: [1.0, 0.0, 0.0], hi: [0.0, 1.0, 1.0] }}, 0.0);"),
     );
     assert!(e.contains("`lo` corner"), "{e}");
+    let e = refusal(
+        "bore_bad",
+        &format!(
+            "{SMALL_BOX} d.fix_pore_pressure(#{{ center: [0.0, 0.0, 0.0], axis: [0, 1, 0], radius: -1.0 }}, 0.0);"
+        ),
+    );
+    assert!(e.contains("radius") && e.contains("above 0"), "{e}");
+    let e = refusal(
+        "bore_axis",
+        &format!("{SMALL_BOX} d.fix_pore_pressure(#{{ center: [0.0, 0.0, 0.0], axis: [0, 0, 0], radius: 1.0 }}, 0.0);"),
+    );
+    assert!(e.contains("non-zero axis"), "{e}");
+    let e = refusal(
+        "bore_miss",
+        &format!("{SMALL_BOX} d.fix_pore_pressure(#{{ center: [0.0, 0.0, 0.0], radius: 1.0 }}, 0.0);"),
+    );
+    assert!(e.contains("`axis` is missing"), "{e}");
     let e = refusal("group_bad", &format!("{SMALL_BOX} d.fix_pore_pressure(\"nosuch\", 0.0);"));
     assert!(e.contains("nosuch"), "{e}");
     let e = refusal("inject_nan", &format!("{SMALL_BOX} d.inject([0.0, 0.0, 0.0], 0.0 / 0.0);"));

@@ -221,3 +221,39 @@ fn a_materials_permeability_factor_scales_the_conductance_of_its_throats() {
     println!("Darcy flux: open {q1:.4e}, all at 0.01 {q_all:.4e}, a tight layer of two {q_layer:.4e} m³/s");
     assert!(q_layer < 0.2 * q1 && q_layer > q_all, "a tight layer: {q_layer:e} (open {q1:e}, all tight {q_all:e})");
 }
+
+#[test]
+fn a_borehole_region_holds_exactly_the_pores_whose_centres_lie_within_its_radius_of_its_axis() {
+    use matdem_engine::pores::PoreRegion;
+    let m = column(6, 6, 6);
+    let mut f = PoreFlow::new(&m, fluid()).unwrap();
+    // A borehole along a slanted axis through the column's middle.
+    let (center, axis, radius) = (Vec3::new(2.5, 2.5, 2.5) * A, Vec3::new(1.0, 2.0, 0.5), 1.1 * A);
+    let hole = PoreRegion::cylinder(center, axis, radius).unwrap();
+    f.set_boundaries(vec![PoreBoundary { region: hole, kind: BoundaryKind::Pressure(5e3), temperature: None }])
+        .unwrap();
+    let u = axis.normalize();
+    let mut inside = 0;
+    for (p, c) in f.network.centre.iter().enumerate() {
+        let r = c - center;
+        let off_axis = (r - u * r.dot(&u)).norm();
+        // The test's own distance, away from the rim where rounding could decide.
+        if (off_axis - radius).abs() < 1e-9 * A {
+            continue;
+        }
+        let held = f.region[p] == 0;
+        assert_eq!(held, off_axis < radius, "pore {p} at {off_axis:e} m from the axis");
+        if held {
+            inside += 1;
+            // Held through its mass: p = K_f·(m/(ρ0·V) − 1) rounds in the last bits.
+            assert!((f.pressure[p] / 5e3 - 1.0).abs() < 1e-12, "pore {p}: {} Pa, not the borehole's", f.pressure[p]);
+        }
+    }
+    assert!(inside >= 10 && inside < f.network.centre.len() / 2, "{inside} pores in the borehole");
+
+    // Bad shapes are refused with what to give instead.
+    for (axis, radius) in [(Vec3::zeros(), A), (Vec3::new(f64::NAN, 0.0, 1.0), A), (Vec3::z(), 0.0), (Vec3::z(), -A)] {
+        let e = PoreRegion::cylinder(center, axis, radius).unwrap_err().to_string();
+        assert!(e.contains("axis") || e.contains("radius"), "{e}");
+    }
+}

@@ -42,6 +42,38 @@ pub enum PoreRegion {
     Elements(Vec<u32>),
     /// The one pore whose centre is nearest the point (an injection well).
     Point(Vec3),
+    /// The pores whose centre lies within `radius` of the line through `center` along `axis`
+    /// (a unit vector): a borehole's pores, whatever its direction.
+    Cylinder { center: Vec3, axis: Vec3, radius: f64 },
+}
+
+impl PoreRegion {
+    /// A borehole along `axis` (any length, not zero) through `center`, of this radius (> 0).
+    pub fn cylinder(center: Vec3, axis: Vec3, radius: f64) -> Result<Self> {
+        let n = axis.norm();
+        if !(n > 0.0 && n.is_finite()) || !center.iter().all(|x| x.is_finite()) {
+            return Err(Error::InvalidScene(format!(
+                "a cylinder of pores needs a finite center and a finite, non-zero axis (got center {center:?}, axis {axis:?})"
+            )));
+        }
+        if !(radius > 0.0 && radius.is_finite()) {
+            return Err(Error::param("pore cylinder radius", radius, "must be a finite number above 0 (m)"));
+        }
+        Ok(PoreRegion::Cylinder { center, axis: axis / n, radius })
+    }
+
+    /// Whether a pore centred at `c` lies in a region given by a shape (a box or a cylinder);
+    /// `None` for regions given by elements or a nearest point.
+    fn contains(&self, c: &Vec3) -> Option<bool> {
+        match self {
+            PoreRegion::Box { lo, hi } => Some((0..3).all(|d| c[d] >= lo[d] && c[d] <= hi[d])),
+            PoreRegion::Cylinder { center, axis, radius } => {
+                let r = c - center;
+                Some((r - axis * r.dot(axis)).norm_squared() <= radius * radius)
+            }
+            PoreRegion::Elements(_) | PoreRegion::Point(_) => None,
+        }
+    }
 }
 
 /// A region of pores with a boundary condition. Regions apply in order; the last that holds a
@@ -182,9 +214,18 @@ impl PoreFlow {
                 PoreRegion::Box { lo, hi } => finite(lo) && finite(hi),
                 PoreRegion::Point(x) => finite(x),
                 PoreRegion::Elements(_) => true,
+                PoreRegion::Cylinder { center, axis, radius } => {
+                    finite(center)
+                        && finite(axis)
+                        && (axis.norm() - 1.0).abs() < 1e-9
+                        && *radius > 0.0
+                        && radius.is_finite()
+                }
             };
             if !ok {
-                return Err(Error::InvalidScene("a pore boundary region needs finite corners and points".into()));
+                return Err(Error::InvalidScene(
+                    "a pore boundary region needs finite corners and points (and a cylinder a unit axis and a radius above 0)".into(),
+                ));
             }
             if let BoundaryKind::Pressure(p) | BoundaryKind::Flux(p) = b.kind {
                 if !p.is_finite() {
@@ -214,10 +255,9 @@ impl PoreFlow {
         for (b, bc) in self.boundaries.iter().enumerate() {
             let id = if bc.kind == BoundaryKind::Impermeable { FREE } else { b as u32 };
             match &bc.region {
-                PoreRegion::Box { lo, hi } => {
+                PoreRegion::Box { .. } | PoreRegion::Cylinder { .. } => {
                     for p in 0..np {
-                        let c = net.centre[p];
-                        if (0..3).all(|d| c[d] >= lo[d] && c[d] <= hi[d]) {
+                        if bc.region.contains(&net.centre[p]) == Some(true) {
                             self.region[p] = id;
                         }
                     }

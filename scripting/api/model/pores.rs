@@ -101,9 +101,22 @@ fn fluid_update(base: &Fluid, props: &Map) -> RhaiResult<Fluid> {
 }
 
 /// A boundary region from a script value: a group name, "all", ids or a mask (the pores those
-/// elements bound), or a box #{ lo: [x, y, z], hi: [x, y, z] } (the pores whose centres lie in it).
+/// elements bound), a box #{ lo: [x, y, z], hi: [x, y, z] } or a borehole #{ center: [x, y, z],
+/// axis: [x, y, z], radius: r } (the pores whose centres lie in it).
 fn region(m: &Model, sel: &Dynamic, call: &str) -> RhaiResult<PoreRegion> {
     if let Some(map) = sel.clone().try_cast::<Map>() {
+        if map.contains_key("center") || map.contains_key("axis") || map.contains_key("radius") {
+            let usage = "a borehole is #{ center: [x, y, z], axis: [x, y, z], radius: r }";
+            let get = |k: &str| map.get(k).ok_or_else(|| err(format!("{call}: {usage}; `{k}` is missing")));
+            let center = vec3(get("center")?, &format!("{call}: `center`"))?;
+            let axis = vec3(get("axis")?, &format!("{call}: `axis`"))?;
+            let radius = get("radius")?;
+            let radius = radius
+                .as_float()
+                .or_else(|_| radius.as_int().map(|r| r as FLOAT))
+                .map_err(|_| err(format!("{call}: `radius` must be a number (m)")))?;
+            return PoreRegion::cylinder(center, axis, radius).map_err(|e| err(format!("{call}: {e}")));
+        }
         let corner = |k: &str| -> RhaiResult<Vec3> {
             let v = map.get(k).ok_or_else(|| err(format!("{call}: a box needs `lo` and `hi` corners, [x, y, z]")))?;
             vec3(v, &format!("{call}: `{k}`"))
@@ -115,7 +128,7 @@ fn region(m: &Model, sel: &Dynamic, call: &str) -> RhaiResult<PoreRegion> {
         return Ok(PoreRegion::Box { lo, hi });
     }
     let ids =
-        resolve_ids(m, sel).map_err(|e| err(format!("{call}: {e} (or a box #{{ lo: [x, y, z], hi: [x, y, z] }})")))?;
+        resolve_ids(m, sel).map_err(|e| err(format!("{call}: {e} (or a box #{{ lo: [x, y, z], hi: [x, y, z] }}, or a borehole #{{ center: [x, y, z], axis: [x, y, z], radius: r }})")))?;
     if ids.is_empty() {
         return Err(err(format!("{call}: the selection holds no element; give a group with elements or a box")));
     }
@@ -141,7 +154,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             m.set_pore_fluid(f).map_err(raise)
         })
         .register_fn("fix_pore_pressure", |d: &mut ModelHandle, sel: Dynamic, p: FLOAT| -> RhaiResult<()> {
-            let call = "d.fix_pore_pressure(group or box, p)";
+            let call = "d.fix_pore_pressure(group, box or borehole, p)";
             let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
             let mut m = d.model();
             let r = region(&m, &sel, call)?;
