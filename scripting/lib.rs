@@ -3,15 +3,24 @@
 //! [`new_engine`] builds a Rhai engine with the whole script API and the embedded
 //! standard library; [`run::run_script`] runs a script file into an output folder;
 //! [`report`] renders errors with file, line, column and a caret.
+//!
+//! The modules stand in layers, each naming only modules of its own layer or below, in no
+//! circle (tests/module_layers.rs checks, and holds the table): core (atomic writes, the
+//! sandbox, the resume journal, metrics, the run record, error rendering, …) ← outputs
+//! (plots, particle pictures, movies, snapshots, the report page) ← workflows (calibration,
+//! packages, sweeps, studies) ← the script API ([`api`], [`new_engine`]) ← front ends
+//! ([`run`], [`repl`], [`bench`] and the binary's command line).
 
 pub mod api;
 pub mod atomic;
 pub mod bench;
 pub mod calibration;
 pub mod memory;
+pub mod metrics;
 pub mod movie;
 pub mod out_lock;
 pub mod package;
+pub mod picture_fields;
 pub mod plot;
 pub mod repl;
 pub mod report;
@@ -21,7 +30,6 @@ pub mod run;
 pub mod run_backend;
 pub mod run_record;
 pub mod sandbox;
-pub mod size_checks;
 pub mod snapshot;
 pub mod stdlib;
 pub mod stop;

@@ -46,8 +46,8 @@ pub const DEFAULT_DELAY_CS: u16 = 10;
 pub struct MovieSettings {
     /// Steps of the model's clock between frames (≥ 1).
     pub every: u64,
-    /// The field the particles are coloured by (see `api::plot::PICTURE_FIELDS`), and its
-    /// label with units.
+    /// The field the particles are coloured by (one of
+    /// [`crate::picture_fields::PICTURE_FIELDS`]), and its label with units.
     pub field: String,
     pub label: String,
     /// The model's name, for the frames' titles.
@@ -123,10 +123,10 @@ impl MovieState {
             self.left_out += 1;
             return Ok(());
         }
-        let (values, _) = crate::api::plot::field_values(m, &s.field, |m| {
+        let (values, _) = crate::picture_fields::field_values(m, &s.field, |m| {
             matdem_engine::status::contact_loads(m, &StepPlan::build(m))
         })?;
-        let keep = crate::api::plot::pictured(m, s.slice);
+        let keep = crate::picture_fields::pictured(m, s.slice);
         let p = &m.particles;
         let mut bytes = Vec::with_capacity(FRAME_HEADER + 32 * keep.len());
         bytes.extend_from_slice(&m.clock.step.to_le_bytes());
@@ -277,7 +277,7 @@ fn write_gif(s: &MovieSettings, frames: u64, spool_len: u64) -> Result<Vec<PathB
             let mut pic = ParticlePicture::new(
                 format!(
                     "{} — step {}, t = {:.4e} s",
-                    crate::api::plot::picture_title(&s.model, &s.label, s.slice),
+                    crate::picture_fields::picture_title(&s.model, &s.label, s.slice),
                     frame.step,
                     frame.time
                 ),

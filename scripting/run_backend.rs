@@ -5,10 +5,7 @@
 //! and every model of the run, those made before included, steps on the faster. A resumed
 //! run steps where the interrupted one did, without measuring again.
 
-use crate::api::model::ModelHandle;
-use crate::api::Host;
 use matdem_engine::backend::gpu::device::GpuContext;
-use matdem_engine::backend::speed_test::{measure, Choice};
 use matdem_engine::backend::Target;
 use std::sync::Arc;
 
@@ -20,8 +17,8 @@ pub enum RunBackend {
     Cpu,
     /// A GPU, f32.
     Gpu(Arc<GpuContext>),
-    /// `--backend auto` with a GPU, not decided yet: models step on the CPU until
-    /// [`settle`] measures.
+    /// `--backend auto` with a GPU, not decided yet: models step on the CPU until the run's
+    /// first run or balance measures (`api::auto_backend::settle`).
     Auto(Arc<GpuContext>),
 }
 
@@ -71,41 +68,6 @@ impl RunBackend {
 /// A backend's kind, from its words: `cpu`, `gpu` or `auto` (the first word).
 pub fn kind(words: &str) -> &str {
     words.split_whitespace().next().unwrap_or_default()
-}
-
-/// Decides an undecided `auto` run at the run or balance of `d` about to start: measures
-/// `d`'s model and moves every model of the run to the faster backend. Nothing happens
-/// when the run is decided, or when `d` has no particles (the next run decides). A speed
-/// test that could not step the scene on the CPU leaves the run undecided: the run itself
-/// meets the same error and reports it.
-pub fn settle(host: &Host, d: &ModelHandle) -> Result<(), String> {
-    let ctx = match &*host.backend.borrow() {
-        RunBackend::Auto(ctx) => ctx.clone(),
-        _ => return Ok(()),
-    };
-    let test = {
-        let data = d.data();
-        if data.sim.model.is_empty() {
-            return Ok(());
-        }
-        match measure(&data.sim.model, ctx.clone()) {
-            Ok(t) => t,
-            Err(_) => return Ok(()),
-        }
-    };
-    let line = test.to_string();
-    eprintln!("{line}");
-    let chosen = match test.choice {
-        Choice::Cpu => RunBackend::Cpu,
-        Choice::Gpu => RunBackend::Gpu(ctx),
-    };
-    for model in host.models.borrow().iter().filter_map(|w| w.upgrade()) {
-        model.borrow_mut().sim.set_target(chosen.target()).map_err(|e| e.to_string())?;
-    }
-    host.session.borrow_mut().backend = chosen.describe();
-    *host.speed_test.borrow_mut() = Some(line);
-    *host.backend.borrow_mut() = chosen;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -5,6 +5,8 @@
 //! Rhai's `Engine::new()` exposes no file, process, network or environment functions; every
 //! path the script API takes goes through [`ReadRoot::read`] or [`output_path`].
 
+pub mod size_checks;
+
 use rhai::module_resolvers::StaticModuleResolver;
 use rhai::{Engine, EvalAltResult, Module, ModuleResolver, Position, Scope, Shared};
 use std::collections::BTreeMap;
@@ -104,6 +106,14 @@ fn relative_parts(name: &str) -> Result<Vec<String>, &'static str> {
     Ok(parts)
 }
 
+/// The report page of every run and sweep folder (`report_page` and the sweep write it).
+/// This name and [`LOG_FILE`] are defined here, where they are reserved, because the sandbox
+/// sits below the modules that write them (tests/module_layers.rs).
+pub const PAGE_FILE: &str = "index.html";
+
+/// A sweep point's output (stdout, then stderr) in its run folder (`sweep::point` writes it).
+pub const LOG_FILE: &str = "log.txt";
+
 /// What the host writes at the top of an output folder, with what each is: no script may
 /// write over it or read it back, and a script's file of that name would be replaced without
 /// a word. A sweep point's folder is a run's output folder, so its log is reserved in every
@@ -112,9 +122,9 @@ pub const HOST_OWNED: &[(&str, &str)] = &[
     (crate::run_record::RUN_RECORD, "the run record"),
     (crate::resume::RESUME_DIR, "the resume point"),
     (crate::out_lock::LOCK_FILE, "the folder's lock"),
-    (crate::report_page::PAGE_FILE, "the run's report page"),
-    (crate::api::metrics::METRICS_FILE, "what `report` writes"),
-    (crate::sweep::point::LOG_FILE, "a sweep point's log"),
+    (PAGE_FILE, "the run's report page"),
+    (crate::metrics::METRICS_FILE, "what `report` writes"),
+    (LOG_FILE, "a sweep point's log"),
 ];
 
 /// Where output `name` of a script goes inside `out_dir`. Refuses `..`, absolute paths, any
@@ -203,7 +213,7 @@ impl Limits {
         engine.set_max_call_levels(self.max_call_depth);
         engine.set_max_expr_depths(128, 64);
         crate::memory::set_limit(self.max_memory);
-        crate::size_checks::install(engine, *self);
+        size_checks::install(engine, *self);
         self.compiling(engine);
     }
 
@@ -215,7 +225,7 @@ impl Limits {
     }
 
     /// Rhai's own size checks off while a compiled script runs: they walk a whole array after
-    /// every call on it; [`crate::size_checks`] keeps the same limits at a bounded cost.
+    /// every call on it; [`size_checks`] keeps the same limits at a bounded cost.
     pub fn running(&self, engine: &mut Engine) {
         engine.set_max_string_size(0);
         engine.set_max_array_size(0);

@@ -8,11 +8,10 @@
 //! that fails (an unstable time step, say) is recorded and the others go on, the wall time is
 //! that of a real run, and an interrupted study finishes where it stopped.
 
-use crate::api::metrics::METRICS_FILE;
-use crate::api::write_atomic;
+use crate::metrics::METRICS_FILE;
 use crate::plot::LineChart;
 use crate::sweep::collect::{PointResult, PointState};
-use crate::sweep::plan::{grid, Design, PlanRequest, StudySpec};
+use crate::sweep::plan::{grid, Design, PlanRequest, StudySpec, SweepPlan};
 use crate::sweep::LocalOptions;
 use crate::terminal_text::one_line;
 use std::path::{Path, PathBuf};
@@ -140,13 +139,31 @@ pub fn run_study(cfg: &StudyConfig, progress: impl Fn(&str) + Sync) -> Result<(S
         progress(&format!("{}: {}  {:.1} s, {shown}", r.name, one_line(&describe(&run.setting)), run.wall_s));
     }
     let study = from_results(&spec, &results)?;
-    let written = crate::sweep::collect::write_collect(&cfg.out_dir, &plan, &results)?;
+    let written = write_collect(&cfg.out_dir, &plan, &results)?;
     Ok((study, written))
+}
+
+/// Collects a finished sweep into its folder: the sweep's merged table and timings, the
+/// study's table and chart when the sweep feeds one (planned by `matdem-rs study` or with
+/// `--metric`), then the sweep's page, last so it shows them; returns the files written.
+/// Here, above the sweep, because it joins the sweep and its study (`matdem-rs sweep
+/// collect` ends here too).
+pub fn write_collect(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Result<Vec<PathBuf>, String> {
+    let mut written = crate::sweep::collect::write_tables(dir, plan, results)?;
+    if let Some(spec) = &plan.study {
+        let study = from_results(spec, results)?;
+        written.extend(write_outputs(&study, spec, dir)?);
+    }
+    // Last, so the page shows the charts and tables just written.
+    let page = crate::sweep::page::write_sweep_page(dir, plan, results)
+        .map_err(|e| format!("cannot write {}: {e}", dir.join(crate::report_page::PAGE_FILE).display()))?;
+    written.push(page);
+    Ok(written)
 }
 
 fn check_config(cfg: &StudyConfig) -> Result<(), String> {
     // Before any point runs: a name no script can report would be found only at the end.
-    crate::api::metrics::check_metric_name(&cfg.metric).map_err(|e| format!("--metric: {e}"))?;
+    crate::metrics::check_metric_name(&cfg.metric).map_err(|e| format!("--metric: {e}"))?;
     if cfg.vary.is_empty() {
         return Err("give at least one --vary NAME=v1,v2,...".into());
     }
@@ -311,7 +328,7 @@ pub fn chart(study: &Study, metric: &str) -> LineChart {
 /// Writes `study.csv` and the chart; returns the files written.
 pub fn write_outputs(study: &Study, spec: &StudySpec, dir: &Path) -> Result<Vec<PathBuf>, String> {
     let csv = dir.join("study.csv");
-    write_atomic(&csv, to_csv(study, &spec.metric).as_bytes())
+    crate::atomic::write(&csv, to_csv(study, &spec.metric).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut written = vec![csv];
     let results = study.runs.iter().filter(|r| r.outcome.is_ok()).count();

@@ -31,6 +31,7 @@ mod hydraulic_fracture_cli;
 mod land_subsidence_cli;
 mod material_provenance;
 mod model_surgery;
+mod module_layers;
 mod movie_cli;
 mod oedometer_seeds;
 mod packages;

@@ -11,7 +11,7 @@ pub const FUNCTION_TABLES: &[&[(&str, &str, &str)]] = &[
     super::geometry::DOCS,
     super::model::cutting::DOCS,
     super::statistics::DOCS,
-    crate::size_checks::DOCS,
+    crate::sandbox::size_checks::DOCS,
     super::model::contacts::DOCS,
     super::model::fabric::DOCS,
     super::model::measure::DOCS,

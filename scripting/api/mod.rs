@@ -3,6 +3,7 @@
 //! MatDEM's nouns in snake_case (see the glossary in the README): `new_box` (obj_Box),
 //! `new_zoned` (paper 001's zones), the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
+pub mod auto_backend;
 pub mod box_builder;
 pub mod calibration;
 pub mod checkpoint;
@@ -16,6 +17,7 @@ pub mod model;
 pub mod movies;
 pub mod plot;
 pub mod reference;
+pub mod resume_point;
 pub mod runs;
 pub mod snapshots;
 pub mod statistics;
@@ -67,7 +69,7 @@ pub struct Host {
     /// in-process engines) nothing is journaled and a cancel is a plain error.
     pub resumable: bool,
     /// Where the run's models step; an undecided `--backend auto` is settled at the first
-    /// run or balance ([`crate::run_backend::settle`]).
+    /// run or balance ([`auto_backend::settle`]).
     pub backend: RefCell<RunBackend>,
     /// The speed test's line, once `auto` has measured (for `run.ron`).
     pub speed_test: RefCell<Option<String>>,

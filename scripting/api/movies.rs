@@ -52,7 +52,7 @@ fn settings(
         // Checks the field now (unknown, or a field that is off), not at the first frame.
         let loads = matches!(field, "contact_load" | "force").then(|| data.sim.contact_loads());
         let (_, label) =
-            super::plot::field_values(&data.sim.model, field, |_| loads.unwrap_or_default()).map_err(fail)?;
+            crate::picture_fields::field_values(&data.sim.model, field, |_| loads.unwrap_or_default()).map_err(fail)?;
         (label, data.name.clone())
     };
     let mut s = MovieSettings {

@@ -122,7 +122,7 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             // Its tables are written beside the points: not while a plan or a run holds the folder.
             let _sweep = OutLock::acquire_shared(&dir, "sweep collect")?;
             let results = collect::results(&dir, &planned)?;
-            let written = collect::write_collect(&dir, &planned, &results)?;
+            let written = matdem_rs::study::write_collect(&dir, &planned, &results)?;
             print!("{}", collect::status_text(&dir, &planned, &results));
             eprintln!("wrote {} file(s) under {}", written.len(), dir.display());
             Ok(())

@@ -3,15 +3,16 @@
 //! every chart (SVG inline; one over 2 MB linked instead), particle pictures, tables and the files written. One file with
 //! no network access needed: styles inline, images by relative path beside it.
 //!
+//! A run's page is [`write_run_page`]; a sweep's is written by the sweep (`sweep::page`),
+//! from the same parts (`html`), as this module sits below the workflows.
+//!
 //! The page checks itself: a few lines of inline script mark `<body data-images>` with how
 //! many images loaded and how many did not, which the headless-browser test reads.
 
-mod html;
+pub(crate) mod html;
 mod run;
-mod sweep;
 
 pub use run::{write_run_page, RunSummary};
-pub use sweep::write_sweep_page;
 
-/// The page's file name.
-pub const PAGE_FILE: &str = "index.html";
+/// The page's file name, which the sandbox keeps for the host.
+pub use crate::sandbox::PAGE_FILE;

@@ -1,7 +1,7 @@
 //! A run folder's page: what ran, how it ended, the plan, what it reported and wrote.
 
 use super::html::{csv_table, escape, fields, output_sections, page, Outputs};
-use crate::api::metrics::METRICS_FILE;
+use crate::metrics::METRICS_FILE;
 use crate::run_record::RunRecord;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -4,8 +4,7 @@
 
 use super::plan::SweepPlan;
 use super::point::{read_outcome, PointStatus, LOG_FILE};
-use crate::api::metrics::{parse_metrics, METRICS_FILE};
-use crate::api::write_atomic;
+use crate::metrics::{parse_metrics, METRICS_FILE};
 use crate::terminal_text::one_line;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -251,22 +250,14 @@ pub fn setting_text(parameters: &[(String, String)]) -> String {
     parameters.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")
 }
 
-/// Writes the merged table and the timings (and, for a study, its table and chart);
-/// returns the files written.
-pub fn write_collect(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Result<Vec<PathBuf>, String> {
+/// Writes the merged table and the timings; returns the files written. A finished sweep is
+/// collected by `study::write_collect`, which adds its study's outputs and its page.
+pub fn write_tables(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Result<Vec<PathBuf>, String> {
     let mut written = Vec::new();
     for (name, text) in [(TABLE_FILE, table_csv(plan, results)), (TIMINGS_FILE, timings_csv(results))] {
         let path = dir.join(name);
-        write_atomic(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         written.push(path);
     }
-    if let Some(spec) = &plan.study {
-        let study = crate::study::from_results(spec, results)?;
-        written.extend(crate::study::write_outputs(&study, spec, dir)?);
-    }
-    // Last, so the page shows the charts and tables just written.
-    let page = crate::report_page::write_sweep_page(dir, plan, results)
-        .map_err(|e| format!("cannot write {}: {e}", dir.join(crate::report_page::PAGE_FILE).display()))?;
-    written.push(page);
     Ok(written)
 }

@@ -22,6 +22,7 @@
 pub mod collect;
 mod digest;
 pub mod local;
+pub mod page;
 pub mod plan;
 pub mod point;
 pub mod slurm;

@@ -2,7 +2,6 @@
 //! every point shares, how the points were chosen, and each point's parameters and folder.
 
 use super::digest::source_sha256;
-use crate::api::write_atomic;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -235,7 +234,7 @@ fn save(dir: &Path, plan: &SweepPlan) -> Result<(), String> {
     let text = ron::ser::to_string_pretty(plan, ron::ser::PrettyConfig::default())
         .map_err(|e| format!("cannot write the sweep plan: {e}"))?;
     let path = dir.join(SWEEP_FILE);
-    write_atomic(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Reads and checks `DIR/sweep.ron`.

@@ -3,15 +3,15 @@
 //! The same function runs a point for `sweep run --local` and for a Slurm array task.
 
 use super::plan::SweepPlan;
-use crate::api::write_atomic;
 use matdem_engine::backend::RunControl;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-/// A point's output (stdout, then stderr) in its run folder.
-pub const LOG_FILE: &str = "log.txt";
+/// A point's output (stdout, then stderr) in its run folder, which the sandbox keeps for
+/// the host.
+pub use crate::sandbox::LOG_FILE;
 
 /// The folder of outcomes at the top of the sweep folder.
 pub const OUTCOMES_DIR: &str = "outcomes";
@@ -167,7 +167,8 @@ pub fn run_point(
     let _removed = RemoveOnDrop(&set_file);
     if !set.is_empty() {
         let text = ron::to_string(&set).map_err(|e| format!("cannot write the parameters of {}: {e}", point.name))?;
-        write_atomic(&set_file, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", set_file.display()))?;
+        crate::atomic::write(&set_file, text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", set_file.display()))?;
         cmd.arg("--set-file").arg(&set_file);
     }
     cmd.arg(format!("--backend={backend}"));
@@ -176,7 +177,7 @@ pub fn run_point(
     }
     // A stale metrics file from an earlier attempt must not pass for this run's.
     if !resume {
-        let _ = std::fs::remove_file(run_dir.join(crate::api::metrics::METRICS_FILE));
+        let _ = std::fs::remove_file(run_dir.join(crate::metrics::METRICS_FILE));
     }
     let started = crate::run_record::now_utc();
     let clock = Instant::now();
@@ -207,7 +208,7 @@ pub fn run_point(
     let mut log = stdout;
     log.extend_from_slice(&stderr);
     let log_path = run_dir.join(LOG_FILE);
-    write_atomic(&log_path, &log).map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
+    crate::atomic::write(&log_path, &log).map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
     let code = status.code();
     let (status_kind, error) = match code {
         Some(0) => (PointStatus::Ok, None),
@@ -233,7 +234,7 @@ fn record(dir: &Path, name: &str, outcome: Outcome) -> Result<PointRun, String> 
     let text = ron::ser::to_string_pretty(&outcome, ron::ser::PrettyConfig::default())
         .map_err(|e| format!("cannot write the outcome of {name}: {e}"))?;
     let path = outcome_path(dir, name);
-    write_atomic(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(PointRun::Ran(outcome))
 }
 

@@ -39,8 +39,8 @@ mod settings;
 
 use super::field::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table, TableData};
-use super::{err, raise, Host, RhaiResult};
-use crate::resume::{self, SavedBalance};
+use super::{err, raise, resume_point, Host, RhaiResult};
+use crate::resume::SavedBalance;
 use crate::stop::Stop;
 use matdem_engine::backend::Target;
 use matdem_engine::simulation::Balance;

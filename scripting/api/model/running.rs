@@ -12,7 +12,7 @@ use crate::terminal_text::one_line;
 fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResult<Dynamic> {
     // `--backend auto` decides at the first run (never while planning or replaying: those
     // runs are decided from the start).
-    crate::run_backend::settle(host, d).map_err(err)?;
+    crate::api::auto_backend::settle(host, d).map_err(err)?;
     {
         let mut data = d.data();
         if !data.plan_noted {
@@ -38,7 +38,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         match &s.pending {
             Some(p) if s.cursor == p.interrupted.index => {
                 drop(s);
-                resume::restore(host, call, how)?
+                resume_point::restore(host, call, how)?
             }
             _ if s.replaying() => {
                 drop(s);
@@ -119,7 +119,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         // The journal must end before this call: take back the entry `observe` made for it.
         host.session.borrow_mut().entries.pop();
         let saved = SavedBalance::from_balance(how).expect("standard balances were turned into steps above");
-        let dir = resume::write_resume(host, call, saved, completed).map_err(err)?;
+        let dir = resume_point::write_resume(host, call, saved, completed).map_err(err)?;
         let name = one_line(&d.data().name).into_owned();
         eprintln!(
             "interrupted: `{name}` stopped after {completed} step(s) of its {call}; resume data in {}",

@@ -22,7 +22,7 @@
 //! allocating it; with those off they would allocate anything, so they are replaced here by
 //! the same functions that read the sandbox's limits and allocate with `try_reserve`.
 
-use crate::sandbox::Limits;
+use super::Limits;
 use rhai::{Array, Blob, Dynamic, Engine, EvalAltResult, FuncRegistration, ImmutableString, Position, INT};
 use std::cell::RefCell;
 use std::collections::HashMap;

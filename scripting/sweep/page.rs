@@ -1,9 +1,11 @@
-//! A sweep's (or study's) page: where every point stands, its parameters and metrics, with a
-//! link to each point's own page, and the sweep's charts and tables.
+//! A sweep's (or study's) report page ([`crate::report_page`]): where every point stands, its
+//! parameters and metrics, with a link to each point's own page, and the sweep's charts and
+//! tables.
 
-use super::html::{escape, href, output_sections, page, Outputs};
-use crate::sweep::collect::{PointResult, PointState};
-use crate::sweep::plan::SweepPlan;
+use super::collect::{PointResult, PointState};
+use super::plan::SweepPlan;
+use crate::report_page::html::{escape, href, output_sections, page, Outputs};
+use crate::report_page::PAGE_FILE;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -42,12 +44,12 @@ pub fn write_sweep_page(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -
         let _ = write!(body, "<th>{}</th>", escape(n));
     }
     for n in &metrics {
-        let _ = write!(body, "<th>{}</th>", escape(&crate::sweep::collect::metric_column(n, &params)));
+        let _ = write!(body, "<th>{}</th>", escape(&super::collect::metric_column(n, &params)));
     }
     body.push_str("<th>wall s</th><th>host</th><th>error</th></tr>\n");
     for r in results {
-        let link = if dir.join(&r.name).join(super::PAGE_FILE).is_file() {
-            format!("<a href=\"{}/{}\">{}</a>", href(&r.name), super::PAGE_FILE, escape(&r.name))
+        let link = if dir.join(&r.name).join(PAGE_FILE).is_file() {
+            format!("<a href=\"{}/{}\">{}</a>", href(&r.name), PAGE_FILE, escape(&r.name))
         } else {
             escape(&r.name)
         };
@@ -75,7 +77,7 @@ pub fn write_sweep_page(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -
     }
     body.push_str("</table>\n");
     body.push_str(&output_sections(&Outputs::of(dir), &[]));
-    let path = dir.join(super::PAGE_FILE);
+    let path = dir.join(PAGE_FILE);
     crate::atomic::write(&path, page(&format!("sweep of {source}"), &body).as_bytes())?;
     Ok(path)
 }
