@@ -257,3 +257,66 @@ fn a_borehole_region_holds_exactly_the_pores_whose_centres_lie_within_its_radius
         assert!(e.contains("axis") || e.contains("radius"), "{e}");
     }
 }
+
+/// A simple-cubic block (spacing a, r = 0.4a) with a hole drilled along y through it (the
+/// elements within 1.1a of the axis: a plus-shaped shaft open at both faces), its borehole
+/// region held at p, every other pore at rest at gauge 0: (element, offset from the axis).
+fn drilled_block(p: f64) -> (Model, Vec<Vec3>) {
+    use matdem_engine::pores::PoreRegion;
+    let mut m = Model::new();
+    let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4 * A).unwrap()).unwrap();
+    let (center, axis) = (Vec3::new(3.0, 2.0, 3.0) * A, Vec3::y());
+    let mut offsets = Vec::new();
+    for i in 0..7 {
+        for j in 0..5 {
+            for k in 0..7 {
+                let x = Vec3::new(i as f64, j as f64, k as f64) * A;
+                let off = Vec3::new(x.x - center.x, 0.0, x.z - center.z);
+                if off.norm() > 1.1 * A {
+                    m.add_particle(x, 0.4 * A, mat).unwrap();
+                    offsets.push(off);
+                }
+            }
+        }
+    }
+    m.set_dt(1e-6).unwrap();
+    m.set_pore_fluid(fluid()).unwrap();
+    m.enable_pore_flow().unwrap();
+    m.add_pore_boundary(PoreRegion::cylinder(center, axis, 1.5 * A).unwrap(), BoundaryKind::Pressure(p)).unwrap();
+    (m, offsets)
+}
+
+#[test]
+fn a_pressurised_borehole_open_at_the_faces_pushes_its_wall_into_the_rock() {
+    use matdem_engine::pores::pressure_forces::pressure_force;
+    let p = 1e4;
+    let (m, offsets) = drilled_block(p);
+    let f = m.pores.as_ref().unwrap();
+    let net = &f.network;
+    let pos = &m.particles.pos;
+    // The shaft's open space is the well's: pores there, held at p, the rest at 0.
+    let held: Vec<usize> = (0..net.pore_count()).filter(|&q| f.region[q] == 0).collect();
+    assert!(!held.is_empty(), "no pore in the borehole");
+    for (q, pq) in f.pressure.iter().enumerate() {
+        let want = if f.region[q] == 0 { p } else { 0.0 };
+        assert!((pq - want).abs() < 1e-9 * p, "pore {q}: {pq} Pa, want {want}");
+    }
+    let tet_volume = |t: usize| {
+        let v = net.tri.tets[t].v.map(|i| pos[i as usize]);
+        ((v[0] - v[3]).dot(&(v[1] - v[3]).cross(&(v[2] - v[3]))) / 6.0).abs()
+    };
+    let bore: f64 = (0..net.tri.tets.len()).filter(|&t| f.region[net.tet_pore[t] as usize] == 0).map(tet_volume).sum();
+    // The shaft between the centres of its wall's elements: a cross of five a × a squares, 4a long.
+    let shaft = 5.0 * A * A * 4.0 * A;
+    assert!(bore > 0.9 * shaft && bore < 1.6 * shaft, "the well's tetrahedra hold {bore:e} m³, the shaft {shaft:e}");
+
+    // The force is p·∂V/∂x, so the wall's push along its offsets from the axis is p·dV/dε
+    // for the radial stretch x⊥ → (1 + ε)·x⊥, which is 2·p·V: outward, and exact.
+    let push: f64 = (0..m.len()).map(|i| pressure_force(net, &f.pressure, pos, i).dot(&offsets[i])).sum();
+    assert!((push / (2.0 * p * bore) - 1.0).abs() < 1e-9, "Σ F·x⊥ = {push:e}, 2·p·V = {:e}", 2.0 * p * bore);
+    // Element by element: each wall element is pushed away from the axis, none into the hole.
+    for i in 0..m.len() {
+        let radial = pressure_force(net, &f.pressure, pos, i).dot(&offsets[i]);
+        assert!(radial >= -1e-12 * p * A * A * A, "element {i} at {:?} is pulled toward the axis: {radial:e}", pos[i]);
+    }
+}

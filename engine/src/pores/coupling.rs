@@ -304,21 +304,31 @@ impl Model {
         if let PoreRegion::Elements(ids) = &region {
             self.check_ids(ids)?;
         }
+        let claims = matches!(region, PoreRegion::Cylinder { .. }) && kind != BoundaryKind::Impermeable;
         let mut all = self.settings.pores.boundaries.clone();
         all.push(PoreBoundary { region, kind, temperature });
-        if let Some(f) = self.pores.as_mut() {
-            f.set_boundaries(all.clone())?;
-        }
-        self.settings.pores.boundaries = all;
-        Ok(())
+        self.set_pore_boundaries(all, claims)
     }
 
     /// Removes every boundary region: the whole hull sealed again.
     pub fn clear_pore_boundaries(&mut self) -> Result<()> {
-        if let Some(f) = self.pores.as_mut() {
-            f.set_boundaries(Vec::new())?;
+        let claimed = self.settings.pores.boundaries.iter().any(|b| matches!(b.region, PoreRegion::Cylinder { .. }));
+        self.set_pore_boundaries(Vec::new(), claimed)
+    }
+
+    /// Sets the boundary regions; `reshape`: a borehole's open space joins or leaves the
+    /// network (`PoreNetwork::build`), so it is rebuilt, the fluid carried over.
+    fn set_pore_boundaries(&mut self, all: Vec<PoreBoundary>, reshape: bool) -> Result<()> {
+        let Some(mut f) = self.pores.take() else {
+            self.settings.pores.boundaries = all;
+            return Ok(());
+        };
+        let old = std::mem::replace(&mut self.settings.pores.boundaries, all.clone());
+        let done = f.set_boundaries(all).and_then(|()| if reshape { f.rebuild(self) } else { Ok(()) });
+        if done.is_err() {
+            self.settings.pores.boundaries = old;
         }
-        self.settings.pores.boundaries.clear();
-        Ok(())
+        self.pores = Some(f);
+        done
     }
 }

@@ -64,7 +64,7 @@ impl PoreRegion {
 
     /// Whether a pore centred at `c` lies in a region given by a shape (a box or a cylinder);
     /// `None` for regions given by elements or a nearest point.
-    fn contains(&self, c: &Vec3) -> Option<bool> {
+    pub(crate) fn contains(&self, c: &Vec3) -> Option<bool> {
         match self {
             PoreRegion::Box { lo, hi } => Some((0..3).all(|d| c[d] >= lo[d] && c[d] <= hi[d])),
             PoreRegion::Cylinder { center, axis, radius } => {

@@ -6,6 +6,7 @@
 //! follows the elements every step.
 
 use super::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
+use super::flow::{BoundaryKind, PoreRegion};
 use super::geometry::{cubic_law, opening, poiseuille_within, pore_volume, sectors_volume, tet_volume};
 use super::Fluid;
 use crate::element_values::base_name;
@@ -95,7 +96,17 @@ pub fn face_corners(v: [u32; 4], k: usize) -> [u32; 3] {
 /// dips of a packing's surface with wide flat tetrahedra (a facet 0.4 m across over grains of
 /// 15 mm); as pores, their small volume under a wide face made the fluid a spring 400 times
 /// stiffer than the contacts.
-fn outside_the_packing(tri: &Tetrahedralisation, pos: &[Vec3], rad: &[f64]) -> Vec<bool> {
+///
+/// A tetrahedron whose centroid lies in a borehole region (`claimed`) is never open space: a
+/// hole drilled through a slab opens to its faces, yet holds the well's fluid, which must push
+/// the hole's wall into the rock. Left outside, the hole's wall would be the network's hull,
+/// where a pressurised pore's fluid pushes the wall grains into the hole instead.
+fn outside_the_packing(
+    tri: &Tetrahedralisation,
+    pos: &[Vec3],
+    rad: &[f64],
+    claimed: impl Fn(&Vec3) -> bool,
+) -> Vec<bool> {
     let wide = |t: usize| {
         let v = tri.tets[t].v.map(|i| i as usize);
         let diameter = v.iter().map(|&i| 2.0 * rad[i]).sum::<f64>() / 4.0;
@@ -106,7 +117,7 @@ fn outside_the_packing(tri: &Tetrahedralisation, pos: &[Vec3], rad: &[f64]) -> V
     let mut outside = vec![false; tri.tets.len()];
     let mut stack: Vec<usize> = (0..tri.tets.len()).filter(|&t| tri.tets[t].n.contains(&HULL)).collect();
     while let Some(t) = stack.pop() {
-        if outside[t] || !wide(t) {
+        if outside[t] || !wide(t) || claimed(&(tri.tets[t].v.iter().map(|&i| pos[i as usize]).sum::<Vec3>() / 4.0)) {
             continue;
         }
         outside[t] = true;
@@ -225,7 +236,16 @@ impl PoreNetwork {
         let pos = &m.particles.pos;
         let rad = &m.particles.radius;
         let mut tri = tetrahedralise(pos)?;
-        let outside = outside_the_packing(&tri, pos, rad);
+        // The open space of a borehole region whose fluid is held or injected is the well's.
+        let bores: Vec<&PoreRegion> = m
+            .settings
+            .pores
+            .boundaries
+            .iter()
+            .filter(|b| b.kind != BoundaryKind::Impermeable && matches!(b.region, PoreRegion::Cylinder { .. }))
+            .map(|b| &b.region)
+            .collect();
+        let outside = outside_the_packing(&tri, pos, rad, |c| bores.iter().any(|r| r.contains(c) == Some(true)));
         if outside.iter().any(|&o| o) && !outside.iter().all(|&o| o) {
             tri.retain(&outside.iter().map(|&o| !o).collect::<Vec<_>>());
         }
