@@ -55,6 +55,9 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 map.insert("force".into(), v3(w.force).into());
                 map.insert("displacement".into(), v3(w.displacement).into());
                 map.insert("contacts".into(), (w.contacts as INT).into());
+                // What `stress` divides the force by: a box's side walls span the loose column
+                // the grains were poured as, not the sample's height.
+                map.insert("area".into(), w.area.into());
                 let pos = match &w.shape {
                     matdem_engine::WallShape::Plane { point, .. } | matdem_engine::WallShape::Strip { point, .. } => {
                         v3(*point)
