@@ -93,7 +93,10 @@ fn a_confined_block_holds_its_in_situ_stresses_and_a_drilled_well_below_breakdow
     let (inside, held) = (get("sigma_x_inside"), get("sigma_x_held"));
     assert!((inside - held).abs() <= 0.1 * held, "σx in the middle {inside:e} Pa, at the walls {held:e} Pa");
     let (inside_z, held_z) = (get("sigma_z_inside"), get("sigma_z_held"));
-    assert!(inside_z < 0.4 * inside && inside_z > 0.8 * held_z, "σz in the middle {inside_z:e} Pa, at the walls {held_z:e} Pa");
+    assert!(
+        inside_z < 0.4 * inside && inside_z > 0.8 * held_z,
+        "σz in the middle {inside_z:e} Pa, at the walls {held_z:e} Pa"
+    );
     assert!(get("drilled") >= 5.0, "{m:?}");
     // Nothing breaks at the well. A few bonds may break far from it, where a pore the stressed
     // block squeezes faster than its softened fluid can leave pushes its grains apart (3 at 7.5

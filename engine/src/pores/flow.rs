@@ -51,7 +51,7 @@ impl PoreRegion {
     /// A borehole along `axis` (any length, not zero) through `center`, of this radius (> 0).
     pub fn cylinder(center: Vec3, axis: Vec3, radius: f64) -> Result<Self> {
         let n = axis.norm();
-        if !(n > 0.0 && n.is_finite()) || !center.iter().all(|x| x.is_finite()) {
+        if !(n > 0.0 && n.is_finite() && center.iter().all(|x| x.is_finite())) {
             return Err(Error::InvalidScene(format!(
                 "a cylinder of pores needs a finite center and a finite, non-zero axis (got center {center:?}, axis {axis:?})"
             )));
