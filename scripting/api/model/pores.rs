@@ -1,7 +1,7 @@
 //! Pore density flow as scripts see it (paper 003 §3.3, issue 16): `d.enable("pore_flow")`
 //! builds the pore network of the packing and couples the fluid into every step (the
 //! `pore_flow` stage); `d.fluid = #{ bulk_modulus, density, viscosity, … }` sets the fluid;
-//! `d.fix_pore_pressure(group or box, p)`, `d.inject(point, rate)`,
+//! `d.fix_pore_pressure(group, box or borehole, p)`, `d.inject(point, rate)`,
 //! `d.fix_pore_pressure_at(point, p)` and `d.seal_pores()` set the boundaries (everything
 //! else is impermeable); `d.pore_pressure` (per element), `d.pore_pressures` (per pore),
 //! `d.permeability` and `d.pore_network` read the state. With heat on, each pore's fluid has a
@@ -173,11 +173,11 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         .register_fn("inject", |d: &mut ModelHandle, sel: Dynamic, rate: FLOAT| -> RhaiResult<()> {
             let q = finite("the injection rate (m³/s at ρ0; negative draws fluid out)", rate)?;
             let mut m = d.model();
-            let r = region(&m, &sel, "d.inject(group or box, rate)")?;
+            let r = region(&m, &sel, "d.inject(group, box or borehole, rate)")?;
             m.add_pore_boundary(r, BoundaryKind::Flux(q)).map_err(raise)
         })
         .register_fn("fix_pore_pressure", |d: &mut ModelHandle, sel: Dynamic, p: FLOAT, t: FLOAT| -> RhaiResult<()> {
-            let call = "d.fix_pore_pressure(group or box, p, T)";
+            let call = "d.fix_pore_pressure(group, box or borehole, p, T)";
             let p = finite("the fixed pore pressure (Pa, gauge)", p)?;
             let t = finite("the reservoir's temperature (K)", t)?;
             let mut m = d.model();
@@ -203,7 +203,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             let q = finite("the injection rate (m³/s at ρ0; negative draws fluid out)", rate)?;
             let t = finite("the injected fluid's temperature (K)", t)?;
             let mut m = d.model();
-            let r = region(&m, &sel, "d.inject(group or box, rate, T)")?;
+            let r = region(&m, &sel, "d.inject(group, box or borehole, rate, T)")?;
             m.add_pore_boundary_at(r, BoundaryKind::Flux(q), Some(t)).map_err(raise)
         })
         .register_fn("seal_pores", |d: &mut ModelHandle| d.model().clear_pore_boundaries().map_err(raise))
