@@ -4,6 +4,22 @@
 //! and the first bonds break at the well (the fluid, not the frame or the build, breaks them).
 
 use crate::common::*;
+use std::collections::HashMap;
+
+/// Runs the packaged example on the CPU into a fresh folder named for `tag` with these
+/// `--set` values; its metrics.
+fn run_hf(tag: &str, sets: &[String]) -> HashMap<String, f64> {
+    let out = temp_dir(tag).join("out");
+    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
+    let mut cmd = bin();
+    cmd.arg("run").arg(&pkg).args(["--backend", "cpu", "--out"]).arg(&out);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.output().unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    metrics(&out)
+}
 
 #[test]
 fn hydraulic_fracture_quick_mode_breaks_bonds_at_the_well_and_writes_its_charts() {
@@ -46,17 +62,7 @@ fn hydraulic_fracture_quick_mode_breaks_bonds_at_the_well_and_writes_its_charts(
 // the guard's fix, K_f = 9.8e4 Pa, lay below the manifest's floor of 1e5.
 #[test]
 fn hydraulic_fracture_default_size_runs_through_its_pressure_stages() {
-    let out = temp_dir("hydraulic_fracture_default").join("out");
-    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
-    let o = bin()
-        .arg("run")
-        .arg(&pkg)
-        .args(["--backend", "cpu", "--set", "hold_steps=250", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    let m = metrics(&out);
+    let m = run_hf("hydraulic_fracture_default", &["hold_steps=250".into()]);
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
     assert!(get("elements") > 2000.0 && get("pores") > 5000.0, "{m:?}");
     let pb = get("breakdown_pressure");
@@ -71,19 +77,8 @@ fn hydraulic_fracture_default_size_runs_through_its_pressure_stages() {
 // drilled and held at a pressure below the breakdown, so nothing breaks at the well.
 #[test]
 fn a_confined_block_holds_its_in_situ_stresses_and_a_drilled_well_below_breakdown_breaks_nothing() {
-    let out = temp_dir("hydraulic_fracture_confined").join("out");
-    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
-    let o = bin()
-        .arg("run")
-        .arg(&pkg)
-        .args(["--backend", "cpu", "--out"])
-        .arg(&out)
-        .args(["--set", "quick=true", "--set", "sigma_x=8e6", "--set", "sigma_z=2e6"])
-        .args(["--set", "well_r=0.075", "--set", "p_well=5e5", "--set", "hold_steps=250"])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    let m = metrics(&out);
+    let sets = ["quick=true", "sigma_x=8e6", "sigma_z=2e6", "well_r=0.075", "p_well=5e5", "hold_steps=250"];
+    let m = run_hf("hydraulic_fracture_confined", &sets.map(String::from));
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
     for (held, set) in [("sigma_x_held", 8e6), ("sigma_z_held", 2e6)] {
         assert!((get(held) - set).abs() <= 0.02 * set, "{held} {} against {set}: {m:?}", get(held));
@@ -116,24 +111,20 @@ fn a_confined_block_holds_its_in_situ_stresses_and_a_drilled_well_below_breakdow
 // 103°, 88°, 106°, 87° with σz largest; in the 2.5-grain slab the packing decided instead.
 #[test]
 fn a_confined_block_fractures_along_its_largest_stress_for_both_orientations() {
-    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/hydraulic_fracture");
     for (sx, sz, want) in [("8e6", "2e6", 0.0_f64), ("2e6", "8e6", 90.0)] {
         let (mut c2, mut s2) = (0.0, 0.0);
         let mut axes = Vec::new();
         for seed in ["1", "2"] {
-            let out = temp_dir(&format!("hydraulic_fracture_axis_{sx}_{seed}")).join("out");
-            let o = bin()
-                .arg("run")
-                .arg(&pkg)
-                .args(["--backend", "cpu", "--out"])
-                .arg(&out)
-                .args(["--set", "quick=true", "--set", "thickness=12", "--set", &format!("seed={seed}")])
-                .args(["--set", &format!("sigma_x={sx}"), "--set", &format!("sigma_z={sz}")])
-                .args(["--set", "well_r=0.075", "--set", "p_well=6e6"])
-                .output()
-                .unwrap();
-            assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-            let m = metrics(&out);
+            let sets = [
+                "quick=true".into(),
+                "thickness=12".into(),
+                format!("seed={seed}"),
+                format!("sigma_x={sx}"),
+                format!("sigma_z={sz}"),
+                "well_r=0.075".into(),
+                "p_well=6e6".into(),
+            ];
+            let m = run_hf(&format!("hydraulic_fracture_axis_{sx}_{seed}"), &sets);
             let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
             assert!(get("broken_bonds") >= 20.0, "the well broke too little to have a direction: {m:?}");
             let a = get("tension_axis_deg").to_radians();
