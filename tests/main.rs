@@ -3,6 +3,9 @@
 //! and spent minutes linking. A new test file needs its `mod` line here.
 
 mod common;
+// The module graph reader the engine's dependency test uses too.
+#[path = "../engine/tests/module_graph.rs"]
+mod module_graph;
 
 mod analysis_script;
 mod applied_loads_script;

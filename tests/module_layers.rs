@@ -10,11 +10,15 @@
 //! an item of `lib.rs` itself (`crate::new_engine`) names the crate root, node `lib`; the
 //! binary's root is node `main`.
 //!
-//! A failure names the file and the line of each offending reference.
+//! A failure names the file and the line of each offending reference. The reader of paths
+//! and circles is the engine's (`engine/tests/module_graph.rs`), shared by both crates' tests.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+use crate::module_graph::{
+    self, a_circle_through, circles, code_only, describe_circle, module_path, references, tokens, Graph,
+};
 
 /// The host's layers, lowest first. A module may name modules of its own layer and of the
 /// layers before it, never of a layer after it; no modules name each other in a circle, in a
@@ -63,299 +67,9 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("front ends", &["bench", "cli", "commands", "main", "repl", "run"]),
 ];
 
-/// Every `.rs` file under `dir`, sorted.
-fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in fs::read_dir(&d).unwrap_or_else(|e| panic!("reading {}: {e}", d.display())) {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.extension().is_some_and(|x| x == "rs") {
-                out.push(path);
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 /// The host's source files as (path relative to `scripting/`, with `/` separators; text).
 fn sources() -> Vec<(String, String)> {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripting");
-    let files = rust_files(&src);
-    assert!(files.len() > 20, "found only {} source files under {}", files.len(), src.display());
-    files
-        .into_iter()
-        .map(|p| {
-            let rel = p.strip_prefix(&src).unwrap().components();
-            let rel: Vec<String> = rel.map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
-            (rel.join("/"), fs::read_to_string(&p).unwrap())
-        })
-        .collect()
-}
-
-/// `text` with its comments and the insides of its string and character literals blanked
-/// out; line breaks stay where they were, so line numbers still hold.
-fn code_only(text: &str) -> String {
-    let c: Vec<char> = text.chars().collect();
-    let mut out = String::with_capacity(text.len());
-    let blank = |out: &mut String, ch: char| out.push(if ch == '\n' { '\n' } else { ' ' });
-    let mut i = 0;
-    while i < c.len() {
-        let at = |k: usize| c.get(k).copied().unwrap_or('\0');
-        if c[i] == '/' && at(i + 1) == '/' {
-            while i < c.len() && c[i] != '\n' {
-                blank(&mut out, c[i]);
-                i += 1;
-            }
-        } else if c[i] == '/' && at(i + 1) == '*' {
-            let mut depth = 0;
-            while i < c.len() {
-                if c[i] == '/' && at(i + 1) == '*' {
-                    depth += 1;
-                    out.push_str("  ");
-                    i += 2;
-                } else if c[i] == '*' && at(i + 1) == '/' {
-                    depth -= 1;
-                    out.push_str("  ");
-                    i += 2;
-                    if depth == 0 {
-                        break;
-                    }
-                } else {
-                    blank(&mut out, c[i]);
-                    i += 1;
-                }
-            }
-        } else if c[i] == 'r'
-            && (at(i + 1) == '"' || at(i + 1) == '#')
-            && (!ident_char(at(i.wrapping_sub(1)))
-                || (at(i.wrapping_sub(1)) == 'b' && !ident_char(at(i.wrapping_sub(2)))))
-        {
-            // A raw string r"…" or r#"…"#: it ends at a quote and as many hashes.
-            let mut j = i + 1;
-            while at(j) == '#' {
-                j += 1;
-            }
-            if at(j) != '"' {
-                out.push(c[i]);
-                i += 1;
-                continue;
-            }
-            let hashes = j - i - 1;
-            let close: Vec<char> = std::iter::once('"').chain(std::iter::repeat_n('#', hashes)).collect();
-            out.push('"');
-            for _ in i + 1..=j {
-                out.push(' ');
-            }
-            i = j + 1;
-            while i < c.len() && !c[i..].starts_with(&close) {
-                blank(&mut out, c[i]);
-                i += 1;
-            }
-            out.push('"');
-            for _ in 0..hashes {
-                out.push(' ');
-            }
-            i += close.len();
-        } else if c[i] == '"' {
-            out.push('"');
-            i += 1;
-            while i < c.len() && c[i] != '"' {
-                if c[i] == '\\' {
-                    blank(&mut out, c[i]);
-                    i += 1;
-                }
-                if i < c.len() {
-                    blank(&mut out, c[i]);
-                    i += 1;
-                }
-            }
-            out.push('"');
-            i += 1;
-        } else if c[i] == '\'' && (at(i + 1) == '\\' || (at(i + 2) == '\'' && at(i + 1) != '\'')) {
-            // A character literal ('x', '\n', '\u{7f}'), not a lifetime ('a).
-            out.push('\'');
-            i += 1;
-            while i < c.len() && c[i] != '\'' {
-                if c[i] == '\\' {
-                    out.push(' ');
-                    i += 1;
-                }
-                out.push(' ');
-                i += 1;
-            }
-            out.push('\'');
-            i += 1;
-        } else {
-            out.push(c[i]);
-            i += 1;
-        }
-    }
-    out
-}
-
-fn ident_char(ch: char) -> bool {
-    ch.is_alphanumeric() || ch == '_'
-}
-
-/// A token of code: an identifier, `::`, or one other character; with its line (from 1).
-struct Token {
-    text: String,
-    line: usize,
-}
-
-fn tokens(code: &str) -> Vec<Token> {
-    let mut out = Vec::new();
-    for (k, line) in code.lines().enumerate() {
-        let c: Vec<char> = line.chars().collect();
-        let mut i = 0;
-        while i < c.len() {
-            if ident_char(c[i]) {
-                let start = i;
-                while i < c.len() && ident_char(c[i]) {
-                    i += 1;
-                }
-                out.push(Token { text: c[start..i].iter().collect(), line: k + 1 });
-            } else if c[i] == ':' && c.get(i + 1) == Some(&':') {
-                out.push(Token { text: "::".into(), line: k + 1 });
-                i += 2;
-            } else {
-                if !c[i].is_whitespace() {
-                    out.push(Token { text: c[i].to_string(), line: k + 1 });
-                }
-                i += 1;
-            }
-        }
-    }
-    out
-}
-
-/// The module path a file defines: `api/runs.rs` is `api::runs`, `api/mod.rs` is `api`,
-/// `lib.rs` and `main.rs` are their crate's root.
-fn module_path(file: &str) -> Vec<String> {
-    let mut parts: Vec<String> = file.trim_end_matches(".rs").split('/').map(String::from).collect();
-    if matches!(parts.last().map(String::as_str), Some("mod" | "lib" | "main")) {
-        parts.pop();
-    }
-    parts
-}
-
-/// A reference from a file's line to a module path (crate-relative, first segment first).
-struct Reference {
-    line: usize,
-    path: Vec<String>,
-    /// Through `matdem_rs::`: the library, from the binary.
-    library: bool,
-}
-
-/// The paths `file`'s code names outside itself: each `crate::`, `matdem_rs::` or `super::`
-/// path's first named segment, resolved from the crate root; a `{…}` group gives one path
-/// per item.
-fn references(file: &str, text: &str) -> Vec<Reference> {
-    let t = tokens(&code_only(text));
-    let here = module_path(file);
-    let mut out = Vec::new();
-    // Inline modules (`mod tests { … }`): their names, and the brace depth they opened at.
-    let mut inline: Vec<(String, usize)> = Vec::new();
-    let mut depth = 0;
-    let text_at = |k: usize| t.get(k).map(|x| x.text.as_str()).unwrap_or("");
-    let mut i = 0;
-    while i < t.len() {
-        match t[i].text.as_str() {
-            "{" => depth += 1,
-            "}" => {
-                depth -= 1;
-                if inline.last().is_some_and(|(_, d)| *d == depth) {
-                    inline.pop();
-                }
-            }
-            "mod" if text_at(i + 2) == "{" => {
-                inline.push((text_at(i + 1).to_string(), depth));
-            }
-            _ => {}
-        }
-        let head = t[i].text.as_str();
-        let starts_path = text_at(i + 1) == "::" && text_at(i.wrapping_sub(1)) != "::";
-        let base: Option<(Vec<String>, bool)> = match head {
-            "crate" if starts_path => Some((Vec::new(), false)),
-            "matdem_rs" if starts_path => Some((Vec::new(), true)),
-            "super" if starts_path => {
-                let mut at: Vec<String> = here.iter().cloned().chain(inline.iter().map(|(n, _)| n.clone())).collect();
-                let mut j = i;
-                while text_at(j) == "super" && text_at(j + 1) == "::" {
-                    at.pop();
-                    j += 2;
-                }
-                Some((at, false))
-            }
-            _ => None,
-        };
-        let Some((base, library)) = base else {
-            // In a crate's root, its modules are in scope by their bare names (`api::register`).
-            let root = here.is_empty() && inline.is_empty();
-            if root && starts_path && ident_char(head.chars().next().unwrap_or(' ')) && head != "self" {
-                out.push(Reference { line: t[i].line, path: vec![head.to_string()], library: false });
-            }
-            i += 1;
-            continue;
-        };
-        // Past the head (and any further `super::`) to what the path names.
-        let mut j = i + 2;
-        while text_at(j) == "super" && text_at(j + 1) == "::" {
-            j += 2;
-        }
-        let line = t[i].line;
-        let mut named = Vec::new();
-        if text_at(j) == "{" {
-            // A group: the first token of each item at the group's own depth.
-            let mut level = 0;
-            let mut item_start = true;
-            let mut k = j;
-            while k < t.len() {
-                match text_at(k) {
-                    "{" => {
-                        level += 1;
-                        if level == 1 {
-                            item_start = true;
-                            k += 1;
-                            continue;
-                        }
-                    }
-                    "}" => {
-                        level -= 1;
-                        if level == 0 {
-                            break;
-                        }
-                    }
-                    "," if level == 1 => {
-                        item_start = true;
-                        k += 1;
-                        continue;
-                    }
-                    _ => {}
-                }
-                if item_start && level == 1 {
-                    named.push(text_at(k).to_string());
-                }
-                item_start = false;
-                k += 1;
-            }
-        } else {
-            named.push(text_at(j).to_string());
-        }
-        for name in named {
-            let mut path = base.clone();
-            if name != "self" && ident_char(name.chars().next().unwrap_or(' ')) {
-                path.push(name);
-            }
-            out.push(Reference { line, path, library });
-        }
-        i = j;
-    }
-    out
+    module_graph::sources(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scripting"))
 }
 
 /// The top-level modules each crate declares in its root (`mod x;`, `pub mod x;`).
@@ -366,9 +80,6 @@ fn declared(root: &str) -> Vec<String> {
         .map(|k| t[k + 1].text.clone())
         .collect()
 }
-
-/// An edge between top-level modules, with the lines that make it: `file:line: code`.
-type Graph = BTreeMap<(String, String), Vec<String>>;
 
 /// The host's module graph, from the sources given as (path under `scripting/`, text).
 /// Nodes are the library's top-level modules, its root `lib`, the binary's top-level
@@ -396,7 +107,7 @@ fn graph_of(files: &[(String, String)]) -> (BTreeSet<String>, Graph) {
         };
         assert!(nodes.contains(&from), "{file} belongs to no module of lib.rs or main.rs");
         let lines: Vec<&str> = text.lines().collect();
-        for r in references(file, text) {
+        for r in references(file, text, "matdem_rs") {
             let (root, modules) = if r.library || !in_binary { ("lib", &library) } else { ("main", &binary) };
             let to = match r.path.first() {
                 Some(top) if modules.contains(top) => top.clone(),
@@ -412,105 +123,6 @@ fn graph_of(files: &[(String, String)]) -> (BTreeSet<String>, Graph) {
         }
     }
     (nodes, graph)
-}
-
-/// The strongly connected components of more than one node (Tarjan's algorithm), each sorted.
-fn circles(nodes: &BTreeSet<String>, graph: &Graph) -> Vec<Vec<String>> {
-    struct State<'a> {
-        graph: &'a Graph,
-        index: BTreeMap<String, usize>,
-        low: BTreeMap<String, usize>,
-        stack: Vec<String>,
-        on_stack: BTreeSet<String>,
-        out: Vec<Vec<String>>,
-    }
-    fn visit(s: &mut State, v: &str) {
-        let n = s.index.len();
-        s.index.insert(v.into(), n);
-        s.low.insert(v.into(), n);
-        s.stack.push(v.into());
-        s.on_stack.insert(v.into());
-        let next: Vec<String> = s.graph.keys().filter(|(a, _)| a == v).map(|(_, b)| b.clone()).collect();
-        for w in next {
-            if !s.index.contains_key(&w) {
-                visit(s, &w);
-                let l = s.low[v].min(s.low[&w]);
-                s.low.insert(v.into(), l);
-            } else if s.on_stack.contains(&w) {
-                let l = s.low[v].min(s.index[&w]);
-                s.low.insert(v.into(), l);
-            }
-        }
-        if s.low[v] == s.index[v] {
-            let mut component = Vec::new();
-            loop {
-                let w = s.stack.pop().unwrap();
-                s.on_stack.remove(&w);
-                let done = w == v;
-                component.push(w);
-                if done {
-                    break;
-                }
-            }
-            if component.len() > 1 {
-                component.sort();
-                s.out.push(component);
-            }
-        }
-    }
-    let mut s = State {
-        graph,
-        index: BTreeMap::new(),
-        low: BTreeMap::new(),
-        stack: Vec::new(),
-        on_stack: BTreeSet::new(),
-        out: Vec::new(),
-    };
-    for v in nodes {
-        if !s.index.contains_key(v) {
-            visit(&mut s, v);
-        }
-    }
-    s.out.sort();
-    s.out
-}
-
-/// One circle through `start` inside `component` (a shortest one, by breadth-first search).
-fn a_circle_through(start: &str, component: &[String], graph: &Graph) -> Vec<String> {
-    let inside = |x: &String| component.contains(x);
-    let mut came_from: BTreeMap<String, String> = BTreeMap::new();
-    let mut queue = std::collections::VecDeque::from([start.to_string()]);
-    while let Some(v) = queue.pop_front() {
-        for (_, w) in graph.keys().filter(|(a, b)| *a == v && inside(b)) {
-            if w == start {
-                let mut path = vec![v.clone()];
-                while let Some(p) = came_from.get(path.last().unwrap()) {
-                    path.push(p.clone());
-                }
-                path.reverse();
-                path.push(start.to_string());
-                return path;
-            }
-            if !came_from.contains_key(w) && w != start {
-                came_from.insert(w.clone(), v.clone());
-                queue.push_back(w.clone());
-            }
-        }
-    }
-    unreachable!("{start} is on no circle in {component:?}")
-}
-
-/// A circle, hop by hop, each hop with the first line that makes it.
-fn describe_circle(circle: &[String], graph: &Graph) -> String {
-    let mut out = circle.join(" → ");
-    for hop in circle.windows(2) {
-        let lines = &graph[&(hop[0].clone(), hop[1].clone())];
-        out.push_str(&format!("\n    {} → {}: {}", hop[0], hop[1], lines[0]));
-        if lines.len() > 1 {
-            out.push_str(&format!(" (and {} more)", lines.len() - 1));
-        }
-    }
-    out
 }
 
 /// The layer (index in [`LAYERS`]) of each module.

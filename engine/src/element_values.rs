@@ -16,15 +16,11 @@
 
 use crate::error::{Error, Result};
 use crate::materials::Material;
+pub use crate::materials::MAX_MATERIALS;
 use crate::model::Model;
 use crate::provenance::Source;
 use std::collections::{HashMap, HashSet};
 use std::str::FromStr;
-
-/// Most materials a scene may hold: the plan's pair table has M² entries (256 materials:
-/// 65 536 pairs, 4.7 MB on the CPU, 3.1 MB on the GPU), read by every contact; more would
-/// spill the caches the contact pass lives in.
-pub const MAX_MATERIALS: usize = 256;
 
 /// Marks a material cloned by a per-element write: `base~k`.
 pub const CLONE_MARK: char = '~';

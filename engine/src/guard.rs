@@ -13,9 +13,8 @@ use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams, TangentialLaw};
 use crate::physics::timestep::critical_step;
 use crate::plan::StepPlan;
+pub use crate::settings::guard::GuardMode;
 use crate::state::particles::dof;
-use serde::{Deserialize, Serialize};
-use std::str::FromStr;
 
 /// Refuses a time step above the critical step of the stiffest element.
 pub fn check_time_step(m: &Model) -> Result<()> {
@@ -183,26 +182,6 @@ pub(crate) fn unstable(m: &Model, particle: usize, what: String) -> Error {
         // The general fix's number (see `Instability`'s Display): a dt under the critical step.
         suggest: if m.clock.dt > critical_dt { vec![Suggestion::below("dt", critical_dt, "s")] } else { Vec::new() },
     }))
-}
-
-/// What the guard does when a contact is too stiff for the time step: stop the run (the
-/// default) or warn once on stderr and go on (`d.guard = "warn"`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum GuardMode {
-    #[default]
-    Stop,
-    Warn,
-}
-
-impl FromStr for GuardMode {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "stop" => Ok(GuardMode::Stop),
-            "warn" => Ok(GuardMode::Warn),
-            _ => Err(Error::unknown("guard mode", s, &["stop", "warn"])),
-        }
-    }
 }
 
 /// The guard stops a run whose dt exceeds this fraction of the critical step of its stiffest

@@ -1,6 +1,7 @@
-//! Killing elements during a run (MatDEM's `killElement`): an element leaves the mechanics but
-//! keeps its id, so the ids, groups and records a script holds stay valid (deleting renumbers;
-//! between runs `Model::remove_particles` is the tool for building a model).
+//! Taking elements out of a scene. Killing during a run (MatDEM's `killElement`): an element
+//! leaves the mechanics but keeps its id, so the ids, groups and records a script holds stay
+//! valid. Removing ([`Model::remove_particles`], at the end of this file) deletes and renumbers:
+//! the tool for building a model between runs.
 //!
 //! A killed element carries the [`dof::KILLED`] bit in its fixity lane, the lane both backends
 //! already read, so the step needs no new lane and no new flag: every degree of freedom is
@@ -23,6 +24,7 @@ use crate::model::Model;
 use crate::physics::parallel_bond::{status, BondState};
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
+use crate::state::contacts::Contacts;
 use crate::state::particles::dof;
 use crate::status::{kinetic_energy, potential_energies};
 
@@ -138,5 +140,61 @@ impl Model {
         let mut e = potential_energies(self, &plan);
         e.kinetic = kinetic_energy(self);
         e.mechanical()
+    }
+}
+
+impl Model {
+    /// Removes particles (ids refer to the current numbering); groups are renumbered. Every
+    /// pair between two survivors keeps its state (bond, shear spring, dashpot), bonded pairs
+    /// whatever their distance; the pairs of a removed particle go with it.
+    pub fn remove_particles(&mut self, ids: &[u32]) -> Result<()> {
+        self.check_ids(ids)?;
+        let mut keep = vec![true; self.len()];
+        for &i in ids {
+            keep[i as usize] = false;
+        }
+        let w = self.walls.len();
+        let mut idx = 0usize;
+        self.wall_contacts.retain(|_| {
+            let r = keep[idx / w.max(1)];
+            idx += 1;
+            r
+        });
+        if !self.wall_rolling.is_empty() {
+            let mut idx = 0usize;
+            self.wall_rolling.retain(|_| {
+                let r = keep[idx / w.max(1)];
+                idx += 1;
+                r
+            });
+        }
+        let map = self.particles.retain(&keep);
+        self.groups.remap(&map);
+        self.parallel_bonds.retain(&map);
+        // Rows refer to old ids: renumber the survivors' rows (the map keeps the order, so
+        // rows stay sorted), then rebuild from them, which carries each pair's state over and
+        // keeps bonded pairs however far apart. Rows built before particles were added cover
+        // only the first ones; the rest start empty.
+        let old = std::mem::take(&mut self.contacts);
+        let built = old.row_start.len().saturating_sub(1);
+        let mut kept = Contacts { stale: true, skin: old.skin, row_start: vec![0], ..Contacts::default() };
+        for (i, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
+            if i < built {
+                for e in old.row(i) {
+                    if let Some(b) = map[old.other[e] as usize] {
+                        kept.other.push(b);
+                        kept.state.push(old.state[e]);
+                        if let Some(s) = old.rolling.get(e) {
+                            kept.rolling.push(*s);
+                        }
+                    }
+                }
+            }
+            kept.row_start.push(kept.other.len() as u32);
+        }
+        self.contacts = kept;
+        crate::neighbours::rebuild(self);
+        self.touch();
+        Ok(())
     }
 }

@@ -6,6 +6,11 @@ use crate::provenance::{Provenance, Source};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::SQRT_2;
 
+/// Most materials a scene may hold: the plan's pair table has M² entries (256 materials:
+/// 65 536 pairs, 4.7 MB on the CPU, 3.1 MB on the GPU), read by every contact; more would
+/// spill the caches the contact pass lives in.
+pub const MAX_MATERIALS: usize = 256;
+
 /// Macro properties of a rock or soil, the input of the conversion formulas.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MacroProperties {

@@ -4,7 +4,6 @@
 use crate::error::{check_positive, Error, Result};
 use crate::materials::Material;
 use crate::physics::contact_law::{BreakKind, PairState};
-use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::timestep::{critical_step, element_period, STANDARD_FRACTION};
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
@@ -87,7 +86,7 @@ pub struct Settings {
     /// Largest overlap the guard accepts, as a fraction of the smaller radius.
     pub max_overlap_ratio: f64,
     /// What the guard does when dt is too long for the stiffest current contact.
-    pub guard: crate::guard::GuardMode,
+    pub guard: crate::settings::guard::GuardMode,
     /// Keep the energy ledger: the heat each particle releases, by cause, and the work walls
     /// do (`Energies`' heat and wall work). Off, a plan allocates and books none of its lanes
     /// and the energies report no heat.
@@ -95,14 +94,14 @@ pub struct Settings {
     /// Heat conduction and thermal expansion (the `conduction` stage; off by default). Saved
     /// after the model in a checkpoint (format 4), so that older checkpoints still read.
     #[serde(skip)]
-    pub heat: crate::fields::HeatSettings,
+    pub heat: crate::settings::heat::HeatSettings,
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
-    pub water: crate::fields::WaterTable,
+    pub water: crate::settings::water_table::WaterTable,
     /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
     /// stage; off by default). Saved in a checkpoint's sections (format 7) with the water lanes.
     #[serde(skip)]
-    pub moisture: crate::moisture::MoistureSettings,
+    pub moisture: crate::settings::moisture::MoistureSettings,
     /// Rolling resistance (the `rolling_resistance` stage; off by default). Saved in a
     /// checkpoint's sections (format 7), so that older checkpoints still read.
     #[serde(skip)]
@@ -125,11 +124,11 @@ impl Default for Settings {
             skin_ratio: 0.4,
             guard_every: 100,
             max_overlap_ratio: 0.5,
-            guard: crate::guard::GuardMode::Stop,
+            guard: crate::settings::guard::GuardMode::Stop,
             heat_ledger: true,
-            heat: crate::fields::HeatSettings::default(),
-            water: crate::fields::WaterTable::default(),
-            moisture: crate::moisture::MoistureSettings::default(),
+            heat: crate::settings::heat::HeatSettings::default(),
+            water: crate::settings::water_table::WaterTable::default(),
+            moisture: crate::settings::moisture::MoistureSettings::default(),
             rolling: None,
             pores: crate::pores::PoreSettings::default(),
         }
@@ -183,7 +182,7 @@ pub struct Model {
     /// The work done by changing gravity or the water table between runs, for the energy
     /// account (`body_potential`). Saved after a checkpoint's sections (format 8).
     #[serde(skip)]
-    pub body_work: crate::body_potential::BodyWork,
+    pub body_work: crate::state::body_work::BodyWork,
 }
 
 impl Default for Model {
@@ -237,12 +236,12 @@ impl Model {
             }
             return Ok(k as u32);
         }
-        if self.materials.len() >= crate::element_values::MAX_MATERIALS {
+        if self.materials.len() >= crate::materials::MAX_MATERIALS {
             return Err(Error::InvalidScene(format!(
                 "material `{}`: a scene may have at most {} materials (the contact pass reads an M×M table of pair \
                  constants); reuse one, or bin per-element values into fewer classes",
                 m.name,
-                crate::element_values::MAX_MATERIALS
+                crate::materials::MAX_MATERIALS
             )));
         }
         self.materials.push(m);
@@ -470,228 +469,6 @@ impl Model {
         let k = self.wall_index(name)?;
         self.touch();
         Ok(&mut self.walls[k])
-    }
-
-    /// Removes particles (ids refer to the current numbering); groups are renumbered. Every
-    /// pair between two survivors keeps its state (bond, shear spring, dashpot), bonded pairs
-    /// whatever their distance; the pairs of a removed particle go with it.
-    pub fn remove_particles(&mut self, ids: &[u32]) -> Result<()> {
-        self.check_ids(ids)?;
-        let mut keep = vec![true; self.len()];
-        for &i in ids {
-            keep[i as usize] = false;
-        }
-        let w = self.walls.len();
-        let mut idx = 0usize;
-        self.wall_contacts.retain(|_| {
-            let r = keep[idx / w.max(1)];
-            idx += 1;
-            r
-        });
-        if !self.wall_rolling.is_empty() {
-            let mut idx = 0usize;
-            self.wall_rolling.retain(|_| {
-                let r = keep[idx / w.max(1)];
-                idx += 1;
-                r
-            });
-        }
-        let map = self.particles.retain(&keep);
-        self.groups.remap(&map);
-        self.parallel_bonds.retain(&map);
-        // Rows refer to old ids: renumber the survivors' rows (the map keeps the order, so
-        // rows stay sorted), then rebuild from them, which carries each pair's state over and
-        // keeps bonded pairs however far apart. Rows built before particles were added cover
-        // only the first ones; the rest start empty.
-        let old = std::mem::take(&mut self.contacts);
-        let built = old.row_start.len().saturating_sub(1);
-        let mut kept = Contacts { stale: true, skin: old.skin, row_start: vec![0], ..Contacts::default() };
-        for (i, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
-            if i < built {
-                for e in old.row(i) {
-                    if let Some(b) = map[old.other[e] as usize] {
-                        kept.other.push(b);
-                        kept.state.push(old.state[e]);
-                        if let Some(s) = old.rolling.get(e) {
-                            kept.rolling.push(*s);
-                        }
-                    }
-                }
-            }
-            kept.row_start.push(kept.other.len() as u32);
-        }
-        self.contacts = kept;
-        crate::neighbours::rebuild(self);
-        self.touch();
-        Ok(())
-    }
-
-    /// Bonds every pair among `ids` (all particles when `None`) whose gap is at most
-    /// `tolerance` (m), like MatDEM's `connectGroup`. Returns the number of new bonds.
-    pub fn connect(&mut self, ids: Option<&[u32]>, tolerance: f64) -> Result<usize> {
-        check_positive("tolerance", tolerance, true)?;
-        let member = self.membership(ids)?;
-        self.connect_where(&member, &member, tolerance)
-    }
-
-    /// Bonds every pair with one end among `a` and the other among `b` whose gap is at most
-    /// `tolerance` (m): a structure to a packing, or one block to another, without bonding
-    /// either inside itself. Returns the number of new bonds.
-    pub fn connect_between(&mut self, a: &[u32], b: &[u32], tolerance: f64) -> Result<usize> {
-        check_positive("tolerance", tolerance, true)?;
-        let (a, b) = (self.membership(Some(a))?, self.membership(Some(b))?);
-        self.connect_where(&a, &b, tolerance)
-    }
-
-    fn connect_where(&mut self, a: &[bool], b: &[bool], tolerance: f64) -> Result<usize> {
-        if self.contacts.skin <= 0.0 {
-            // Not built yet: the usual skin, or a tiny bonding tolerance would become the skin
-            // and the rows would be rebuilt every step.
-            self.contacts.skin = self.settings.skin_ratio * self.mean_radius();
-        }
-        let skin_needed = tolerance;
-        if self.contacts.skin < skin_needed || self.contacts.stale {
-            self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
-            crate::neighbours::rebuild(self);
-        }
-        let p = &self.particles;
-        let c = &mut self.contacts;
-        let mut count = 0;
-        for i in 0..p.len() {
-            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
-                let j = c.other[e] as usize;
-                if !((a[i] && b[j]) || (a[j] && b[i])) {
-                    continue;
-                }
-                let gap = (p.pos[j] - p.pos[i]).norm() - p.radius[i] - p.radius[j];
-                if gap <= tolerance && !c.state[e].bonded {
-                    c.state[e].bonded = true;
-                    c.state[e].weakened = 0;
-                    c.state[e].shear = Vec3::zeros();
-                    if i < j {
-                        count += 1;
-                    }
-                }
-            }
-        }
-        self.touch();
-        Ok(count)
-    }
-
-    /// Turns every MatDEM bond into a parallel bond with `params` (Potyondy & Cundall's model,
-    /// physics/parallel_bond.rs): the pair keeps a plain linear contact (compression and
-    /// friction, no tension) and gains a bond of radius λ̄·min(Ri, Rj) in parallel with it,
-    /// unloaded at the current positions. Rotation is simulated from then on. Returns the
-    /// number of bonds made; refuses a model with none (connect it first) and bad parameters.
-    pub fn bond_parallel(&mut self, params: ParallelBondParams) -> Result<usize> {
-        params.validate().map_err(Error::InvalidScene)?;
-        let c = &mut self.contacts;
-        let mut pairs = Vec::new();
-        for i in 0..c.row_start.len().saturating_sub(1) {
-            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
-                if c.state[e].bonded {
-                    if (i as u32) < c.other[e] {
-                        pairs.push((i as u32, c.other[e]));
-                    }
-                    c.state[e].bonded = false;
-                    // The parallel bond takes over: no joint share is left on the pair.
-                    c.state[e].weakened = 0;
-                    c.state[e].shear = Vec3::zeros();
-                }
-            }
-        }
-        if pairs.is_empty() {
-            return Err(Error::InvalidScene(
-                "bond_parallel found no bonded pairs: connect the particles first (d.connect), then make the \
-                 bonds parallel"
-                    .into(),
-            ));
-        }
-        self.parallel_bonds.make(params, &pairs, self.len());
-        self.settings.rotation = true;
-        self.particles.enable_rotation();
-        self.contacts.stale = true;
-        self.touch();
-        Ok(pairs.len())
-    }
-
-    /// Breaks every bond that has at least one end among `ids` (all when `None`).
-    pub fn break_bonds(&mut self, ids: Option<&[u32]>) -> Result<usize> {
-        let member = self.membership(ids)?;
-        let c = &mut self.contacts;
-        let mut count = 0;
-        for i in 0..c.row_start.len().saturating_sub(1) {
-            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
-                let j = c.other[e] as usize;
-                if (member[i] || member[j]) && c.state[e].bonded {
-                    c.state[e].bonded = false;
-                    c.state[e].weakened = 0;
-                    c.state[e].shear = Vec3::zeros();
-                    if i < j {
-                        count += 1;
-                    }
-                }
-            }
-        }
-        self.touch();
-        Ok(count)
-    }
-
-    /// Sets every bond for which `selected(i, j)` holds (asked once per pair, i < j) to
-    /// `share` of its material pair's strength (breaking force and Fs0): MatDEM's joints,
-    /// bonds across a surface weakened. `share` 0 breaks them (no breakage is recorded: the
-    /// script cut them); 1 makes them whole again. Not cumulative: a second call sets, it
-    /// does not multiply. Returns the number of bonds set.
-    pub fn set_bond_strength(&mut self, selected: impl Fn(usize, usize) -> bool, share: f64) -> Result<usize> {
-        if !(0.0..=1.0).contains(&share) {
-            return Err(Error::param("strength share", share, "must be between 0 (break) and 1 (whole)"));
-        }
-        let weakened = if share > 0.0 { PairState::weakened_for(share) } else { 0 };
-        let c = &mut self.contacts;
-        let mut count = 0;
-        for i in 0..c.row_start.len().saturating_sub(1) {
-            for e in c.row(i) {
-                let j = c.other[e] as usize;
-                if !c.state[e].bonded || !selected(i.min(j), i.max(j)) {
-                    continue;
-                }
-                if share > 0.0 {
-                    c.state[e].weakened = weakened;
-                } else {
-                    c.state[e] = PairState { dashpot: c.state[e].dashpot, ..PairState::default() };
-                }
-                if i < j {
-                    count += 1;
-                }
-            }
-        }
-        self.touch();
-        Ok(count)
-    }
-
-    /// The share of its strength the bond between `i` and `j` has, or `None` when they are
-    /// not bonded.
-    pub fn bond_strength(&self, i: usize, j: usize) -> Option<f64> {
-        let e = self.contacts.find(i, j as u32)?;
-        let st = &self.contacts.state[e];
-        st.bonded.then(|| st.strength())
-    }
-
-    /// One flag per particle: in `ids`, or every particle when `None`.
-    fn membership(&self, ids: Option<&[u32]>) -> Result<Vec<bool>> {
-        let mut member = vec![ids.is_none(); self.len()];
-        if let Some(ids) = ids {
-            self.check_ids(ids)?;
-            for &i in ids {
-                member[i as usize] = true;
-            }
-        }
-        Ok(member)
-    }
-
-    /// Bonded pairs (each once).
-    pub fn bond_count(&self) -> usize {
-        self.contacts.state.iter().filter(|s| s.bonded).count() / 2
     }
 
     /// The stiffness an element meets in its stiffest likely contact (a rigid wall): the

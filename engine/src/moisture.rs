@@ -4,8 +4,8 @@
 //! each as a table of the water content the script gives. The optional `moisture` stage: a
 //! scene that does not enable it has no lane, no pass and no pipeline for it.
 //!
-//! This file holds what a scene chooses (its settings, part of [`crate::model::Settings`]),
-//! what a plan takes from them, the model-level calls that switch it on and write its lanes,
+//! This file holds what a plan takes from a scene's settings (`settings/moisture.rs`, part of
+//! [`crate::model::Settings`]), the model-level calls that switch it on and write its lanes,
 //! and the field's terms of the shared diffusion core ([`WaterExchange`]); the pair law is in
 //! `physics/moisture.rs`, the passes in the backends (`moisture.rs` in each).
 
@@ -14,44 +14,8 @@ use crate::element_values::base_name;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::physics::moisture::{evaporation_conductance, pair_moisture_conductance, Table};
+pub use crate::settings::moisture::MoistureSettings;
 use crate::state::moisture::{MoistureLanes, FIXED, FREE, SEALED};
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
-
-/// Moisture diffusion between elements (the `moisture` stage), off by default.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MoistureSettings {
-    pub enabled: bool,
-    /// The water content elements start at when moisture is switched on (and new elements).
-    pub initial: f64,
-    /// The field step is `every` mechanical steps (Δt_f = every·dt).
-    pub every: u32,
-    /// Forward-Euler sub-steps of each field step.
-    pub substeps: u32,
-    /// A bond's neck radius as a fraction of the smaller element's radius (as heat's).
-    pub bond_radius: f64,
-    /// Moisture diffusivity α_w (kg/(m²·s)) by material name (a material not named has none).
-    pub materials: BTreeMap<String, f64>,
-    /// Drying shrinkage: the radius factor f_r(ω), r = r0·f_r(ω).
-    pub radius_table: Option<Table>,
-    /// A bond's share s(ω) ∈ (0, 1] of its material pair's strength, at the pair's mean ω.
-    pub strength_table: Option<Table>,
-}
-
-impl Default for MoistureSettings {
-    fn default() -> Self {
-        MoistureSettings {
-            enabled: false,
-            initial: 0.0,
-            every: 1,
-            substeps: 1,
-            bond_radius: 0.5,
-            materials: BTreeMap::new(),
-            radius_table: None,
-            strength_table: None,
-        }
-    }
-}
 
 /// What a plan with the `moisture` stage runs.
 #[derive(Debug, Clone, PartialEq)]

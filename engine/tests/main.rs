@@ -3,6 +3,8 @@
 //! and spent minutes linking. A new test file needs its `mod` line here.
 
 mod common;
+// The module graph reader of module_deps.rs (and of the host's module_layers.rs).
+mod module_graph;
 
 mod applied_loads;
 mod buoyancy;

@@ -14,6 +14,7 @@
 //!   equation of state (thermal expansion of the fluid), is carried by the flow (upwind
 //!   advection) and exchanged with the elements at the pore's corners.
 
+pub mod boundary;
 pub mod coupling;
 pub mod delaunay;
 pub mod flow;
@@ -23,8 +24,9 @@ pub mod network;
 pub mod pressure_forces;
 pub mod stiffness;
 
+pub use boundary::{BoundaryKind, PoreBoundary, PoreRegion};
 pub use coupling::{PoreFlowPlan, PoreSettings};
-pub use flow::{BoundaryKind, PoreBoundary, PoreFlow, PoreRegion};
+pub use flow::PoreFlow;
 pub use heat::FluidHeat;
 pub use network::PoreNetwork;
 

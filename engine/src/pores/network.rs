@@ -5,8 +5,8 @@
 //! built once per rebuild; the geometry (pore volumes and centres, throat conductances)
 //! follows the elements every step.
 
+use super::boundary::{BoundaryKind, PoreRegion};
 use super::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
-use super::flow::{BoundaryKind, PoreRegion};
 use super::geometry::{cubic_law, opening, poiseuille_within, pore_volume, sectors_volume, tet_volume};
 use super::Fluid;
 use crate::element_values::base_name;

@@ -7,21 +7,12 @@
 //! the contacts. When it does and pore flow is on, the fluid's share is estimated and, where it
 //! explains the failure, named instead.
 
-use super::flow::PoreFlow;
+use super::flow::{FluidSpring, PoreFlow, StiffestElement};
 use crate::error::{Error, Instability, Suggestion};
 use crate::model::Model;
 use crate::physics::timestep::critical_step;
 use crate::physics::Vec3;
 use rayon::prelude::*;
-
-/// The fluid's spring on one element.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FluidSpring {
-    /// N/m, summed over the element's free pores.
-    pub stiffness: f64,
-    /// The pore that contributes most.
-    pub pore: usize,
-}
 
 impl PoreFlow {
     /// The fluid's stiffness on element `i`: Σ over the pores at its corners that no boundary
@@ -82,19 +73,6 @@ impl PoreFlow {
         }
         spring
     }
-}
-
-/// The element with the shortest critical step for the fluid and its contacts together.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StiffestElement {
-    /// √2·√(m/(k_contacts + k_fluid)) (s).
-    pub critical_dt: f64,
-    pub element: usize,
-    pub spring: FluidSpring,
-    /// The element's own contact stiffness estimate (N/m).
-    pub contacts: f64,
-    /// The flow's critical step V_p/(K_f·Σg) on the same network (s).
-    pub flow_dt: f64,
 }
 
 impl Model {

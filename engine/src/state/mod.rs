@@ -1,6 +1,7 @@
 //! The model's state: particles (struct of arrays), contact rows with per-pair state, groups.
 
 pub mod applied_loads;
+pub mod body_work;
 pub mod contacts;
 pub mod groups;
 pub mod moisture;

@@ -280,7 +280,7 @@ fn gather_pass<T: TangentialLaw, const ROT: bool>(m: &mut Model, plan: &StepPlan
                 if let Some(tq) = torque.as_deref_mut() {
                     tq[li] = row.torque;
                 }
-                heat.book_row(li, &row);
+                heat.book_row(li, &row.heat);
             }
         },
     )

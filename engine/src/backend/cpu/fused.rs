@@ -101,7 +101,7 @@ where
                 let own = end - (pair_start[i + 1] - pair_start[i]) as usize;
                 let row = gather_row::<T, ROT>(scratch, &pair[start..end], own - start, ri, None);
                 let (mut f, mut t) = (row.force, row.torque);
-                heat.book_row(li, &row);
+                heat.book_row(li, &row.heat);
                 // wall_forces: the walls in reach (most particles have none).
                 let wall_st = &mut wall_state.items[li * nw..(li + 1) * nw];
                 #[cfg(debug_assertions)]

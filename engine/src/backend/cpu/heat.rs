@@ -7,7 +7,6 @@
 //! one well-predicted branch per particle and cause.
 
 use super::blocks::Split;
-use super::contact_forces::RowSum;
 use crate::state::particles::{HeatCauses, HeatLedger};
 
 /// Allocates the ledger lanes of the plan's causes (before a step books into them).
@@ -38,17 +37,18 @@ impl<'a> HeatLanes<'a> {
         }
     }
 
-    /// Books a particle's half of its row's pair heat (`li`: its index in these lanes).
+    /// Books a particle's half of its row's pair heat, (dashpot, friction, breakage) summed
+    /// over the row (`li`: its index in these lanes).
     #[inline(always)]
-    pub fn book_row(&mut self, li: usize, row: &RowSum) {
+    pub fn book_row(&mut self, li: usize, heat: &[f64; 3]) {
         if let Some(l) = self.contact_damping.as_deref_mut() {
-            l[li] += 0.5 * row.heat[0];
+            l[li] += 0.5 * heat[0];
         }
         if let Some(l) = self.friction.as_deref_mut() {
-            l[li] += 0.5 * row.heat[1];
+            l[li] += 0.5 * heat[1];
         }
         if let Some(l) = self.breakage.as_deref_mut() {
-            l[li] += 0.5 * row.heat[2];
+            l[li] += 0.5 * heat[2];
         }
     }
 
