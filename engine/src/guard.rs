@@ -9,8 +9,8 @@
 //! the contact named, instead of finishing with wrong physics.
 
 use crate::error::{Error, Instability, Result, Suggestion};
-use crate::model::{Model, NormalKind, TangentialKind};
-use crate::physics::contact_law::{Hertz, Linear, LinearShear, MindlinShear, NormalLaw, PairParams, TangentialLaw};
+use crate::model::Model;
+use crate::physics::contact_law::PairParams;
 use crate::physics::timestep::critical_step;
 use crate::plan::StepPlan;
 pub use crate::settings::guard::GuardMode;
@@ -247,21 +247,8 @@ impl StiffContact {
 /// Normal and shear tangent stiffness of a contact at overlap δ (bonded pairs in tension:
 /// the bond's linear spring), under the plan's laws.
 pub fn contact_stiffness(plan: &StepPlan, p: &PairParams, r_star: f64, overlap: f64) -> [(f64, &'static str); 2] {
-    let normal = if overlap > 0.0 {
-        match plan.normal {
-            NormalKind::Linear => (Linear::stiffness(p, r_star, overlap), "linear normal spring"),
-            NormalKind::Hertz => (Hertz::stiffness(p, r_star, overlap), "hertz normal stiffness"),
-        }
-    } else {
-        (p.kn, "bond normal spring")
-    };
-    let shear = match plan.tangential {
-        TangentialKind::Linear => (LinearShear::stiffness(p, r_star, overlap), "shear spring"),
-        TangentialKind::Mindlin | TangentialKind::MindlinDamped => {
-            (MindlinShear::stiffness(p, r_star, overlap), "mindlin shear stiffness")
-        }
-    };
-    [normal, shear]
+    let normal = if overlap > 0.0 { plan.normal.stiffness(p, r_star, overlap) } else { (p.kn, "bond normal spring") };
+    [normal, plan.tangential.stiffness(p, r_star, overlap)]
 }
 
 /// The current contact (particle pair in the rows, bonded or touching, or particle–wall)
@@ -320,7 +307,7 @@ pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
                 for (w, wall) in m.walls.iter().enumerate().filter(|(w, _)| near(i) & (1 << w) != 0) {
                     let overlap = p.radius[i] - wall.normal_and_distance(&p.pos[i]).1;
                     if overlap > 0.0 {
-                        let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
+                        let pp = plan.wall_pair(w, p.material[i]);
                         for (k, spring) in contact_stiffness(plan, pp, p.radius[i], overlap) {
                             consider(Candidate {
                                 light: i,
@@ -427,6 +414,7 @@ pub fn stiff_contact_error(m: &Model, c: &StiffContact) -> Error {
 mod tests {
     use super::*;
     use crate::materials::Material;
+    use crate::model::NormalKind;
     use crate::neighbours::rebuild;
     use crate::physics::Vec3;
     use crate::walls::Wall;

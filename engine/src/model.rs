@@ -4,6 +4,7 @@
 use crate::error::{check_positive, Error, Result};
 use crate::materials::Material;
 use crate::physics::contact_law::{BreakKind, PairState};
+pub use crate::physics::law_kinds::{NormalKind, TangentialKind};
 use crate::physics::timestep::{critical_step, element_period, STANDARD_FRACTION};
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
@@ -12,58 +13,6 @@ use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::{dof, Particles};
 use crate::walls::{Wall, MAX_WALLS};
 use serde::{Deserialize, Serialize};
-use std::str::FromStr;
-
-/// The compressive normal law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum NormalKind {
-    /// Kn·δ (MatDEM's default).
-    Linear,
-    /// (4/3)·E*·√R*·δ^(3/2), from each material's E and ν (paper 000: E = Kn/(πR), ν = 0).
-    Hertz,
-}
-
-/// The shear spring.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum TangentialKind {
-    /// Constant Ks (MatDEM).
-    Linear,
-    /// Mindlin's 8·G*·√(R*·δ).
-    Mindlin,
-    /// Mindlin's spring with a tangential dashpot from the restitution (LIGGGHTS'
-    /// `tangential_damping on`), capped at μ·Fn together.
-    MindlinDamped,
-}
-
-impl TangentialKind {
-    /// Mindlin's stiffness, with or without the dashpot.
-    pub fn is_mindlin(self) -> bool {
-        matches!(self, TangentialKind::Mindlin | TangentialKind::MindlinDamped)
-    }
-}
-
-impl FromStr for NormalKind {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "linear" => Ok(NormalKind::Linear),
-            "hertz" => Ok(NormalKind::Hertz),
-            _ => Err(Error::unknown("normal contact law", s, &["linear", "hertz"])),
-        }
-    }
-}
-
-impl FromStr for TangentialKind {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "linear" => Ok(TangentialKind::Linear),
-            "mindlin" => Ok(TangentialKind::Mindlin),
-            "mindlin_damped" => Ok(TangentialKind::MindlinDamped),
-            _ => Err(Error::unknown("tangential contact law", s, &["linear", "mindlin", "mindlin_damped"])),
-        }
-    }
-}
 
 /// Scene-wide choices.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -477,14 +426,7 @@ impl Model {
     /// viscous damping then follow the bonds).
     pub fn element_stiffness(&self, i: usize) -> f64 {
         let m = &self.materials[self.particles.material[i] as usize];
-        let contact = match self.settings.normal {
-            NormalKind::Linear => 2.0 * m.kn,
-            NormalKind::Hertz => {
-                let r = self.particles.radius[i];
-                let e_star = m.young / (1.0 - m.poisson * m.poisson);
-                2.0 * e_star * r * 0.05f64.sqrt()
-            }
-        };
+        let contact = self.settings.normal.element_stiffness(m, self.particles.radius[i]);
         // A parallel bond to an element of the same size is a spring k̄n·A in parallel with the
         // contact; as the element's own spring, twice that (two in series give it back).
         match &self.parallel_bonds.params {

@@ -419,6 +419,12 @@ impl StepPlan {
     pub fn pair(&self, a: u32, b: u32) -> &PairParams {
         &self.pair[a as usize * self.materials + b as usize]
     }
+
+    /// Constants of a particle of `material` against wall `w`.
+    #[inline(always)]
+    pub fn wall_pair(&self, w: usize, material: u32) -> &PairParams {
+        &self.wall[w * self.materials + material as usize]
+    }
 }
 
 /// Two elements in contact: springs in series, the smaller strength, the smaller restitution.
@@ -500,18 +506,11 @@ impl StepPlan {
             ));
         }
         stages.push("neighbours(cell list, skin rebuild)".to_string());
-        let normal = match self.normal {
-            NormalKind::Linear => "linear",
-            NormalKind::Hertz => "hertz",
-        };
-        let tangential = match self.tangential {
-            TangentialKind::Linear => "shear spring Ks",
-            TangentialKind::Mindlin => "mindlin shear spring",
-            // With no material below e = 1 its coefficient is zero: the plan says so.
-            TangentialKind::MindlinDamped if self.dashpot => "mindlin shear spring + tangential dashpot",
-            TangentialKind::MindlinDamped => "mindlin shear spring + tangential dashpot (0: every e = 1)",
-        };
-        let mut c = format!("contacts({normal} + {tangential} + coulomb");
+        let (normal, tangential) = (self.normal.name(), self.tangential.description());
+        // With no material below e = 1 the tangential dashpot's coefficient is zero: the plan
+        // says so.
+        let idle = if self.tangential.damped() && !self.dashpot { " (0: every e = 1)" } else { "" };
+        let mut c = format!("contacts({normal} + {tangential}{idle} + coulomb");
         if self.bonds {
             c.push_str(", bonds");
         }

@@ -20,7 +20,7 @@
 
 use crate::error::{Error, Result};
 use crate::materials::Material;
-use crate::model::{Model, NormalKind};
+use crate::model::Model;
 use crate::physics::Vec3;
 use crate::walls::WallShape;
 
@@ -60,8 +60,9 @@ pub fn scaled_model(m: &Model, lambda: f64, origin: Vec3, scale_materials: bool)
     // Normal and shear force factors of a contact whose overlap and shear displacement grew
     // by λ: λ² under the law; with kept materials a linear spring gives λ, while Hertz and
     // Mindlin (whose stiffness grows with √(R·δ)) still give λ².
-    let f_normal = if scale_materials || m.settings.normal == NormalKind::Hertz { l * l } else { l };
-    let f_shear = if scale_materials || m.settings.tangential.is_mindlin() { l * l } else { l };
+    let power = |kept: i32| if scale_materials { 2 } else { kept };
+    let f_normal = l.powi(power(m.settings.normal.force_power()));
+    let f_shear = l.powi(power(m.settings.tangential.force_power()));
     // Element stiffness (what the time step is set from) grows as the normal force over λ.
     let k_factor = f_normal / l;
     let dt_factor = (l * l * l / k_factor).sqrt();

@@ -3,8 +3,8 @@
 
 use crate::body_potential::BodyFields;
 use crate::geometry::sphere_box::{sphere_box_volume, sphere_cylinder_volume, sphere_sphere_volume};
-use crate::model::{Model, NormalKind};
-use crate::physics::contact_law::{normal_energy, shear_energy, Hertz, Linear, NormalLaw, TangentialLaw};
+use crate::model::Model;
+use crate::physics::contact_law::{normal_energy, shear_energy, NormalLaw, TangentialLaw};
 use crate::physics::parallel_bond;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
@@ -113,7 +113,7 @@ fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -
             let overlap = p.radius[i] - gap;
             // A killed element holds no wall contact (kill.rs).
             if overlap > 0.0 && p.fixed[i] & dof::KILLED == 0 {
-                let pp = &plan.wall[w * plan.materials + p.material[i] as usize];
+                let pp = plan.wall_pair(w, p.material[i]);
                 e.normal_elastic += N::energy(pp, p.radius[i], overlap);
                 let st = &m.wall_contacts[i * m.walls.len() + w];
                 e.shear_elastic += shear_energy(st.shear, T::stiffness(pp, p.radius[i], overlap));
@@ -189,10 +189,7 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
                 touching += 1;
                 let pp = plan.pair(p.material[i], p.material[j]);
                 let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
-                f_sum += match plan.normal {
-                    NormalKind::Linear => Linear::force(pp, r_star, overlap),
-                    NormalKind::Hertz => Hertz::force(pp, r_star, overlap),
-                };
+                f_sum += plan.normal.force(pp, r_star, overlap);
             }
         }
     }
@@ -442,10 +439,7 @@ pub fn contact_loads(m: &Model, plan: &StepPlan) -> Vec<f64> {
                     }
                     let pp = plan.pair(p.material[i], p.material[j]);
                     let r_star = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
-                    match plan.normal {
-                        NormalKind::Linear => Linear::force(pp, r_star, overlap),
-                        NormalKind::Hertz => Hertz::force(pp, r_star, overlap),
-                    }
+                    plan.normal.force(pp, r_star, overlap)
                 })
                 .sum()
         })

@@ -229,7 +229,7 @@ fn evaluate<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(m: &Model, plan
             }
             let st: PairState = m.wall_contacts.get(i * nw + w).copied().unwrap_or_default();
             let g = ContactGeometry { n: nrm, overlap, v_rel, r_star: ri, m_star: p.mass[i] };
-            let params = &plan.wall[w * plan.materials + p.material[i] as usize];
+            let params = plan.wall_pair(w, p.material[i]);
             let r = contact::<N, T, DASHPOT>(&g, params, &mut st.clone(), 0.0);
             out.force[i] += r.force;
             out.torque[i] += (nrm * ri).cross(&r.shear);

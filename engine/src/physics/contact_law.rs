@@ -12,6 +12,7 @@
 //! of a pair compute exactly opposite forces and keep identical state.
 
 use super::Vec3;
+use crate::materials::Material;
 
 /// Pair constants, combined once per pair of materials (springs in series, smaller strength).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -118,7 +119,16 @@ pub struct ContactResult {
 
 /// The compressive normal law of a scene.
 pub trait NormalLaw: Copy + Send + Sync + 'static {
+    /// The law's name in scripts and plans (`d.normal = "hertz"`).
     const NAME: &'static str;
+    /// What the guard calls its tangent stiffness.
+    const STIFFNESS: &'static str;
+    /// The power of λ by which a contact's force grows when a model is scaled by λ with its
+    /// materials kept (`scaling.rs`): a linear spring's λ, Hertz's λ² (√R·δ^(3/2)).
+    const FORCE_POWER: i32;
+    /// The stiffness an element of radius `r` of `material` meets in its stiffest likely
+    /// contact, a rigid wall (what the standard step is set from).
+    fn element_stiffness(material: &Material, r: f64) -> f64;
     /// Elastic normal force for overlap δ > 0.
     fn force(p: &PairParams, r_star: f64, overlap: f64) -> f64;
     /// Tangent stiffness dF/dδ at overlap δ > 0.
@@ -139,6 +149,12 @@ pub struct Hertz;
 
 impl NormalLaw for Linear {
     const NAME: &'static str = "linear";
+    const STIFFNESS: &'static str = "linear normal spring";
+    const FORCE_POWER: i32 = 1;
+    #[inline(always)]
+    fn element_stiffness(material: &Material, _r: f64) -> f64 {
+        2.0 * material.kn
+    }
     #[inline(always)]
     fn force(p: &PairParams, _r: f64, overlap: f64) -> f64 {
         p.kn * overlap
@@ -165,6 +181,14 @@ pub fn hertz_constant(e_star: f64, r_star: f64) -> f64 {
 
 impl NormalLaw for Hertz {
     const NAME: &'static str = "hertz";
+    const STIFFNESS: &'static str = "hertz normal stiffness";
+    const FORCE_POWER: i32 = 2;
+    /// The tangent stiffness against a wall at an overlap of 5 % of r.
+    #[inline(always)]
+    fn element_stiffness(material: &Material, r: f64) -> f64 {
+        let e_star = material.young / (1.0 - material.poisson * material.poisson);
+        2.0 * e_star * r * 0.05f64.sqrt()
+    }
     #[inline(always)]
     fn force(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
         hertz_constant(p.e_star, r_star) * overlap * overlap.sqrt()
@@ -186,7 +210,15 @@ impl NormalLaw for Hertz {
 
 /// The shear spring's stiffness, and whether a tangential dashpot acts beside it.
 pub trait TangentialLaw: Copy + Send + Sync + 'static {
+    /// The law's name in scripts (`d.tangential = "mindlin"`).
     const NAME: &'static str;
+    /// How a plan describes it.
+    const DESCRIPTION: &'static str;
+    /// What the guard calls its stiffness.
+    const STIFFNESS: &'static str;
+    /// The power of λ by which the shear force grows when a model is scaled by λ with its
+    /// materials kept (as [`NormalLaw::FORCE_POWER`]): Ks's λ, Mindlin's λ².
+    const FORCE_POWER: i32;
     /// A tangential dashpot acts in parallel with the spring (a compile-time constant, so a
     /// law without one carries no branch for it).
     const DAMPED: bool = false;
@@ -216,7 +248,10 @@ pub struct MindlinShear;
 pub struct MindlinDampedShear;
 
 impl TangentialLaw for LinearShear {
-    const NAME: &'static str = "linear shear spring";
+    const NAME: &'static str = "linear";
+    const DESCRIPTION: &'static str = "shear spring Ks";
+    const STIFFNESS: &'static str = "shear spring";
+    const FORCE_POWER: i32 = 1;
     #[inline(always)]
     fn stiffness(p: &PairParams, _r: f64, _overlap: f64) -> f64 {
         p.ks
@@ -224,7 +259,10 @@ impl TangentialLaw for LinearShear {
 }
 
 impl TangentialLaw for MindlinShear {
-    const NAME: &'static str = "mindlin shear spring";
+    const NAME: &'static str = "mindlin";
+    const DESCRIPTION: &'static str = "mindlin shear spring";
+    const STIFFNESS: &'static str = "mindlin shear stiffness";
+    const FORCE_POWER: i32 = 2;
     #[inline(always)]
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
         // √R*·√δ rather than √(R*·δ): Hertz's force has taken both roots already.
@@ -236,7 +274,10 @@ impl TangentialLaw for MindlinShear {
 pub const TANGENTIAL_DASHPOT_FACTOR: f64 = 1.825_741_858_350_553_8;
 
 impl TangentialLaw for MindlinDampedShear {
-    const NAME: &'static str = "mindlin shear spring + tangential dashpot";
+    const NAME: &'static str = "mindlin_damped";
+    const DESCRIPTION: &'static str = "mindlin shear spring + tangential dashpot";
+    const STIFFNESS: &'static str = "mindlin shear stiffness";
+    const FORCE_POWER: i32 = 2;
     const DAMPED: bool = true;
     #[inline(always)]
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {

@@ -4,6 +4,7 @@
 pub mod buoyancy;
 pub mod conduction;
 pub mod contact_law;
+pub mod law_kinds;
 pub mod moisture;
 pub mod parallel_bond;
 pub mod restitution;

@@ -133,7 +133,7 @@ fn rolling_loop<N: NormalLaw, T: TangentialLaw, const EPSD: bool>(
                     }
                     continue;
                 }
-                let pp = &plan.wall[w * plan.materials + mati as usize];
+                let pp = plan.wall_pair(w, mati);
                 let c = RollingContact {
                     n: -inward,
                     w_rel: wi,

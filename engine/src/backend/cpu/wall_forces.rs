@@ -153,7 +153,7 @@ pub(super) fn particle_walls<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool
             // Apart now and the step before.
             continue;
         }
-        let params = &plan.wall[w * plan.materials + body.material as usize];
+        let params = plan.wall_pair(w, body.material);
         let touch = WallTouch { w, inward, overlap, part };
         wall_contact::<N, T, DASHPOT>(body, wall, &touch, params, st, dt, out, loads);
     }
