@@ -5,7 +5,7 @@
 
 use super::bindings::{
     self as b, applied_loads as al, buoyancy as by, conduction as co, moisture as mo, parallel_bond as pb,
-    pore_flow as pf, pore_heat as ph, read, read_write, uniform, Binding, Bindings, Holder, Lane, *,
+    pore_flow as pf, pore_heat as ph, *,
 };
 use super::device::GpuContext;
 use crate::error::Result;
