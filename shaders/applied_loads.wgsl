@@ -8,12 +8,7 @@
 // Some element carries a torque: the torque lane is written (it exists only with rotation).
 override APPLIED_TORQUE: bool = false;
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> kind: array<u32>;
-@group(0) @binding(2) var<storage, read> applied_force: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> applied_torque: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> torque: array<vec4<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn applied_loads(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

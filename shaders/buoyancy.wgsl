@@ -20,15 +20,7 @@ struct Water {
 
 const PI: f32 = 3.14159265358979;
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(6) var<uniform> water: Water;
-@group(0) @binding(7) var<storage, read> kind: array<u32>;
-@group(0) @binding(8) var<storage, read_write> heat: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -5,12 +5,7 @@
 // harmless, as every row is sorted after it is collected (rows.wgsl). CPU twin: find_pairs in
 // backend/cpu/neighbours.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read_write> bucket_count: array<atomic<u32>>;
-@group(0) @binding(4) var<storage, read> cell_start: array<u32>;
-@group(0) @binding(5) var<storage, read_write> cell_items: array<u32>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 fn bucket_of_particle(i: u32) -> u32 {
     return bucket_of(cell_of(origin[i].xyz + disp[i].xyz, params.cell), params.buckets);

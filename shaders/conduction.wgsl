@@ -23,26 +23,7 @@ struct Conduction {
     pad: f32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> row_len: array<u32>;
-@group(0) @binding(4) var<storage, read> other: array<u32>;
-@group(0) @binding(5) var<storage, read> state: array<vec4<f32>>;
-@group(0) @binding(6) var<uniform> slab: Slab;
-@group(0) @binding(7) var<uniform> field: Conduction;
-// x temperature, y capacity C = m·c, z conductivity k, w source (W).
-@group(0) @binding(8) var<storage, read_write> thermal: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> next: array<f32>;
-@group(0) @binding(10) var<storage, read_write> conductance: array<f32>;
-@group(0) @binding(11) var<storage, read> mode: array<u32>;
-// x expansion coefficient α, y radius r0 at T0.
-@group(0) @binding(12) var<storage, read> expansion: array<vec2<f32>>;
-// The heat ledger (heat.wgsl), read by `feed`.
-@group(0) @binding(13) var<storage, read> heat: array<vec2<f32>>;
-// Per element, the ledger's booked heat (a compensated pair) at the last field step that fed
-// it, less what the host had booked at the upload (its own part of the sum starts at zero).
-@group(0) @binding(14) var<storage, read_write> fed: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 fn field_value(j: u32) -> f32 {
     return thermal[j].x;

@@ -3,25 +3,7 @@
 // pair state and writes its summed force (and torque): no atomics on floats, so the sums are
 // deterministic. Runs once per slab of rows. CPU twin: backend/cpu/contact_forces.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> kind: array<u32>;
-@group(0) @binding(6) var<storage, read> row_len: array<u32>;
-@group(0) @binding(7) var<storage, read> other: array<u32>;
-@group(0) @binding(8) var<storage, read_write> state: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read> pairs: array<Pair>;
-@group(0) @binding(10) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> ang_vel: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read_write> torque: array<vec4<f32>>;
-@group(0) @binding(13) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(14) var<storage, read_write> events: array<vec4<u32>>;
-@group(0) @binding(15) var<uniform> slab: Slab;
-// Per row entry, in this slab: the dashpot force of the last step (a placeholder without DASHPOT).
-@group(0) @binding(16) var<storage, read_write> dashpot: array<f32>;
-@group(0) @binding(17) var<storage, read_write> heat: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,

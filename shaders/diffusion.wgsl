@@ -1,7 +1,7 @@
 // The scalar-diffusion core the field stages share (engine/src/diffusion.rs): element i's
 // inflow Q_i = own_i + Σ_j G_ij·(u_j − u_i) over its row and its ΣG_i, nothing through a
-// sealed end. Prepended to a field stage's file, which declares the core's bindings (params,
-// origin, disp, row_len, other, state, slab) and the field's terms: `field_value(j)`,
+// sealed end. Prepended to a field stage's file, whose bindings hold the core's (params,
+// origin, disp, row_len, other, state, slab) and which declares the field's terms: `field_value(j)`,
 // `field_sealed(j)` and `field_pair(i, j, ri, rj, dist, bonded)` (WGSL resolves names across
 // the module, so the core calls them before they are written).
 

@@ -4,21 +4,7 @@
 // words the same message as the CPU guard (for a stiff contact it finds the contact again, in f64,
 // on the state it downloads). Runs once per slab of rows, at chunk ends only. CPU twin: guard.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> force: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> row_len: array<u32>;
-@group(0) @binding(6) var<storage, read> other: array<u32>;
-@group(0) @binding(7) var<storage, read> walls: array<Wall>;
-@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(9) var<uniform> slab: Slab;
-@group(0) @binding(10) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> kind: array<u32>;
-@group(0) @binding(12) var<storage, read> pairs: array<Pair>;
-@group(0) @binding(13) var<storage, read> wall_pairs: array<Pair>;
-@group(0) @binding(14) var<storage, read> state: array<vec4<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 // guard.rs STIFFNESS_FRACTION: dt may be at most this fraction of a contact's critical step
 // √(2·m/k), k its larger tangent stiffness, m the lighter free element's mass.

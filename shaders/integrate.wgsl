@@ -2,19 +2,7 @@
 // local damping, blocked degrees of freedom and leapfrog integration; rotation (and its
 // accumulated angle) when the plan has it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> kind: array<u32>;
-@group(0) @binding(4) var<storage, read> force: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> vel: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> disp: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read> torque: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> ang_vel: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(10) var<storage, read_write> heat: array<vec2<f32>>;
-// The rotation since the upload (rad): θ += ω·dt with the half-step ω, as disp moves (rotation on).
-@group(0) @binding(11) var<storage, read_write> angle: array<vec4<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

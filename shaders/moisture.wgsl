@@ -26,29 +26,7 @@ struct Moisture {
     pad2: f32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> row_len: array<u32>;
-@group(0) @binding(4) var<storage, read> other: array<u32>;
-@group(0) @binding(5) var<storage, read_write> state: array<vec4<f32>>;
-@group(0) @binding(6) var<uniform> slab: Slab;
-@group(0) @binding(7) var<uniform> field: Moisture;
-// x water content ω, y capacity (the element's mass), z diffusivity α_w, w evaporation χ.
-@group(0) @binding(8) var<storage, read_write> water: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> next: array<f32>;
-@group(0) @binding(10) var<storage, read_write> conductance: array<f32>;
-@group(0) @binding(11) var<storage, read> mode: array<u32>;
-// The ambient water content each element dries towards.
-@group(0) @binding(12) var<storage, read> ambient: array<f32>;
-// The radius r0 where the radius table's factor is 1.
-@group(0) @binding(13) var<storage, read> radius0: array<f32>;
-// (ω, value) points: the radius table's, then the strength table's.
-@group(0) @binding(14) var<storage, read> tables: array<vec2<f32>>;
-// With thermal expansion too (`shrink_expand` only): the conduction stage's lanes, x the
-// temperature of (T, C, k, P), and (α, r0) whose r0 this stage keeps at r0·f(ω).
-@group(0) @binding(15) var<storage, read> thermal: array<vec4<f32>>;
-@group(0) @binding(16) var<storage, read_write> expansion: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 fn field_value(j: u32) -> f32 {
     return water[j].x;

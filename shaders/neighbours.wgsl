@@ -4,11 +4,7 @@
 // f32s order like their bits, so an integer atomicMax finds the largest. CPU twin:
 // neighbours::is_stale in backend/cpu/neighbours.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> built: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn measure_drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

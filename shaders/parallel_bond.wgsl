@@ -33,20 +33,7 @@ const BOND_BROKEN: u32 = 0u;
 const BOND_INTACT: u32 = 1u;
 const BOND_NEW: u32 = 2u;
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> bp: BondParams;
-@group(0) @binding(2) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> ang_vel: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read> row_start: array<u32>;
-@group(0) @binding(7) var<storage, read> other: array<u32>;
-@group(0) @binding(8) var<storage, read_write> bonds: array<Bond>;
-@group(0) @binding(9) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read_write> torque: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(12) var<storage, read_write> events: array<vec4<u32>>;
-@group(0) @binding(13) var<storage, read_write> heat: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 // The force and torque one bond puts on its lower (f0, t0) and higher (f1, t1) end, and how it
 // broke this step (0 none, 1 tension, 2 shear) with the energy it held.

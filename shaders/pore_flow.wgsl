@@ -66,51 +66,7 @@ struct Throat {
     factor: f32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> pp: PoreParams;
-@group(0) @binding(2) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> disp: array<vec4<f32>>;
-// The four corners of each tetrahedron, its pore, and its orientation at the build (±1).
-@group(0) @binding(4) var<storage, read> tets: array<vec4<u32>>;
-@group(0) @binding(5) var<storage, read> tet_pore: array<u32>;
-@group(0) @binding(6) var<storage, read> tet_sign: array<f32>;
-// Tetrahedra of each pore (CSR).
-@group(0) @binding(7) var<storage, read> pore_tet_start: array<u32>;
-@group(0) @binding(8) var<storage, read> pore_tets: array<u32>;
-@group(0) @binding(9) var<storage, read_write> volume: array<f32>;
-// The volume at the upload, as pore_geometry measured it.
-@group(0) @binding(10) var<storage, read_write> volume0: array<f32>;
-@group(0) @binding(11) var<storage, read_write> centre: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read_write> excess: array<f32>;
-@group(0) @binding(13) var<storage, read_write> pressure: array<f32>;
-// Per pore: (fixed pressure, volumetric source, 1 when held at the pressure else 0, 0).
-@group(0) @binding(14) var<storage, read> boundary: array<vec4<f32>>;
-// Per pore: the mass its boundary region supplied since the upload (compensated sum).
-@group(0) @binding(15) var<storage, read_write> supplied: array<vec2<f32>>;
-// Throats of each pore (CSR rows, each throat in both of its pores' rows).
-@group(0) @binding(16) var<storage, read> row_start: array<u32>;
-@group(0) @binding(17) var<storage, read> row: array<u32>;
-@group(0) @binding(18) var<storage, read> throats: array<Throat>;
-@group(0) @binding(19) var<storage, read_write> conductance: array<f32>;
-// The bonds across throats' faces at the build, (i, j), and whether each still holds.
-@group(0) @binding(20) var<storage, read> bond_edges: array<vec2<u32>>;
-@group(0) @binding(21) var<storage, read_write> bond_alive: array<u32>;
-// Each element's corners of tetrahedra (CSR), each 4·tet + corner, in tetrahedron order.
-@group(0) @binding(22) var<storage, read> elem_start: array<u32>;
-@group(0) @binding(23) var<storage, read> elem_corners: array<u32>;
-@group(0) @binding(24) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(25) var<storage, read_write> counters: array<atomic<u32>>;
-// Each element's position at the network's build, less its origin.
-@group(0) @binding(26) var<storage, read> pore_built: array<vec4<f32>>;
-@group(0) @binding(27) var<uniform> slab: Slab;
-@group(0) @binding(28) var<storage, read> row_len: array<u32>;
-@group(0) @binding(29) var<storage, read> other: array<u32>;
-@group(0) @binding(30) var<storage, read> state: array<vec4<f32>>;
-// Binding 31–40: pore_heat.wgsl's.
-// Per pore: what its excess mass updates rounded away (kg).
-@group(0) @binding(41) var<storage, read_write> excess_carry: array<f32>;
-// Per pore: the host's (f64) volume at the upload, rounded to f32.
-@group(0) @binding(42) var<storage, read> volume_host: array<f32>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 // w + inc as a sum and its rounding error (two-sum: exact whatever the magnitudes; each step
 // multiplied by `pp.one`, which no real-arithmetic rewrite can cancel, as in ledger_add).

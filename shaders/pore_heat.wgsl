@@ -53,24 +53,7 @@ struct PoreHeat {
 const THERMAL_FIXED: u32 = 1u;
 const THERMAL_INSULATED: u32 = 2u;
 
-@group(0) @binding(31) var<uniform> ph: PoreHeat;
-// Per pore: x the excess temperature its region supplies (K), y 1 when its flux region injects
-// at it, z 1 when its fixed-pressure region holds it there, w its mass less its excess mass
-// (kg; the mass is w + excess).
-@group(0) @binding(32) var<storage, read> fluid_bc: array<vec4<f32>>;
-@group(0) @binding(33) var<storage, read_write> warmth: array<f32>;
-@group(0) @binding(34) var<storage, read_write> warmth_next: array<f32>;
-// Per pore: Σ Δm·w its region supplied since the upload (kg·K, compensated), × c_f on download.
-@group(0) @binding(35) var<storage, read_write> heat_supplied: array<vec2<f32>>;
-// Per tetrahedron: the exchange conductance of each corner (W/K).
-@group(0) @binding(36) var<storage, read_write> corner_g: array<vec4<f32>>;
-// The conduction stage's lanes: (T, C, k, P) and the mode of each element.
-@group(0) @binding(37) var<storage, read_write> thermal: array<vec4<f32>>;
-@group(0) @binding(38) var<storage, read> thermal_mode: array<u32>;
-// Per element: what its exchange updates rounded away (K).
-@group(0) @binding(39) var<storage, read_write> carry: array<f32>;
-// Per pore: what its temperature updates rounded away (K), paired with `warmth_next`.
-@group(0) @binding(40) var<storage, read_write> warmth_carry: array<f32>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 fn fluid_mass(p: u32) -> f32 {
     return fluid_bc[p].w + excess[p];
 }

@@ -12,23 +12,7 @@
 override ROLLING_MU: f32 = 0.0;
 override ROLLING_DAMPING: f32 = 0.0;
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> kind: array<u32>;
-@group(0) @binding(5) var<storage, read> row_len: array<u32>;
-@group(0) @binding(6) var<storage, read> other: array<u32>;
-@group(0) @binding(7) var<storage, read> pairs: array<Pair>;
-@group(0) @binding(8) var<storage, read> ang_vel: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> torque: array<vec4<f32>>;
-@group(0) @binding(10) var<uniform> slab: Slab;
-@group(0) @binding(11) var<storage, read> walls: array<Wall>;
-@group(0) @binding(12) var<storage, read> wall_pairs: array<Pair>;
-// epsd's springs in this slab: per row entry, and per particle and wall (placeholders for cdt).
-@group(0) @binding(13) var<storage, read_write> rolling: array<vec4<f32>>;
-@group(0) @binding(14) var<storage, read_write> wall_rolling: array<vec4<f32>>;
-@group(0) @binding(15) var<storage, read_write> heat: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 // I_i·I_j/(I_i + I_j), symmetric in its arguments bit for bit (pair_inertia).
 fn pair_inertia(a: f32, b: f32) -> f32 {

@@ -14,23 +14,7 @@ override WRITE_ROWS: bool = false;
 // Set states (contacts, bonds) a row may carry across a build.
 const MAX_CARRY: u32 = 64u;
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> cell_start: array<u32>;
-@group(0) @binding(4) var<storage, read> cell_items: array<u32>;
-@group(0) @binding(5) var<storage, read_write> row_len: array<u32>;
-@group(0) @binding(6) var<storage, read_write> other: array<u32>;
-@group(0) @binding(7) var<storage, read_write> state: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> built: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> counters: array<atomic<u32>>;
-@group(0) @binding(10) var<uniform> slab: Slab;
-// Per entry: the dashpot force of the last step (a placeholder without DASHPOT).
-@group(0) @binding(11) var<storage, read_write> dashpot: array<f32>;
-// Per entry: the epsd rolling spring (a placeholder without ROLLING_SPRING).
-@group(0) @binding(12) var<storage, read_write> rolling: array<vec4<f32>>;
-// Material and fixities per particle: a killed element (the KILLED bit) is in no row.
-@group(0) @binding(13) var<storage, read> kind: array<u32>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 @compute @workgroup_size(64)
 fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

@@ -14,8 +14,7 @@ struct ScanLevel {
 
 const NO_SUMS: u32 = 0xffffffffu;
 
-@group(0) @binding(0) var<storage, read_write> data: array<u32>;
-@group(0) @binding(1) var<uniform> level: ScanLevel;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 var<workgroup> block: array<u32, 256>;
 

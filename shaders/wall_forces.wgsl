@@ -5,21 +5,7 @@
 // workgroup boundary, so the partials are the same however the particles are split. CPU twin:
 // backend/cpu/wall_forces.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> origin: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> disp: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> vel: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> body: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> kind: array<u32>;
-@group(0) @binding(6) var<storage, read> walls: array<Wall>;
-@group(0) @binding(7) var<storage, read> wall_pairs: array<Pair>;
-@group(0) @binding(8) var<storage, read_write> wall_state: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> force: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read> ang_vel: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read_write> torque: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read_write> partials: array<vec4<f32>>;
-@group(0) @binding(13) var<uniform> slab: Slab;
-@group(0) @binding(14) var<storage, read_write> heat: array<vec2<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 var<workgroup> red_force: array<vec4<f32>, 64>;
 var<workgroup> red_stiffness: array<vec4<f32>, 64>;

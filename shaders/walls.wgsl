@@ -5,9 +5,7 @@
 // At the first step after an upload the partials hold
 // the model's last loads. CPU twin: Wall::advance in walls.rs.
 
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> walls: array<Wall>;
-@group(0) @binding(2) var<storage, read> partials: array<vec4<f32>>;
+// Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 var<workgroup> red_force: array<vec4<f32>, 64>;
 var<workgroup> red_stiffness: array<vec4<f32>, 64>;

@@ -43,6 +43,9 @@ pub enum GpuError {
     NotBuilt,
     #[error("the GPU device failed: {0}")]
     Device(String),
+    /// A kernel bound a lane its shader does not declare, or without its buffer.
+    #[error("binding a GPU kernel: {0}; this is a bug in matdem-rs, please report it")]
+    Binding(String),
 }
 
 fn hint(suggestion: &Option<String>, known: &[String]) -> String {

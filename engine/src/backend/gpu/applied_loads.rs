@@ -6,18 +6,19 @@
 //! nothing back (the loads are the model's, their work is booked on the host). CPU twin:
 //! `backend/cpu/applied_loads.rs`.
 
+use super::bindings::{applied_loads as al, Holder, Lane};
 use super::buffers::{storage_lane, DeviceLanes};
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::model::Model;
 use crate::plan::{AppliedLoadsPlan, Stage};
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLoadsPlan) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLoadsPlan) -> Pipeline {
     let mut constants = constants.to_vec();
     constants.push(("APPLIED_TORQUE", if plan.torques { 1.0 } else { 0.0 }));
     let name = Stage::AppliedLoads.name();
-    shaders::pipeline(device, name, shaders::APPLIED_LOADS, name, &constants)
+    shaders::pipeline(device, name, &shaders::APPLIED_LOADS, name, &constants)
 }
 
 /// The stage's lanes on the device.
@@ -44,7 +45,16 @@ impl Lanes {
     }
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, loads: &Lanes) -> Kernel {
-    let buffers = [&d.params, &d.kind, &loads.force, &loads.torque, &d.force, &d.torque];
-    Kernel::bind(device, p, &buffers, groups_for(d.n))
+pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, loads: &Lanes) -> Result<Kernel> {
+    Kernel::bind(device, p, &[d, loads], groups_for(d.n))
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        match lane {
+            al::FORCE => Some(&self.force),
+            al::TORQUE => Some(&self.torque),
+            _ => None,
+        }
+    }
 }

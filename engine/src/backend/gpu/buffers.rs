@@ -6,10 +6,10 @@
 //! the kernels move only the remainder: a step's displacement of 1e-9 m is then kept
 //! instead of being rounded away against a coordinate of 0.05 m.
 
+use super::bindings::{self as b, Holder, Lane};
 use super::device::GpuContext;
 use super::memory::{self, MemoryPlan};
 use super::rows;
-use super::shaders::{groups_for, Kernel};
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
@@ -273,40 +273,31 @@ pub(super) fn storage_lane(
     Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(lane), contents, usage: STORAGE }))
 }
 
-impl DeviceLanes {
-    /// One kernel per slab of rows: `buffers(slab)` lists the bindings 0, 1, 2, … for it.
-    pub fn per_slab<'a>(
-        &'a self,
-        device: &wgpu::Device,
-        pipeline: &wgpu::ComputePipeline,
-        buffers: impl Fn(&'a SlabLanes) -> Vec<&'a wgpu::Buffer>,
-    ) -> Vec<Kernel> {
-        self.per_slab_from(device, pipeline, 0, buffers)
-    }
-
-    /// [`per_slab`](Self::per_slab) for an entry point whose bindings start at `first` (one
-    /// that reads no scene constant: a binding the shader does not use must not be bound).
-    pub fn per_slab_from<'a>(
-        &'a self,
-        device: &wgpu::Device,
-        pipeline: &wgpu::ComputePipeline,
-        first: u32,
-        buffers: impl Fn(&'a SlabLanes) -> Vec<&'a wgpu::Buffer>,
-    ) -> Vec<Kernel> {
-        self.slabs
-            .iter()
-            .map(|s| {
-                let numbered: Vec<(u32, &wgpu::Buffer)> = (first..).zip(buffers(s)).collect();
-                Kernel::bind_at(device, pipeline, &numbered, groups_for(s.count))
-            })
-            .collect()
-    }
-}
-
 /// One level of the cell list's prefix scan (`ScanLevel` in scan.wgsl) and its workgroups.
 pub struct ScanLevel {
     pub uniform: wgpu::Buffer,
     pub workgroups: usize,
+}
+
+impl Holder for SlabLanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            b::SLAB => &self.uniform,
+            b::OTHER => &self.other,
+            b::STATE => &self.state,
+            b::WALL_STATE => &self.wall_state,
+            b::DASHPOT => &self.dashpot,
+            b::ROLLING => &self.rolling,
+            b::WALL_ROLLING => &self.wall_rolling,
+            _ => return None,
+        })
+    }
+}
+
+impl Holder for ScanLevel {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        (lane == b::SCAN_LEVEL).then_some(&self.uniform)
+    }
 }
 
 /// The device buffers. Lanes a plan does not use (rotation off, no walls) are 128-byte
@@ -445,6 +436,36 @@ impl DeviceLanes {
             bytes: 0,
         };
         Ok(DeviceLanes { bytes: bytes + std::mem::size_of::<Params>() as u64, ..lanes })
+    }
+}
+
+impl Holder for DeviceLanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            b::PARAMS => &self.params,
+            b::ORIGIN => &self.origin,
+            b::DISP => &self.disp,
+            b::VEL => &self.vel,
+            b::BODY => &self.body,
+            b::KIND => &self.kind,
+            b::FORCE => &self.force,
+            b::ANG_VEL => &self.ang_vel,
+            b::TORQUE => &self.torque,
+            b::ANGLE => &self.angle,
+            b::BUILT => &self.built,
+            b::ROW_LEN => &self.row_len,
+            b::BUCKET_COUNT => &self.bucket_count,
+            b::CELL_START | b::SCAN_DATA => &self.scan,
+            b::CELL_ITEMS => &self.cell_items,
+            b::WALLS => &self.walls,
+            b::PAIRS => &self.pairs,
+            b::WALL_PAIRS => &self.wall_pairs,
+            b::PARTIALS => &self.partials,
+            b::COUNTERS => &self.counters,
+            b::EVENTS => &self.events,
+            b::HEAT => &self.heat,
+            _ => return None,
+        })
     }
 }
 

@@ -4,15 +4,17 @@
 //! plan has the stage; its one buffer is the water's uniform (level, fluid density, 6π·μ). CPU
 //! twin: `backend/cpu/buoyancy.rs`.
 
+use super::bindings::buoyancy::WATER;
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::fields::BuoyancyPlan;
 use crate::plan::Stage;
 use wgpu::util::DeviceExt;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::Buoyancy.name(), shaders::BUOYANCY, "buoyancy", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::Buoyancy.name(), &shaders::BUOYANCY, "buoyancy", constants)
 }
 
 /// The water's uniform (`Water` in buoyancy.wgsl).
@@ -25,7 +27,6 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
     })
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Kernel {
-    let buffers = [&d.params, &d.origin, &d.disp, &d.body, &d.vel, &d.force, water, &d.kind, &d.heat];
-    Kernel::bind(device, p, &buffers, groups_for(d.n))
+pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Result<Kernel> {
+    Kernel::bind(device, p, &[d, &(WATER, water)], groups_for(d.n))
 }

@@ -12,9 +12,10 @@
 //! the host's terms (booked at the upload + the device's fed sum), so a run may continue on
 //! either backend.
 
+use super::bindings::{conduction as co, Holder, Lane, DISP, HEAT, ORIGIN, OTHER, PARAMS, ROW_LEN, SLAB, STATE};
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::fields::ConductionPlan;
 use crate::model::Model;
@@ -34,17 +35,17 @@ struct FieldParams {
 
 /// The stage's pipelines.
 pub struct Pipelines {
-    conduct: wgpu::ComputePipeline,
-    settle: wgpu::ComputePipeline,
-    expand: Option<wgpu::ComputePipeline>,
+    conduct: Pipeline,
+    settle: Pipeline,
+    expand: Option<Pipeline>,
     /// Only when the dissipated heat is fed in.
-    feed: Option<wgpu::ComputePipeline>,
+    feed: Option<Pipeline>,
 }
 
 pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
     let mut c = constants.to_vec();
     c.push(("EXPANSION", if plan.expansion { 1.0 } else { 0.0 }));
-    let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), shaders::CONDUCTION, entry, &c);
+    let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), &shaders::CONDUCTION, entry, &c);
     Pipelines {
         conduct: make("conduct"),
         settle: make("settle"),
@@ -68,6 +69,21 @@ pub struct Lanes {
     fed: Option<wgpu::Buffer>,
     /// Bytes of the lanes.
     pub bytes: u64,
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            co::FIELD => &self.params,
+            co::THERMAL => &self.thermal,
+            co::NEXT => &self.next,
+            co::CONDUCTANCE => &self.conductance,
+            co::MODE | co::THERMAL_MODE => &self.mode,
+            co::EXPANSION => &self.expansion,
+            co::FED => return self.fed.as_ref(),
+            _ => return None,
+        })
+    }
 }
 
 const STORAGE: wgpu::BufferUsages =
@@ -132,16 +148,6 @@ impl Lanes {
         }
     }
 
-    /// The (T, C, k, P) lane, which the moisture stage reads when both set the radius.
-    pub fn thermal(&self) -> &wgpu::Buffer {
-        &self.thermal
-    }
-
-    /// The elements' thermal modes, which the pore fluid's exchange reads.
-    pub fn mode(&self) -> &wgpu::Buffer {
-        &self.mode
-    }
-
     /// The (α, r0) lane (a placeholder without expansion), whose r0 the moisture stage keeps
     /// at r0·f(ω) when both set the radius.
     pub fn expansion(&self) -> &wgpu::Buffer {
@@ -186,41 +192,39 @@ pub struct Kernels {
     substeps: u32,
 }
 
-pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes, plan: &ConductionPlan) -> Kernels {
-    // Bindings 1 to 11: the rows' walk reads no scene constant (params, binding 0).
-    let conduct = d.per_slab_from(device, &p.conduct, 1, |s| {
-        vec![
-            &d.origin,
-            &d.disp,
-            &d.row_len,
-            &s.other,
-            &s.state,
-            &s.uniform,
-            &f.params,
-            &f.thermal,
-            &f.next,
-            &f.conductance,
-            &f.mode,
-        ]
-    });
-    let settle = Kernel::bind_at(device, &p.settle, &[(0, &d.params), (8, &f.thermal), (9, &f.next)], groups_for(d.n));
-    let expand = p.expand.as_ref().map(|e| {
-        Kernel::bind_at(
-            device,
-            e,
-            &[(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.thermal), (12, &f.expansion)],
-            groups_for(d.n),
-        )
-    });
-    let feed = p.feed.as_ref().zip(f.fed.as_ref()).map(|(k, fed)| {
-        Kernel::bind_at(
-            device,
-            k,
-            &[(0, &d.params), (8, &f.thermal), (11, &f.mode), (13, &d.heat), (14, fed)],
-            groups_for(d.n),
-        )
-    });
-    Kernels { conduct, settle, expand, feed, substeps: plan.substeps }
+pub fn kernels(
+    device: &wgpu::Device,
+    p: &Pipelines,
+    d: &DeviceLanes,
+    f: &Lanes,
+    plan: &ConductionPlan,
+) -> Result<Kernels> {
+    // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
+    // The rows' walk reads no scene constant.
+    let walk = [ORIGIN, DISP, ROW_LEN, OTHER, STATE, SLAB, co::FIELD, co::THERMAL, co::NEXT, co::CONDUCTANCE, co::MODE];
+    let conduct = d
+        .slabs
+        .iter()
+        .map(|s| Kernel::bind_lanes(device, &p.conduct, &walk, &[d, s, f], groups_for(s.count)))
+        .collect::<Result<_>>()?;
+    let settle = Kernel::bind_lanes(device, &p.settle, &[PARAMS, co::THERMAL, co::NEXT], &[d, f], groups_for(d.n))?;
+    let expand = p
+        .expand
+        .as_ref()
+        .map(|e| {
+            let lanes = [PARAMS, ORIGIN, co::FIELD, co::THERMAL, co::EXPANSION];
+            Kernel::bind_lanes(device, e, &lanes, &[d, f], groups_for(d.n))
+        })
+        .transpose()?;
+    let feed = p
+        .feed
+        .as_ref()
+        .map(|k| {
+            let lanes = [PARAMS, co::THERMAL, co::MODE, HEAT, co::FED];
+            Kernel::bind_lanes(device, k, &lanes, &[d, f], groups_for(d.n))
+        })
+        .transpose()?;
+    Ok(Kernels { conduct, settle, expand, feed, substeps: plan.substeps })
 }
 
 impl Kernels {

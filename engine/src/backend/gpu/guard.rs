@@ -7,34 +7,17 @@
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::Guard.name(), shaders::GUARD, "check_state", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::Guard.name(), &shaders::GUARD, "check_state", constants)
 }
 
 /// One kernel per slab of rows.
-pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.per_slab(device, p, |s| {
-        vec![
-            &d.params,
-            &d.origin,
-            &d.disp,
-            &d.vel,
-            &d.force,
-            &d.row_len,
-            &s.other,
-            &d.walls,
-            &d.counters,
-            &s.uniform,
-            &d.body,
-            &d.kind,
-            &d.pairs,
-            &d.wall_pairs,
-            &s.state,
-        ]
-    })
+pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
+    d.slabs.iter().map(|s| Kernel::bind(device, p, &[d, s], groups_for(s.count))).collect()
 }
 
 /// What each guard slot means, worded as the CPU guard words it.

@@ -31,6 +31,7 @@
 //! the host for each sample).
 
 pub mod applied_loads;
+pub mod bindings;
 pub mod buffers;
 pub mod buoyancy;
 pub mod conduction;
@@ -66,7 +67,7 @@ use buffers::{
     C_PORE_DRIFT, C_PORE_EXCHANGE, C_PORE_STEP, C_SPEED, C_STIFF,
 };
 use device::GpuContext;
-use shaders::Kernel;
+use shaders::{Kernel, Pipeline};
 use std::sync::{Arc, Mutex};
 
 pub use device::{select, BackendChoice, Compute};
@@ -87,22 +88,22 @@ const STEP_BATCH: &str = "step_batch";
 /// The plan's pipelines, one field per stage (the wall stages only with walls).
 struct Pipelines {
     /// The neighbours stage: the drift measure, and the rows built on the device.
-    drift: wgpu::ComputePipeline,
+    drift: Pipeline,
     rows: rows::Pipelines,
-    contact_forces: wgpu::ComputePipeline,
+    contact_forces: Pipeline,
     walls: Option<WallPipelines>,
     /// Only when the plan has parallel bonds.
-    parallel_bond: Option<wgpu::ComputePipeline>,
+    parallel_bond: Option<Pipeline>,
     /// Only when the plan has rolling resistance.
-    rolling_resistance: Option<wgpu::ComputePipeline>,
+    rolling_resistance: Option<Pipeline>,
     /// Only when the plan has pore flow.
     pore_flow: Option<pore_flow::Pipelines>,
-    integrate: wgpu::ComputePipeline,
-    guard: wgpu::ComputePipeline,
+    integrate: Pipeline,
+    guard: Pipeline,
     /// The optional applied loads and buoyancy (force stages) and field stages, only when the
     /// plan has them.
-    applied_loads: Option<wgpu::ComputePipeline>,
-    buoyancy: Option<wgpu::ComputePipeline>,
+    applied_loads: Option<Pipeline>,
+    buoyancy: Option<Pipeline>,
     conduction: Option<conduction::Pipelines>,
     moisture: Option<moisture::Pipelines>,
 }
@@ -110,10 +111,10 @@ struct Pipelines {
 /// The pipelines of the walls and wall_forces stages.
 struct WallPipelines {
     /// Last step's loads summed, then the walls moved.
-    advance: wgpu::ComputePipeline,
-    forces: wgpu::ComputePipeline,
+    advance: Pipeline,
+    forces: Pipeline,
     /// The loads summed alone (before a download).
-    sum_loads: wgpu::ComputePipeline,
+    sum_loads: Pipeline,
 }
 
 /// Kernels bound to one upload; those that read per-entry lanes, one per slab.
@@ -433,42 +434,53 @@ impl GpuBackend {
             None => None,
         };
         let kernels = Kernels {
-            drift: neighbours::kernel(device, &p.drift, &lanes),
-            rows: rows::kernels(device, &p.rows, &lanes),
-            contact_forces: contact_forces::kernels(device, &p.contact_forces, &lanes),
-            walls: p.walls.as_ref().map(|w| WallKernels {
-                advance: walls::kernel(device, &w.advance, &lanes),
-                forces: wall_forces::kernels(device, &w.forces, &lanes),
-                sum_loads: walls::kernel(device, &w.sum_loads, &lanes),
-            }),
+            drift: neighbours::kernel(device, &p.drift, &lanes)?,
+            rows: rows::kernels(device, &p.rows, &lanes)?,
+            contact_forces: contact_forces::kernels(device, &p.contact_forces, &lanes)?,
+            walls: match &p.walls {
+                Some(w) => Some(WallKernels {
+                    advance: walls::kernel(device, &w.advance, &lanes)?,
+                    forces: wall_forces::kernels(device, &w.forces, &lanes)?,
+                    sum_loads: walls::kernel(device, &w.sum_loads, &lanes)?,
+                }),
+                None => None,
+            },
             parallel_bond: match (&p.parallel_bond, &bonds) {
-                (Some(pipeline), Some(b)) => Some(b.kernel(device, pipeline, &lanes)),
+                (Some(pipeline), Some(b)) => Some(b.kernel(device, pipeline, &lanes)?),
                 _ => None,
             },
-            rolling_resistance: p
-                .rolling_resistance
-                .as_ref()
-                .map_or_else(Vec::new, |r| rolling_resistance::kernels(device, r, &lanes)),
-            integrate: integrate::kernel(device, &p.integrate, &lanes),
-            guard: guard::kernels(device, &p.guard, &lanes),
+            rolling_resistance: match &p.rolling_resistance {
+                Some(r) => rolling_resistance::kernels(device, r, &lanes)?,
+                None => Vec::new(),
+            },
+            integrate: integrate::kernel(device, &p.integrate, &lanes)?,
+            guard: guard::kernels(device, &p.guard, &lanes)?,
             applied_loads: p
                 .applied_loads
                 .as_ref()
                 .zip(applied.as_ref())
-                .map(|(a, loads)| applied_loads::kernel(device, a, &lanes, loads)),
-            buoyancy: p.buoyancy.as_ref().zip(water.as_ref()).map(|(b, w)| buoyancy::kernel(device, b, &lanes, w)),
+                .map(|(a, loads)| applied_loads::kernel(device, a, &lanes, loads))
+                .transpose()?,
+            buoyancy: p
+                .buoyancy
+                .as_ref()
+                .zip(water.as_ref())
+                .map(|(b, w)| buoyancy::kernel(device, b, &lanes, w))
+                .transpose()?,
             conduction: p
                 .conduction
                 .as_ref()
                 .zip(thermal.as_ref())
                 .zip(self.plan.conduction.as_ref())
-                .map(|((c, f), plan)| conduction::kernels(device, c, &lanes, f, plan)),
+                .map(|((c, f), plan)| conduction::kernels(device, c, &lanes, f, plan))
+                .transpose()?,
             moisture: p
                 .moisture
                 .as_ref()
                 .zip(moist.as_ref())
                 .zip(self.plan.moisture.as_ref())
-                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan, thermal.as_ref())),
+                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan, thermal.as_ref()))
+                .transpose()?,
         };
         self.device_bytes = lanes.bytes
             + bonds.as_ref().map_or(0, |b| b.bytes)

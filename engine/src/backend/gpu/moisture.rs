@@ -6,9 +6,12 @@
 //! the water contents and conductances (and radii, bond shares) come back at each download.
 //! CPU twin: `backend/cpu/moisture.rs`.
 
+use super::bindings::{
+    conduction as co, moisture as mo, Holder, Lane, DISP, ORIGIN, OTHER, PARAMS, ROW_LEN, SLAB, STATE,
+};
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::model::Model;
 use crate::moisture::MoisturePlan;
@@ -30,14 +33,14 @@ struct FieldParams {
 
 /// The stage's pipelines.
 pub struct Pipelines {
-    exchange: wgpu::ComputePipeline,
-    settle: wgpu::ComputePipeline,
-    shrink: Option<wgpu::ComputePipeline>,
-    strengthen: Option<wgpu::ComputePipeline>,
+    exchange: Pipeline,
+    settle: Pipeline,
+    shrink: Option<Pipeline>,
+    strengthen: Option<Pipeline>,
 }
 
 pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
-    let make = |entry| shaders::pipeline(device, Stage::Moisture.name(), shaders::MOISTURE, entry, constants);
+    let make = |entry| shaders::pipeline(device, Stage::Moisture.name(), &shaders::MOISTURE, entry, constants);
     Pipelines {
         exchange: make("exchange"),
         settle: make("settle"),
@@ -64,6 +67,22 @@ pub struct Lanes {
     tables: wgpu::Buffer,
     /// Bytes of the lanes.
     pub bytes: u64,
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            mo::FIELD => &self.params,
+            mo::WATER => &self.water,
+            mo::NEXT => &self.next,
+            mo::CONDUCTANCE => &self.conductance,
+            mo::MODE => &self.mode,
+            mo::AMBIENT => &self.ambient,
+            mo::RADIUS0 => &self.radius0,
+            mo::TABLES => &self.tables,
+            _ => return None,
+        })
+    }
 }
 
 const STORAGE: wgpu::BufferUsages =
@@ -175,56 +194,53 @@ pub fn kernels(
     f: &Lanes,
     plan: &MoisturePlan,
     thermal: Option<&super::conduction::Lanes>,
-) -> Kernels {
+) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
-    // Bindings 1 to 12: the rows' walk reads no scene constant (params, binding 0).
-    let exchange = d.per_slab_from(device, &p.exchange, 1, |s| {
-        vec![
-            &d.origin,
-            &d.disp,
-            &d.row_len,
-            &s.other,
-            &s.state,
-            &s.uniform,
-            &f.params,
-            &f.water,
-            &f.next,
-            &f.conductance,
-            &f.mode,
-            &f.ambient,
-        ]
-    });
-    let settle = Kernel::bind_at(device, &p.settle, &[(0, &d.params), (8, &f.water), (9, &f.next)], groups_for(d.n));
-    let shrink = p.shrink.as_ref().map(|k| {
-        let mut b =
-            vec![(0, &d.params), (1, &d.origin), (7, &f.params), (8, &f.water), (13, &f.radius0), (14, &f.tables)];
-        if let (Some(_), Some(t)) = (plan.expansion, thermal) {
-            b.extend([(15, t.thermal()), (16, t.expansion())]);
+    // The rows' walk reads no scene constant.
+    let walk = [
+        ORIGIN,
+        DISP,
+        ROW_LEN,
+        OTHER,
+        STATE,
+        SLAB,
+        mo::FIELD,
+        mo::WATER,
+        mo::NEXT,
+        mo::CONDUCTANCE,
+        mo::MODE,
+        mo::AMBIENT,
+    ];
+    let exchange = d
+        .slabs
+        .iter()
+        .map(|s| Kernel::bind_lanes(device, &p.exchange, &walk, &[d, s, f], groups_for(s.count)))
+        .collect::<Result<_>>()?;
+    let settle = Kernel::bind_lanes(device, &p.settle, &[PARAMS, mo::WATER, mo::NEXT], &[d, f], groups_for(d.n))?;
+    let shrink = p
+        .shrink
+        .as_ref()
+        .map(|k| {
+            let mut lanes = vec![PARAMS, ORIGIN, mo::FIELD, mo::WATER, mo::RADIUS0, mo::TABLES];
+            let mut holders: Vec<&dyn Holder> = vec![d, f];
+            if let (Some(_), Some(t)) = (plan.expansion, thermal) {
+                lanes.extend([co::THERMAL, co::EXPANSION]);
+                holders.push(t);
+            }
+            Kernel::bind_lanes(device, k, &lanes, &holders, groups_for(d.n))
+        })
+        .transpose()?;
+    let strengthen = match &p.strengthen {
+        None => Vec::new(),
+        Some(k) => {
+            let lanes = [ROW_LEN, OTHER, STATE, SLAB, mo::FIELD, mo::WATER, mo::TABLES];
+            d.slabs
+                .iter()
+                .map(|s| Kernel::bind_lanes(device, k, &lanes, &[d, s, f], groups_for(s.count)))
+                .collect::<Result<_>>()?
         }
-        Kernel::bind_at(device, k, &b, groups_for(d.n))
-    });
-    let strengthen = p.strengthen.as_ref().map_or_else(Vec::new, |k| {
-        d.slabs
-            .iter()
-            .map(|s| {
-                Kernel::bind_at(
-                    device,
-                    k,
-                    &[
-                        (3, &d.row_len),
-                        (4, &s.other),
-                        (5, &s.state),
-                        (6, &s.uniform),
-                        (7, &f.params),
-                        (8, &f.water),
-                        (14, &f.tables),
-                    ],
-                    groups_for(s.count),
-                )
-            })
-            .collect()
-    });
-    Kernels { exchange, settle, shrink, strengthen, substeps: plan.substeps }
+    };
+    Ok(Kernels { exchange, settle, shrink, strengthen, substeps: plan.substeps })
 }
 
 impl Kernels {

@@ -5,13 +5,14 @@
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::Neighbours.name(), shaders::NEIGHBOURS, "measure_drift", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::Neighbours.name(), &shaders::NEIGHBOURS, "measure_drift", constants)
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    Kernel::bind(device, p, &[&d.params, &d.disp, &d.built, &d.vel, &d.counters], groups_for(d.n))
+pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Kernel> {
+    Kernel::bind(device, p, &[d], groups_for(d.n))
 }

@@ -6,9 +6,10 @@
 //! The bond rows are not split into slabs: their states (48 B a bond end) must fit one storage
 //! binding, or the upload is refused with the lane's size and the limit.
 
+use super::bindings::{parallel_bond as pb, Holder, Lane};
 use super::buffers::{read, DeviceLanes};
 use super::device::GpuContext;
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::parallel_bond::{BondState, ParallelBondParams};
@@ -44,8 +45,8 @@ struct Bond {
 /// Bytes of one bond end on the device.
 pub const ENTRY_BYTES: usize = std::mem::size_of::<Bond>() + std::mem::size_of::<u32>();
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::ParallelBond.name(), shaders::PARALLEL_BOND, "parallel_bond", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::ParallelBond.name(), &shaders::PARALLEL_BOND, "parallel_bond", constants)
 }
 
 /// The stage's buffers for one upload.
@@ -57,6 +58,18 @@ pub struct BondLanes {
     entries: usize,
     /// Bytes of the stage's buffers.
     pub bytes: u64,
+}
+
+impl Holder for BondLanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            pb::PARAMS => &self.params,
+            pb::ROW_START => &self.row_start,
+            pb::OTHER => &self.other,
+            pb::BONDS => &self.bonds,
+            _ => return None,
+        })
+    }
 }
 
 impl BondLanes {
@@ -115,24 +128,8 @@ impl BondLanes {
     }
 
     /// The kernel bound to these buffers and the particles' lanes.
-    pub fn kernel(&self, device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-        let buffers = [
-            &d.params,
-            &self.params,
-            &d.origin,
-            &d.disp,
-            &d.vel,
-            &d.ang_vel,
-            &self.row_start,
-            &self.other,
-            &self.bonds,
-            &d.force,
-            &d.torque,
-            &d.counters,
-            &d.events,
-            &d.heat,
-        ];
-        Kernel::bind(device, p, &buffers, groups_for(d.n))
+    pub fn kernel(&self, device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Kernel> {
+        Kernel::bind(device, p, &[d, self], groups_for(d.n))
     }
 
     /// Brings the bonds' states back into the model (f32 widened to f64).

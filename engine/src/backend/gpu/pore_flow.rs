@@ -32,11 +32,12 @@
 //! The flow update alone is also driven by [`PoreFlowKernel`] (upload a network, run sub-steps,
 //! download the masses), for the flow's own parity test.
 
+use super::bindings::{pore_flow as pf, Holder, Lane, COUNTERS, DISP, FORCE, ORIGIN, OTHER, ROW_LEN, SLAB, STATE};
 use super::buffers::{read, storage_lane, DeviceLanes, HostLanes};
 use super::conduction;
 use super::device::GpuContext;
 use super::pore_heat::{self, PoreHeatSession};
-use super::shaders::{self, groups_for, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::model::Model;
 use crate::plan::Stage;
@@ -77,20 +78,20 @@ struct ThroatLane {
 
 /// The stage's pipelines, one per entry point of pore_flow.wgsl.
 pub struct Pipelines {
-    bonds: wgpu::ComputePipeline,
-    geometry: wgpu::ComputePipeline,
-    conductance: wgpu::ComputePipeline,
-    stable_step: wgpu::ComputePipeline,
-    pressure: wgpu::ComputePipeline,
-    mass: wgpu::ComputePipeline,
-    forces: wgpu::ComputePipeline,
-    drift: wgpu::ComputePipeline,
+    bonds: Pipeline,
+    geometry: Pipeline,
+    conductance: Pipeline,
+    stable_step: Pipeline,
+    pressure: Pipeline,
+    mass: Pipeline,
+    forces: Pipeline,
+    drift: Pipeline,
     /// The fluid's temperature, only when the plan's pore flow is `thermal`.
     heat: Option<pore_heat::Pipelines>,
 }
 
-fn pipeline(device: &GpuContext, entry: &str, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_FLOW, entry, constants)
+fn pipeline(device: &GpuContext, entry: &str, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::PoreFlow.name(), &shaders::PORE_FLOW, entry, constants)
 }
 
 /// The stage's pipelines; with `thermal`, the fluid temperature's too (shaders/pore_heat.wgsl).
@@ -147,6 +148,38 @@ pub struct Lanes {
     pub(super) excess0: Vec<f32>,
     /// Bytes of the stage's buffers.
     pub bytes: u64,
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            pf::PARAMS => &self.params,
+            pf::TETS => &self.tets,
+            pf::TET_PORE => &self.tet_pore,
+            pf::TET_SIGN => &self.tet_sign,
+            pf::PORE_TET_START => &self.pore_tet_start,
+            pf::PORE_TETS => &self.pore_tets,
+            pf::VOLUME => &self.volume,
+            pf::VOLUME0 => &self.volume0,
+            pf::VOLUME_HOST => &self.volume_host,
+            pf::CENTRE => &self.centre,
+            pf::EXCESS => &self.excess,
+            pf::PRESSURE => &self.pressure,
+            pf::BOUNDARY => &self.boundary,
+            pf::SUPPLIED => &self.supplied,
+            pf::EXCESS_CARRY => &self.excess_carry,
+            pf::ROW_START => &self.row_start,
+            pf::ROW => &self.row,
+            pf::THROATS => &self.throats,
+            pf::CONDUCTANCE => &self.conductance,
+            pf::BOND_EDGES => &self.bond_edges,
+            pf::BOND_ALIVE => &self.bond_alive,
+            pf::ELEM_START => &self.elem_start,
+            pf::ELEM_CORNERS => &self.elem_corners,
+            pf::PORE_BUILT => &self.pore_built,
+            _ => return None,
+        })
+    }
 }
 
 impl Lanes {
@@ -380,7 +413,7 @@ impl PoreSession {
         m.pores = Some(f);
         let lanes = lanes?;
         let heat = heat.transpose()?;
-        let kernels = kernels(&ctx.device, p, &lanes, d);
+        let kernels = kernels(&ctx.device, p, &lanes, d)?;
         // The volumes at the upload as the device measures them (the pressures see only their change).
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
@@ -471,138 +504,84 @@ impl PoreSession {
     }
 }
 
-fn kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes, d: &DeviceLanes) -> Kernels {
+fn kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes, d: &DeviceLanes) -> Result<Kernels> {
     let (np, nt, ne) = (l.uniform.pores as usize, l.uniform.throats as usize, l.uniform.elements as usize);
+    // Each entry point binds only the lanes it uses (its layout is derived from the shader).
+    let bind = |pipeline: &Pipeline, used: &[Lane], n: usize| {
+        Kernel::bind_lanes(device, pipeline, used, &[d, l], groups_for(n))
+    };
     let bonds = if l.uniform.bond_edges == 0 {
         Vec::new()
     } else {
         let groups = groups_for(l.uniform.bond_edges as usize);
+        // No scene constant: the rows' walk needs none.
+        let lanes = [pf::PARAMS, pf::BOND_EDGES, pf::BOND_ALIVE, SLAB, ROW_LEN, OTHER, STATE];
         d.slabs
             .iter()
-            .map(|s| {
-                // No scene constant (params, binding 0): the rows' walk needs none.
-                let b = [
-                    (1, &l.params),
-                    (20, &l.bond_edges),
-                    (21, &l.bond_alive),
-                    (27, &s.uniform),
-                    (28, &d.row_len),
-                    (29, &s.other),
-                    (30, &s.state),
-                ];
-                Kernel::bind_at(device, &p.bonds, &b, groups)
-            })
-            .collect()
+            .map(|s| Kernel::bind_lanes(device, &p.bonds, &lanes, &[d, s, l], groups))
+            .collect::<Result<_>>()?
     };
-    let geometry = Kernel::bind_at(
-        device,
-        &p.geometry,
-        &[
-            (1, &l.params),
-            (2, &d.origin),
-            (3, &d.disp),
-            (4, &l.tets),
-            (7, &l.pore_tet_start),
-            (8, &l.pore_tets),
-            (9, &l.volume),
-            (11, &l.centre),
-        ],
-        groups_for(np),
-    );
-    let conductance = Kernel::bind_at(
-        device,
-        &p.conductance,
-        &[
-            (1, &l.params),
-            (2, &d.origin),
-            (3, &d.disp),
-            (9, &l.volume),
-            (11, &l.centre),
-            (18, &l.throats),
-            (19, &l.conductance),
-            (21, &l.bond_alive),
-        ],
-        groups_for(nt),
-    );
-    let stable_step = Kernel::bind_at(
-        device,
-        &p.stable_step,
-        &[
-            (1, &l.params),
-            (9, &l.volume),
-            (14, &l.boundary),
-            (16, &l.row_start),
-            (17, &l.row),
-            (19, &l.conductance),
-            (25, &d.counters),
-        ],
-        groups_for(np),
-    );
-    let (pressure, mass) = flow_kernels(device, p, l);
-    let forces = Kernel::bind_at(
-        device,
-        &p.forces,
-        &[
-            (1, &l.params),
-            (2, &d.origin),
-            (3, &d.disp),
-            (4, &l.tets),
-            (5, &l.tet_pore),
-            (6, &l.tet_sign),
-            (13, &l.pressure),
-            (22, &l.elem_start),
-            (23, &l.elem_corners),
-            (24, &d.force),
-        ],
-        groups_for(ne),
-    );
-    let drift = Kernel::bind_at(
-        device,
-        &p.drift,
-        &[(1, &l.params), (3, &d.disp), (25, &d.counters), (26, &l.pore_built)],
-        groups_for(ne),
-    );
-    Kernels { bonds, geometry, conductance, stable_step, pressure, mass, forces, drift }
+    let geometry = [pf::PARAMS, ORIGIN, DISP, pf::TETS, pf::PORE_TET_START, pf::PORE_TETS, pf::VOLUME, pf::CENTRE];
+    let conductance = [pf::PARAMS, ORIGIN, DISP, pf::VOLUME, pf::CENTRE, pf::THROATS, pf::CONDUCTANCE, pf::BOND_ALIVE];
+    let stable_step = [pf::PARAMS, pf::VOLUME, pf::BOUNDARY, pf::ROW_START, pf::ROW, pf::CONDUCTANCE, COUNTERS];
+    let forces = [
+        pf::PARAMS,
+        ORIGIN,
+        DISP,
+        pf::TETS,
+        pf::TET_PORE,
+        pf::TET_SIGN,
+        pf::PRESSURE,
+        pf::ELEM_START,
+        pf::ELEM_CORNERS,
+        FORCE,
+    ];
+    let (pressure, mass) = flow_kernels(device, p, l)?;
+    Ok(Kernels {
+        bonds,
+        geometry: bind(&p.geometry, &geometry, np)?,
+        conductance: bind(&p.conductance, &conductance, nt)?,
+        stable_step: bind(&p.stable_step, &stable_step, np)?,
+        pressure,
+        mass,
+        forces: bind(&p.forces, &forces, ne)?,
+        drift: bind(&p.drift, &[pf::PARAMS, DISP, COUNTERS, pf::PORE_BUILT], ne)?,
+    })
 }
+
+/// The lanes of a flow sub-step's two kernels (the fluid's temperature adds its own to them).
+pub(super) const PRESSURE_LANES: [Lane; 9] = [
+    pf::PARAMS,
+    pf::VOLUME,
+    pf::VOLUME0,
+    pf::EXCESS,
+    pf::PRESSURE,
+    pf::BOUNDARY,
+    pf::SUPPLIED,
+    pf::EXCESS_CARRY,
+    pf::VOLUME_HOST,
+];
+pub(super) const MASS_LANES: [Lane; 10] = [
+    pf::PARAMS,
+    pf::EXCESS,
+    pf::PRESSURE,
+    pf::BOUNDARY,
+    pf::SUPPLIED,
+    pf::ROW_START,
+    pf::ROW,
+    pf::THROATS,
+    pf::CONDUCTANCE,
+    pf::EXCESS_CARRY,
+];
 
 /// The two kernels of one flow sub-step: pressures from the excess masses, then each pore's
 /// excess from its row of throats (with what its updates rounded away carried to the next).
-fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> (Kernel, Kernel) {
+fn flow_kernels(device: &wgpu::Device, p: &Pipelines, l: &Lanes) -> Result<(Kernel, Kernel)> {
     let groups = groups_for(l.uniform.pores as usize);
-    let pressure = Kernel::bind_at(
-        device,
-        &p.pressure,
-        &[
-            (1, &l.params),
-            (9, &l.volume),
-            (10, &l.volume0),
-            (12, &l.excess),
-            (13, &l.pressure),
-            (14, &l.boundary),
-            (15, &l.supplied),
-            (41, &l.excess_carry),
-            (42, &l.volume_host),
-        ],
-        groups,
-    );
-    let mass = Kernel::bind_at(
-        device,
-        &p.mass,
-        &[
-            (1, &l.params),
-            (12, &l.excess),
-            (13, &l.pressure),
-            (14, &l.boundary),
-            (15, &l.supplied),
-            (16, &l.row_start),
-            (17, &l.row),
-            (18, &l.throats),
-            (19, &l.conductance),
-            (41, &l.excess_carry),
-        ],
-        groups,
-    );
-    (pressure, mass)
+    Ok((
+        Kernel::bind_lanes(device, &p.pressure, &PRESSURE_LANES, &[l], groups)?,
+        Kernel::bind_lanes(device, &p.mass, &MASS_LANES, &[l], groups)?,
+    ))
 }
 
 /// The flow update of one network on the device, on its own: the volumes and conductances
@@ -619,7 +598,7 @@ impl PoreFlowKernel {
     pub fn upload(ctx: &GpuContext, f: &PoreFlow, h: f64) -> Result<Self> {
         let p = pipelines(ctx, &[], false);
         let lanes = Lanes::upload(ctx, f, &[], &[], h, ctx.limits.max_storage_buffer_binding_size)?;
-        let (pressure, mass) = flow_kernels(&ctx.device, &p, &lanes);
+        let (pressure, mass) = flow_kernels(&ctx.device, &p, &lanes)?;
         Ok(PoreFlowKernel { lanes, pressure, mass })
     }
 

@@ -20,11 +20,13 @@
 //!   f32 sum per pore, booked to its region), the elements' carries added to the temperatures
 //!   the conduction stage brought back.
 
+use super::bindings::{conduction as co, pore_flow as pf, pore_heat as ph, Holder, Lane, COUNTERS, DISP, ORIGIN};
 use super::buffers::{read, storage_lane, DeviceLanes};
 use super::conduction;
 use super::device::GpuContext;
 use super::pore_flow::Lanes as FlowLanes;
-use super::shaders::{self, groups_for, Kernel};
+use super::pore_flow::{MASS_LANES, PRESSURE_LANES};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::model::Model;
 use crate::plan::Stage;
@@ -48,17 +50,17 @@ struct PoreHeatParams {
 
 /// The thermal kernels' pipelines.
 pub struct Pipelines {
-    pressure: wgpu::ComputePipeline,
-    mass: wgpu::ComputePipeline,
-    conductance: wgpu::ComputePipeline,
-    pore_exchange: wgpu::ComputePipeline,
-    element_exchange: wgpu::ComputePipeline,
-    settle: wgpu::ComputePipeline,
-    eos: wgpu::ComputePipeline,
+    pressure: Pipeline,
+    mass: Pipeline,
+    conductance: Pipeline,
+    pore_exchange: Pipeline,
+    element_exchange: Pipeline,
+    settle: Pipeline,
+    eos: Pipeline,
 }
 
 pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
-    let make = |entry| shaders::pipeline(device, Stage::PoreFlow.name(), shaders::PORE_HEAT, entry, constants);
+    let make = |entry| shaders::pipeline(device, Stage::PoreFlow.name(), &shaders::PORE_HEAT, entry, constants);
     Pipelines {
         pressure: make("pore_pressure_thermal"),
         mass: make("pore_mass_thermal"),
@@ -70,14 +72,38 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
     }
 }
 
+/// The fluid temperature's lanes on the device (pore_heat.wgsl's).
+struct Lanes {
+    params: wgpu::Buffer,
+    fluid_bc: wgpu::Buffer,
+    warmth: wgpu::Buffer,
+    warmth_next: wgpu::Buffer,
+    heat_supplied: wgpu::Buffer,
+    corner_g: wgpu::Buffer,
+    carry: wgpu::Buffer,
+    warmth_carry: wgpu::Buffer,
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        Some(match lane {
+            ph::PARAMS => &self.params,
+            ph::FLUID_BC => &self.fluid_bc,
+            ph::WARMTH => &self.warmth,
+            ph::WARMTH_NEXT => &self.warmth_next,
+            ph::HEAT_SUPPLIED => &self.heat_supplied,
+            ph::CORNER_G => &self.corner_g,
+            ph::CARRY => &self.carry,
+            ph::WARMTH_CARRY => &self.warmth_carry,
+            _ => return None,
+        })
+    }
+}
+
 /// The fluid's temperature on the device for one upload: its lanes and kernels.
 pub struct PoreHeatSession {
-    params: wgpu::Buffer,
+    lanes: Lanes,
     uniform: PoreHeatParams,
-    warmth: wgpu::Buffer,
-    warmth_carry: wgpu::Buffer,
-    heat_supplied: wgpu::Buffer,
-    carry: wgpu::Buffer,
     pressure: Kernel,
     mass: Kernel,
     /// The exchange's kernels; none when Nu·k_f = 0 (nothing exchanges).
@@ -153,154 +179,90 @@ impl PoreHeatSession {
             contents: bytemuck::bytes_of(&uniform),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let fluid_bc = make("pore fluid supply", bytemuck::cast_slice(&fluid_bc))?;
-        let warmth_lane = make("pore fluid temperature", bytemuck::cast_slice(&warmth))?;
-        let warmth_next = make("pore fluid next temperature", bytemuck::cast_slice(&warmth))?;
-        let heat_supplied = make("pore supplied heat", bytemuck::cast_slice(&vec![[0f32; 2]; np]))?;
-        let corner_g = make("exchange conductance", bytemuck::cast_slice(&vec![[0f32; 4]; tets]))?;
-        let carry_lane = make("exchange carry", bytemuck::cast_slice(&carry))?;
         let rest: Vec<f32> = (0..np).map(|p| (f.excess_temperature(p) - f64::from(warmth[p])) as f32).collect();
-        let warmth_carry = make("pore fluid temperature carry", bytemuck::cast_slice(&rest))?;
-        let device = &ctx.device;
-        let (thermal, mode) = (c.thermal(), c.mode());
-        let pressure = Kernel::bind_at(
-            device,
-            &p.pressure,
-            &[
-                (1, &l.params),
-                (9, &l.volume),
-                (10, &l.volume0),
-                (12, &l.excess),
-                (13, &l.pressure),
-                (14, &l.boundary),
-                (15, &l.supplied),
-                (31, &params),
-                (32, &fluid_bc),
-                (33, &warmth_lane),
-                (34, &warmth_next),
-                (35, &heat_supplied),
-                (40, &warmth_carry),
-                (41, &l.excess_carry),
-                (42, &l.volume_host),
-            ],
-            groups_for(np),
-        );
-        let mass = Kernel::bind_at(
-            device,
-            &p.mass,
-            &[
-                (1, &l.params),
-                (12, &l.excess),
-                (13, &l.pressure),
-                (14, &l.boundary),
-                (15, &l.supplied),
-                (16, &l.row_start),
-                (17, &l.row),
-                (18, &l.throats),
-                (19, &l.conductance),
-                (32, &fluid_bc),
-                (33, &warmth_lane),
-                (34, &warmth_next),
-                (35, &heat_supplied),
-                (40, &warmth_carry),
-                (41, &l.excess_carry),
-            ],
-            groups_for(np),
-        );
-        let exchange_kernels = (film > 0.0).then(|| ExchangeKernels {
-            conductance: Kernel::bind_at(
-                device,
-                &p.conductance,
-                &[
-                    (2, &d.origin),
-                    (3, &d.disp),
-                    (4, &l.tets),
-                    (31, &params),
-                    (36, &corner_g),
-                    (37, thermal),
-                    (38, mode),
-                ],
-                groups_for(tets),
-            ),
-            pore: Kernel::bind_at(
-                device,
-                &p.pore_exchange,
-                &[
-                    (1, &l.params),
-                    (4, &l.tets),
-                    (7, &l.pore_tet_start),
-                    (8, &l.pore_tets),
-                    (12, &l.excess),
-                    (25, &d.counters),
-                    (31, &params),
-                    (32, &fluid_bc),
-                    (33, &warmth_lane),
-                    (34, &warmth_next),
-                    (36, &corner_g),
-                    (37, thermal),
-                    (39, &carry_lane),
-                    (40, &warmth_carry),
-                ],
-                groups_for(np),
-            ),
-            element: Kernel::bind_at(
-                device,
-                &p.element_exchange,
-                &[
-                    (1, &l.params),
-                    (5, &l.tet_pore),
-                    (22, &l.elem_start),
-                    (23, &l.elem_corners),
-                    (25, &d.counters),
-                    (31, &params),
-                    (33, &warmth_lane),
-                    (36, &corner_g),
-                    (37, thermal),
-                    (38, mode),
-                    (39, &carry_lane),
-                ],
-                groups_for(n),
-            ),
-            settle: Kernel::bind_at(
-                device,
-                &p.settle,
-                &[
-                    (1, &l.params),
-                    (12, &l.excess),
-                    (32, &fluid_bc),
-                    (33, &warmth_lane),
-                    (34, &warmth_next),
-                    (35, &heat_supplied),
-                    (40, &warmth_carry),
-                ],
-                groups_for(np),
-            ),
-            eos: Kernel::bind_at(
-                device,
-                &p.eos,
-                &[
-                    (1, &l.params),
-                    (9, &l.volume),
-                    (10, &l.volume0),
-                    (12, &l.excess),
-                    (13, &l.pressure),
-                    (31, &params),
-                    (33, &warmth_lane),
-                    (42, &l.volume_host),
-                ],
-                groups_for(np),
-            ),
+        let lanes = Lanes {
+            params,
+            fluid_bc: make("pore fluid supply", bytemuck::cast_slice(&fluid_bc))?,
+            warmth: make("pore fluid temperature", bytemuck::cast_slice(&warmth))?,
+            warmth_next: make("pore fluid next temperature", bytemuck::cast_slice(&warmth))?,
+            heat_supplied: make("pore supplied heat", bytemuck::cast_slice(&vec![[0f32; 2]; np]))?,
+            corner_g: make("exchange conductance", bytemuck::cast_slice(&vec![[0f32; 4]; tets]))?,
+            carry: make("exchange carry", bytemuck::cast_slice(&carry))?,
+            warmth_carry: make("pore fluid temperature carry", bytemuck::cast_slice(&rest))?,
+        };
+        // Each entry point binds only the lanes it uses (its layout is derived from the shader).
+        let holders: [&dyn Holder; 4] = [d, l, c, &lanes];
+        let bind = |pipeline: &Pipeline, used: &[Lane], n: usize| {
+            Kernel::bind_lanes(&ctx.device, pipeline, used, &holders, groups_for(n))
+        };
+        // The flow's sub-step kernels, with the heat the flow carries.
+        let carried = [ph::FLUID_BC, ph::WARMTH, ph::WARMTH_NEXT, ph::HEAT_SUPPLIED, ph::WARMTH_CARRY];
+        let pressure = bind(&p.pressure, &[&PRESSURE_LANES[..], &[ph::PARAMS], &carried].concat(), np)?;
+        let mass = bind(&p.mass, &[&MASS_LANES[..], &carried].concat(), np)?;
+        let exchange_kernels = (film > 0.0).then(|| -> Result<ExchangeKernels> {
+            let conductance = [ORIGIN, DISP, pf::TETS, ph::PARAMS, ph::CORNER_G, co::THERMAL, co::THERMAL_MODE];
+            let pore = [
+                pf::PARAMS,
+                pf::TETS,
+                pf::PORE_TET_START,
+                pf::PORE_TETS,
+                pf::EXCESS,
+                COUNTERS,
+                ph::PARAMS,
+                ph::FLUID_BC,
+                ph::WARMTH,
+                ph::WARMTH_NEXT,
+                ph::CORNER_G,
+                co::THERMAL,
+                ph::CARRY,
+                ph::WARMTH_CARRY,
+            ];
+            let element = [
+                pf::PARAMS,
+                pf::TET_PORE,
+                pf::ELEM_START,
+                pf::ELEM_CORNERS,
+                COUNTERS,
+                ph::PARAMS,
+                ph::WARMTH,
+                ph::CORNER_G,
+                co::THERMAL,
+                co::THERMAL_MODE,
+                ph::CARRY,
+            ];
+            let settle = [
+                pf::PARAMS,
+                pf::EXCESS,
+                ph::FLUID_BC,
+                ph::WARMTH,
+                ph::WARMTH_NEXT,
+                ph::HEAT_SUPPLIED,
+                ph::WARMTH_CARRY,
+            ];
+            let eos = [
+                pf::PARAMS,
+                pf::VOLUME,
+                pf::VOLUME0,
+                pf::EXCESS,
+                pf::PRESSURE,
+                ph::PARAMS,
+                ph::WARMTH,
+                pf::VOLUME_HOST,
+            ];
+            Ok(ExchangeKernels {
+                conductance: bind(&p.conductance, &conductance, tets)?,
+                pore: bind(&p.pore_exchange, &pore, np)?,
+                element: bind(&p.element_exchange, &element, n)?,
+                settle: bind(&p.settle, &settle, np)?,
+                eos: bind(&p.eos, &eos, np)?,
+            })
         });
         Ok(PoreHeatSession {
-            params,
+            lanes,
             uniform,
-            warmth: warmth_lane,
-            warmth_carry,
-            heat_supplied,
-            carry: carry_lane,
             pressure,
             mass,
-            exchange: exchange_kernels,
+            exchange: exchange_kernels.transpose()?,
             exchange_substeps: exchange,
             pores: np,
             elements: n,
@@ -319,7 +281,7 @@ impl PoreHeatSession {
         if n != self.exchange_substeps {
             self.exchange_substeps = n;
             self.uniform.h = (dt / f64::from(n)) as f32;
-            ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.uniform));
+            ctx.queue.write_buffer(&self.lanes.params, 0, bytemuck::bytes_of(&self.uniform));
         }
     }
 
@@ -352,10 +314,10 @@ impl PoreHeatSession {
     /// its books), the elements' carries onto the temperatures the conduction stage brought
     /// back into `m`.
     pub fn download(&self, ctx: &GpuContext, m: &mut Model, f: &mut PoreFlow) -> Result<()> {
-        let w: Vec<f32> = read(ctx, &self.warmth, self.pores)?;
-        let wc: Vec<f32> = read(ctx, &self.warmth_carry, self.pores)?;
-        let s: Vec<[f32; 2]> = read(ctx, &self.heat_supplied, self.pores)?;
-        let carry: Vec<f32> = read(ctx, &self.carry, self.elements)?;
+        let w: Vec<f32> = read(ctx, &self.lanes.warmth, self.pores)?;
+        let wc: Vec<f32> = read(ctx, &self.lanes.warmth_carry, self.pores)?;
+        let s: Vec<[f32; 2]> = read(ctx, &self.lanes.heat_supplied, self.pores)?;
+        let carry: Vec<f32> = read(ctx, &self.lanes.carry, self.elements)?;
         let c_f = f.fluid.heat.specific_heat;
         if f.temperature.len() == self.pores {
             for p in 0..self.pores {

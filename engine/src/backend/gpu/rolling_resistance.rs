@@ -8,37 +8,19 @@
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::physics::rolling_resistance::RollingResistance;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResistance) -> wgpu::ComputePipeline {
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResistance) -> Pipeline {
     let mut constants = constants.to_vec();
     constants.push(("ROLLING_MU", r.mu_r));
     constants.push(("ROLLING_DAMPING", r.damping));
     let name = Stage::RollingResistance.name();
-    shaders::pipeline(device, name, shaders::ROLLING_RESISTANCE, name, &constants)
+    shaders::pipeline(device, name, &shaders::ROLLING_RESISTANCE, name, &constants)
 }
 
-pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.per_slab(device, p, |s| {
-        vec![
-            &d.params,
-            &d.origin,
-            &d.disp,
-            &d.body,
-            &d.kind,
-            &d.row_len,
-            &s.other,
-            &d.pairs,
-            &d.ang_vel,
-            &d.torque,
-            &s.uniform,
-            &d.walls,
-            &d.wall_pairs,
-            &s.rolling,
-            &s.wall_rolling,
-            &d.heat,
-        ]
-    })
+pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
+    d.slabs.iter().map(|s| Kernel::bind(device, p, &[d, s], groups_for(s.count))).collect()
 }

@@ -8,9 +8,11 @@
 //!
 //! Also the conversions between the host's CSR rows and the device's fixed-width slots.
 
-use super::buffers::{DeviceLanes, C_CROWDED, C_LONGEST};
+use super::bindings::{BUCKET_COUNT, DISP, ORIGIN, PARAMS};
+use super::buffers::{DeviceLanes, ScanLevel, C_CROWDED, C_LONGEST};
 use super::device::GpuContext;
-use super::shaders::{self, grid, groups_for, Kernel};
+use super::shaders::{self, grid, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
@@ -144,12 +146,12 @@ pub fn into_contacts(s: &Slots, built_at: Vec<Vec3>, c: &mut Contacts) {
 
 /// The device build's pipelines.
 pub struct Pipelines {
-    bin: wgpu::ComputePipeline,
-    fill: wgpu::ComputePipeline,
-    scan: wgpu::ComputePipeline,
-    add_sums: wgpu::ComputePipeline,
-    count: wgpu::ComputePipeline,
-    write: wgpu::ComputePipeline,
+    bin: Pipeline,
+    fill: Pipeline,
+    scan: Pipeline,
+    add_sums: Pipeline,
+    count: Pipeline,
+    write: Pipeline,
 }
 
 pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
@@ -159,12 +161,12 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
         c
     };
     Pipelines {
-        bin: shaders::pipeline(device, "bin_particles", shaders::CELL_LIST, "bin_particles", constants),
-        fill: shaders::pipeline(device, "fill_cells", shaders::CELL_LIST, "fill_cells", constants),
-        scan: shaders::pipeline(device, "scan_blocks", shaders::SCAN, "scan_blocks", constants),
-        add_sums: shaders::pipeline(device, "add_block_sums", shaders::SCAN, "add_block_sums", constants),
-        count: shaders::pipeline(device, "count_rows", shaders::ROWS, "build_rows", &with_write(0.0)),
-        write: shaders::pipeline(device, "write_rows", shaders::ROWS, "build_rows", &with_write(1.0)),
+        bin: shaders::pipeline(device, "bin_particles", &shaders::CELL_LIST, "bin_particles", constants),
+        fill: shaders::pipeline(device, "fill_cells", &shaders::CELL_LIST, "fill_cells", constants),
+        scan: shaders::pipeline(device, "scan_blocks", &shaders::SCAN, "scan_blocks", constants),
+        add_sums: shaders::pipeline(device, "add_block_sums", &shaders::SCAN, "add_block_sums", constants),
+        count: shaders::pipeline(device, "count_rows", &shaders::ROWS, "build_rows", &with_write(0.0)),
+        write: shaders::pipeline(device, "write_rows", &shaders::ROWS, "build_rows", &with_write(1.0)),
     }
 }
 
@@ -180,40 +182,21 @@ pub struct Kernels {
     write: Vec<Kernel>,
 }
 
-pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Kernels {
-    let cells = [(0, &d.params), (1, &d.origin), (2, &d.disp), (3, &d.bucket_count)];
-    let fill = [(4, &d.scan), (5, &d.cell_items)];
-    let level = |pipeline: &wgpu::ComputePipeline, l: &super::buffers::ScanLevel| {
-        Kernel::bind_at(device, pipeline, &[(0, &d.scan), (1, &l.uniform)], grid(l.workgroups))
+pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes) -> Result<Kernels> {
+    // bin_particles uses only the first four of cell_list.wgsl's bindings.
+    let cells = [PARAMS, ORIGIN, DISP, BUCKET_COUNT];
+    let level = |pipeline: &Pipeline, l: &ScanLevel| Kernel::bind(device, pipeline, &[d, l], grid(l.workgroups));
+    let rows = |pipeline: &Pipeline| -> Result<Vec<Kernel>> {
+        d.slabs.iter().map(|s| Kernel::bind(device, pipeline, &[d, s], groups_for(s.count))).collect()
     };
-    let rows = |pipeline: &wgpu::ComputePipeline| -> Vec<Kernel> {
-        d.per_slab(device, pipeline, |s| {
-            vec![
-                &d.params,
-                &d.origin,
-                &d.disp,
-                &d.scan,
-                &d.cell_items,
-                &d.row_len,
-                &s.other,
-                &s.state,
-                &d.built,
-                &d.counters,
-                &s.uniform,
-                &s.dashpot,
-                &s.rolling,
-                &d.kind,
-            ]
-        })
-    };
-    Kernels {
-        bin: Kernel::bind_at(device, &p.bin, &cells, groups_for(d.n)),
-        fill: Kernel::bind_at(device, &p.fill, &[&cells[..], &fill[..]].concat(), groups_for(d.n)),
-        scan: d.scan_levels.iter().map(|l| level(&p.scan, l)).collect(),
-        add_sums: d.scan_levels.iter().map(|l| level(&p.add_sums, l)).collect(),
-        count: rows(&p.count),
-        write: rows(&p.write),
-    }
+    Ok(Kernels {
+        bin: Kernel::bind_lanes(device, &p.bin, &cells, &[d], groups_for(d.n))?,
+        fill: Kernel::bind(device, &p.fill, &[d], groups_for(d.n))?,
+        scan: d.scan_levels.iter().map(|l| level(&p.scan, l)).collect::<Result<_>>()?,
+        add_sums: d.scan_levels.iter().map(|l| level(&p.add_sums, l)).collect::<Result<_>>()?,
+        count: rows(&p.count)?,
+        write: rows(&p.write)?,
+    })
 }
 
 impl Kernels {

@@ -1,73 +1,397 @@
-//! The WGSL sources (the only file that names shader paths) and the one way a stage becomes
-//! a pipeline: `common.wgsl` and `heat.wgsl` prepended to the stage's file, the plan's choices passed as
-//! pipeline-overridable constants, so a switched-off effect is compiled out.
+//! The WGSL sources (the only file that names shader paths), each with its bindings, and the
+//! one way a stage becomes a pipeline: `common.wgsl` and `heat.wgsl`, then the stage's binding
+//! declarations (generated from its [`Bindings`]), then the stage's file; the plan's choices
+//! passed as pipeline-overridable constants, so a switched-off effect is compiled out.
 
+use super::bindings::{
+    self as b, applied_loads as al, buoyancy as by, conduction as co, moisture as mo, parallel_bond as pb,
+    pore_flow as pf, pore_heat as ph, *,
+};
 use super::device::GpuContext;
+use crate::error::Result;
 use crate::model::{NormalKind, TangentialKind};
 use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
 
 pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
-pub const HEAT: &str = include_str!("../../../../shaders/heat.wgsl");
-pub const NEIGHBOURS: &str = include_str!("../../../../shaders/neighbours.wgsl");
-pub const CONTACT_FORCES: &str = include_str!("../../../../shaders/contact_forces.wgsl");
-pub const WALL_FORCES: &str = include_str!("../../../../shaders/wall_forces.wgsl");
-pub const WALLS: &str = include_str!("../../../../shaders/walls.wgsl");
-pub const PARALLEL_BOND: &str = include_str!("../../../../shaders/parallel_bond.wgsl");
-pub const INTEGRATE: &str = include_str!("../../../../shaders/integrate.wgsl");
-pub const GUARD: &str = include_str!("../../../../shaders/guard.wgsl");
-pub const CELL_LIST: &str = include_str!("../../../../shaders/cell_list.wgsl");
-pub const SCAN: &str = include_str!("../../../../shaders/scan.wgsl");
-pub const ROWS: &str = include_str!("../../../../shaders/rows.wgsl");
-pub const BUOYANCY: &str = include_str!("../../../../shaders/buoyancy.wgsl");
-pub const APPLIED_LOADS: &str = include_str!("../../../../shaders/applied_loads.wgsl");
-/// The conduction stage: the diffusion core it shares with moisture (diffusion.wgsl), then its
-/// own file.
-pub const CONDUCTION: &str = concat!(
-    include_str!("../../../../shaders/diffusion.wgsl"),
-    "\n",
-    include_str!("../../../../shaders/conduction.wgsl")
-);
-pub const ROLLING_RESISTANCE: &str = include_str!("../../../../shaders/rolling_resistance.wgsl");
-/// The moisture stage: the diffusion core it shares (diffusion.wgsl), then its own file.
-pub const MOISTURE: &str = concat!(
-    include_str!("../../../../shaders/diffusion.wgsl"),
-    "\n",
-    include_str!("../../../../shaders/moisture.wgsl")
-);
-pub const PORE_FLOW: &str = include_str!("../../../../shaders/pore_flow.wgsl");
-/// The pore fluid's temperature: pore_flow.wgsl (its bindings and helpers), then its own file.
-pub const PORE_HEAT: &str = concat!(
-    include_str!("../../../../shaders/pore_flow.wgsl"),
-    "\n",
-    include_str!("../../../../shaders/pore_heat.wgsl")
-);
+pub const HEAT_LEDGER: &str = include_str!("../../../../shaders/heat.wgsl");
 
-/// Every stage by name, for validation without a device.
-pub const STAGES: [(&str, &str); 17] = [
-    ("neighbours", NEIGHBOURS),
-    ("cell_list", CELL_LIST),
-    ("scan", SCAN),
-    ("rows", ROWS),
-    ("contact_forces", CONTACT_FORCES),
-    ("wall_forces", WALL_FORCES),
-    ("walls", WALLS),
-    ("parallel_bond", PARALLEL_BOND),
-    ("rolling_resistance", ROLLING_RESISTANCE),
-    ("integrate", INTEGRATE),
-    ("guard", GUARD),
-    ("applied_loads", APPLIED_LOADS),
-    ("buoyancy", BUOYANCY),
-    ("conduction", CONDUCTION),
-    ("moisture", MOISTURE),
-    ("pore_flow", PORE_FLOW),
-    ("pore_heat", PORE_HEAT),
+/// A stage's WGSL: its source (one file, or two compiled together) and its bindings.
+#[derive(Debug)]
+pub struct Shader {
+    pub name: &'static str,
+    pub source: &'static str,
+    pub bindings: Bindings,
+}
+
+pub const NEIGHBOURS: Shader = Shader {
+    name: "neighbours",
+    source: include_str!("../../../../shaders/neighbours.wgsl"),
+    bindings: Bindings(&[&[uniform(PARAMS), read(DISP), read(BUILT), read(VEL), read_write(COUNTERS)]]),
+};
+
+pub const CELL_LIST: Shader = Shader {
+    name: "cell_list",
+    source: include_str!("../../../../shaders/cell_list.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read_write(BUCKET_COUNT),
+        read(CELL_START),
+        read_write(CELL_ITEMS),
+    ]]),
+};
+
+pub const SCAN: Shader = Shader {
+    name: "scan",
+    source: include_str!("../../../../shaders/scan.wgsl"),
+    bindings: Bindings(&[&[read_write(SCAN_DATA), uniform(SCAN_LEVEL)]]),
+};
+
+pub const ROWS: Shader = Shader {
+    name: "rows",
+    source: include_str!("../../../../shaders/rows.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(CELL_START),
+        read(CELL_ITEMS),
+        read_write(ROW_LEN),
+        read_write(OTHER),
+        read_write(STATE),
+        read_write(BUILT),
+        read_write(COUNTERS),
+        uniform(SLAB),
+        read_write(DASHPOT),
+        read_write(ROLLING),
+        read(KIND),
+    ]]),
+};
+
+pub const CONTACT_FORCES: Shader = Shader {
+    name: "contact_forces",
+    source: include_str!("../../../../shaders/contact_forces.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(VEL),
+        read(BODY),
+        read(KIND),
+        read(ROW_LEN),
+        read(OTHER),
+        read_write(STATE),
+        read(PAIRS),
+        read_write(FORCE),
+        read(ANG_VEL),
+        read_write(TORQUE),
+        read_write(COUNTERS),
+        read_write(EVENTS),
+        uniform(SLAB),
+        read_write(DASHPOT),
+        read_write(HEAT),
+    ]]),
+};
+
+pub const WALL_FORCES: Shader = Shader {
+    name: "wall_forces",
+    source: include_str!("../../../../shaders/wall_forces.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(VEL),
+        read(BODY),
+        read(KIND),
+        read(b::WALLS),
+        read(WALL_PAIRS),
+        read_write(WALL_STATE),
+        read_write(FORCE),
+        read(ANG_VEL),
+        read_write(TORQUE),
+        read_write(PARTIALS),
+        uniform(SLAB),
+        read_write(HEAT),
+    ]]),
+};
+
+pub const WALLS: Shader = Shader {
+    name: "walls",
+    source: include_str!("../../../../shaders/walls.wgsl"),
+    bindings: Bindings(&[&[uniform(PARAMS), read_write(b::WALLS), read(PARTIALS)]]),
+};
+
+pub const PARALLEL_BOND: Shader = Shader {
+    name: "parallel_bond",
+    source: include_str!("../../../../shaders/parallel_bond.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        uniform(pb::PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(VEL),
+        read(ANG_VEL),
+        read(pb::ROW_START),
+        read(pb::OTHER),
+        read_write(pb::BONDS),
+        read_write(FORCE),
+        read_write(TORQUE),
+        read_write(COUNTERS),
+        read_write(EVENTS),
+        read_write(HEAT),
+    ]]),
+};
+
+pub const ROLLING_RESISTANCE: Shader = Shader {
+    name: "rolling_resistance",
+    source: include_str!("../../../../shaders/rolling_resistance.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(BODY),
+        read(KIND),
+        read(ROW_LEN),
+        read(OTHER),
+        read(PAIRS),
+        read(ANG_VEL),
+        read_write(TORQUE),
+        uniform(SLAB),
+        read(b::WALLS),
+        read(WALL_PAIRS),
+        read_write(ROLLING),
+        read_write(WALL_ROLLING),
+        read_write(HEAT),
+    ]]),
+};
+
+pub const INTEGRATE: Shader = Shader {
+    name: "integrate",
+    source: include_str!("../../../../shaders/integrate.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(BODY),
+        read(KIND),
+        read(FORCE),
+        read_write(VEL),
+        read_write(DISP),
+        read(TORQUE),
+        read_write(ANG_VEL),
+        read_write(COUNTERS),
+        read_write(HEAT),
+        read_write(ANGLE),
+    ]]),
+};
+
+pub const GUARD: Shader = Shader {
+    name: "guard",
+    source: include_str!("../../../../shaders/guard.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(VEL),
+        read(FORCE),
+        read(ROW_LEN),
+        read(OTHER),
+        read(b::WALLS),
+        read_write(COUNTERS),
+        uniform(SLAB),
+        read(BODY),
+        read(KIND),
+        read(PAIRS),
+        read(WALL_PAIRS),
+        read(STATE),
+    ]]),
+};
+
+pub const APPLIED_LOADS: Shader = Shader {
+    name: "applied_loads",
+    source: include_str!("../../../../shaders/applied_loads.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(KIND),
+        read(al::FORCE),
+        read(al::TORQUE),
+        read_write(FORCE),
+        read_write(TORQUE),
+    ]]),
+};
+
+pub const BUOYANCY: Shader = Shader {
+    name: "buoyancy",
+    source: include_str!("../../../../shaders/buoyancy.wgsl"),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read(DISP),
+        read(BODY),
+        read(VEL),
+        read_write(FORCE),
+        uniform(by::WATER),
+        read(KIND),
+        read_write(HEAT),
+    ]]),
+};
+
+/// The conduction stage: the diffusion core it shares with moisture (diffusion.wgsl, no
+/// bindings of its own), then its own file.
+pub const CONDUCTION: Shader = Shader {
+    name: "conduction",
+    source: concat!(
+        include_str!("../../../../shaders/diffusion.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/conduction.wgsl")
+    ),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read_write(ORIGIN),
+        read(DISP),
+        read(ROW_LEN),
+        read(OTHER),
+        read(STATE),
+        uniform(SLAB),
+        uniform(co::FIELD),
+        read_write(co::THERMAL),
+        read_write(co::NEXT),
+        read_write(co::CONDUCTANCE),
+        read(co::MODE),
+        read(co::EXPANSION),
+        // Read by `feed`.
+        read(HEAT),
+        read_write(co::FED),
+    ]]),
+};
+
+/// The moisture stage: the diffusion core it shares (diffusion.wgsl), then its own file.
+pub const MOISTURE: Shader = Shader {
+    name: "moisture",
+    source: concat!(
+        include_str!("../../../../shaders/diffusion.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/moisture.wgsl")
+    ),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read_write(ORIGIN),
+        read(DISP),
+        read(ROW_LEN),
+        read(OTHER),
+        read_write(STATE),
+        uniform(SLAB),
+        uniform(mo::FIELD),
+        read_write(mo::WATER),
+        read_write(mo::NEXT),
+        read_write(mo::CONDUCTANCE),
+        read(mo::MODE),
+        read(mo::AMBIENT),
+        read(mo::RADIUS0),
+        read(mo::TABLES),
+        // With thermal expansion too (`shrink_expand` only): the conduction stage's
+        // temperatures, and its (α, r0) whose r0 this stage keeps at r0·f(ω).
+        read(co::THERMAL),
+        read_write(co::EXPANSION),
+    ]]),
+};
+
+/// pore_flow.wgsl's bindings, the first of the thermal stage's too.
+const PORE_FLOW_BINDINGS: &[Binding] = &[
+    uniform(PARAMS),
+    uniform(pf::PARAMS),
+    read(ORIGIN),
+    read(DISP),
+    read(pf::TETS),
+    read(pf::TET_PORE),
+    read(pf::TET_SIGN),
+    read(pf::PORE_TET_START),
+    read(pf::PORE_TETS),
+    read_write(pf::VOLUME),
+    read_write(pf::VOLUME0),
+    read_write(pf::CENTRE),
+    read_write(pf::EXCESS),
+    read_write(pf::PRESSURE),
+    read(pf::BOUNDARY),
+    read_write(pf::SUPPLIED),
+    read(pf::ROW_START),
+    read(pf::ROW),
+    read(pf::THROATS),
+    read_write(pf::CONDUCTANCE),
+    read(pf::BOND_EDGES),
+    read_write(pf::BOND_ALIVE),
+    read(pf::ELEM_START),
+    read(pf::ELEM_CORNERS),
+    read_write(FORCE),
+    read_write(COUNTERS),
+    read(pf::PORE_BUILT),
+    uniform(SLAB),
+    read(ROW_LEN),
+    read(OTHER),
+    read(STATE),
+    read_write(pf::EXCESS_CARRY),
+    read(pf::VOLUME_HOST),
+];
+
+pub const PORE_FLOW: Shader = Shader {
+    name: "pore_flow",
+    source: include_str!("../../../../shaders/pore_flow.wgsl"),
+    bindings: Bindings(&[PORE_FLOW_BINDINGS]),
+};
+
+/// The pore fluid's temperature: pore_flow.wgsl (its bindings and helpers), then its own file.
+pub const PORE_HEAT: Shader = Shader {
+    name: "pore_heat",
+    source: concat!(
+        include_str!("../../../../shaders/pore_flow.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/pore_heat.wgsl")
+    ),
+    bindings: Bindings(&[
+        PORE_FLOW_BINDINGS,
+        &[
+            uniform(ph::PARAMS),
+            read(ph::FLUID_BC),
+            read_write(ph::WARMTH),
+            read_write(ph::WARMTH_NEXT),
+            read_write(ph::HEAT_SUPPLIED),
+            read_write(ph::CORNER_G),
+            // The conduction stage's lanes: (T, C, k, P) and the mode of each element.
+            read_write(co::THERMAL),
+            read(co::THERMAL_MODE),
+            read_write(ph::CARRY),
+            read_write(ph::WARMTH_CARRY),
+        ],
+    ]),
+};
+
+/// Every stage, for validation without a device.
+pub const STAGES: [&Shader; 17] = [
+    &NEIGHBOURS,
+    &CELL_LIST,
+    &SCAN,
+    &ROWS,
+    &CONTACT_FORCES,
+    &WALL_FORCES,
+    &WALLS,
+    &PARALLEL_BOND,
+    &ROLLING_RESISTANCE,
+    &INTEGRATE,
+    &GUARD,
+    &APPLIED_LOADS,
+    &BUOYANCY,
+    &CONDUCTION,
+    &MOISTURE,
+    &PORE_FLOW,
+    &PORE_HEAT,
 ];
 
 /// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and
-/// sum, which the dissipating stages book into) and the stage's own file.
-pub fn source(stage: &str) -> String {
-    format!("{COMMON}\n{HEAT}\n{stage}")
+/// sum, which the dissipating stages book into), the stage's binding declarations, and the
+/// stage's own source.
+pub fn source(stage: &Shader) -> String {
+    format!("{COMMON}\n{HEAT_LEDGER}\n{}{}", stage.bindings.wgsl(), stage.source)
 }
 
 /// The plan's choices as the overrides of common.wgsl.
@@ -86,29 +410,31 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
 }
 
 /// A compute pipeline for `entry` of a stage, its bind group layout derived from the shader.
-/// Compiled once per device for each (stage, entry, constants): a script whose plan changes
+/// Compiled once per device for each (source, entry, constants): a script whose plan changes
 /// between runs (a platen's servo set, a material added) builds new plans, not new pipelines,
 /// and a driver's compile costs more than a small scene's run.
 pub fn pipeline(
     device: &GpuContext,
     label: &str,
-    stage: &str,
+    stage: &'static Shader,
     entry: &str,
     constants: &[(&str, f64)],
-) -> wgpu::ComputePipeline {
+) -> Pipeline {
+    let source = source(stage);
     let key = PipelineKey {
         label: label.to_string(),
-        stage: stage.to_string(),
+        // The whole source, the generated declarations with it.
+        source: source.clone(),
         entry: entry.to_string(),
         constants: constants.iter().map(|&(k, v)| (k.to_string(), v.to_bits())).collect(),
     };
     let mut cache = device.pipelines.lock().unwrap_or_else(|p| p.into_inner());
-    cache
+    let compute = cache
         .entry(key)
         .or_insert_with(|| {
             let module = device.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(source(stage).into()),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
             });
             device.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(label),
@@ -122,16 +448,24 @@ pub fn pipeline(
                 cache: None,
             })
         })
-        .clone()
+        .clone();
+    Pipeline { compute, stage }
 }
 
 /// What makes two pipelines the same ([`pipeline`]).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct PipelineKey {
     label: String,
-    stage: String,
+    source: String,
     entry: String,
     constants: Vec<(String, u64)>,
+}
+
+/// A compute pipeline and the stage it was built from, whose bindings its kernels bind.
+#[derive(Clone)]
+pub struct Pipeline {
+    pub compute: wgpu::ComputePipeline,
+    pub stage: &'static Shader,
 }
 
 /// A pipeline bound to its buffers, and how many workgroups one dispatch needs.
@@ -145,26 +479,37 @@ pub struct Kernel {
 }
 
 impl Kernel {
-    /// Binds `buffers` to bindings 0, 1, 2, … of group 0.
+    /// Binds every binding of the pipeline's stage to its lane's buffer, found in `holders`.
     pub fn bind(
         device: &wgpu::Device,
-        pipeline: &wgpu::ComputePipeline,
-        buffers: &[&wgpu::Buffer],
+        pipeline: &Pipeline,
+        holders: &[&dyn Holder],
         groups: (u32, u32),
-    ) -> Self {
-        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(k, b)| (k as u32, *b)).collect();
-        Self::bind_at(device, pipeline, &numbered, groups)
+    ) -> Result<Self> {
+        let entries = pipeline.stage.bindings.entries(None, holders)?;
+        Ok(Self::bind_entries(device, pipeline, &entries, groups))
     }
 
-    /// Binds each buffer to its binding of group 0 (for an entry point that uses only some of
-    /// its file's bindings).
-    pub fn bind_at(
+    /// Binds `lanes` alone: for an entry point that uses only some of its stage's bindings (its
+    /// layout, derived from the shader, holds only those).
+    pub fn bind_lanes(
         device: &wgpu::Device,
-        pipeline: &wgpu::ComputePipeline,
+        pipeline: &Pipeline,
+        lanes: &[Lane],
+        holders: &[&dyn Holder],
+        groups: (u32, u32),
+    ) -> Result<Self> {
+        let entries = pipeline.stage.bindings.entries(Some(lanes), holders)?;
+        Ok(Self::bind_entries(device, pipeline, &entries, groups))
+    }
+
+    fn bind_entries(
+        device: &wgpu::Device,
+        pipeline: &Pipeline,
         buffers: &[(u32, &wgpu::Buffer)],
         groups: (u32, u32),
     ) -> Self {
-        let layout = pipeline.get_bind_group_layout(0);
+        let layout = pipeline.compute.get_bind_group_layout(0);
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .map(|&(k, b)| wgpu::BindGroupEntry { binding: k, resource: b.as_entire_binding() })
@@ -172,7 +517,7 @@ impl Kernel {
         let bind_group =
             device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
         let bytes = buffers.iter().map(|(_, b)| b.size()).sum();
-        Kernel { pipeline: pipeline.clone(), bind_group, groups, bytes }
+        Kernel { pipeline: pipeline.compute.clone(), bind_group, groups, bytes }
     }
 
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
@@ -215,9 +560,17 @@ mod tests {
 
     #[test]
     fn every_stage_parses_and_validates() {
-        for (name, stage) in STAGES {
-            naga_parse(&source(stage)).unwrap_or_else(|e| panic!("{name}.wgsl: {e}"));
+        for stage in STAGES {
+            naga_parse(&source(stage)).unwrap_or_else(|e| panic!("{}: {e}", stage.name));
         }
+    }
+
+    #[test]
+    fn bindings_are_declared_only_by_the_lists() {
+        for stage in STAGES {
+            assert!(!stage.source.contains("@binding"), "{}: declare a binding in its list instead", stage.name);
+        }
+        assert!(!COMMON.contains("@binding") && !HEAT_LEDGER.contains("@binding"));
     }
 
     fn naga_parse(src: &str) -> Result<(), String> {

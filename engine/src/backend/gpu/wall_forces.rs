@@ -4,33 +4,16 @@
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, Kernel};
+use super::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::WallForces.name(), shaders::WALL_FORCES, "compute_wall_forces", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::WallForces.name(), &shaders::WALL_FORCES, "compute_wall_forces", constants)
 }
 
-pub fn kernels(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Vec<Kernel> {
-    d.per_slab(device, p, |s| {
-        vec![
-            &d.params,
-            &d.origin,
-            &d.disp,
-            &d.vel,
-            &d.body,
-            &d.kind,
-            &d.walls,
-            &d.wall_pairs,
-            &s.wall_state,
-            &d.force,
-            &d.ang_vel,
-            &d.torque,
-            &d.partials,
-            &s.uniform,
-            &d.heat,
-        ]
-    })
+pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
+    d.slabs.iter().map(|s| Kernel::bind(device, p, &[d, s], groups_for(s.count))).collect()
 }
 
 /// Workgroups of the wall pass over all slabs (slabs start on a workgroup boundary): one

@@ -5,18 +5,19 @@
 
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, Kernel};
+use super::shaders::{self, Kernel, Pipeline};
+use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, Stage::Walls.name(), shaders::WALLS, "advance_walls", constants)
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, Stage::Walls.name(), &shaders::WALLS, "advance_walls", constants)
 }
 
 /// The loads alone (no move), so the host reads the loads of the run's last step.
-pub fn sum_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> wgpu::ComputePipeline {
-    shaders::pipeline(device, "sum_wall_loads", shaders::WALLS, "sum_wall_loads", constants)
+pub fn sum_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, "sum_wall_loads", &shaders::WALLS, "sum_wall_loads", constants)
 }
 
-pub fn kernel(device: &wgpu::Device, p: &wgpu::ComputePipeline, d: &DeviceLanes) -> Kernel {
-    Kernel::bind(device, p, &[&d.params, &d.walls, &d.partials], (1, 1))
+pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Kernel> {
+    Kernel::bind(device, p, &[d], (1, 1))
 }
