@@ -129,6 +129,9 @@ pub trait NormalLaw: Copy + Send + Sync + 'static {
     /// The stiffness an element of radius `r` of `material` meets in its stiffest likely
     /// contact, a rigid wall (what the standard step is set from).
     fn element_stiffness(material: &Material, r: f64) -> f64;
+    /// The switches of common.wgsl's contact law that select it on the GPU (pipeline
+    /// constants; `shaders::constants`).
+    const GPU: [(&'static str, bool); 1];
     /// Elastic normal force for overlap δ > 0.
     fn force(p: &PairParams, r_star: f64, overlap: f64) -> f64;
     /// Tangent stiffness dF/dδ at overlap δ > 0.
@@ -151,6 +154,7 @@ impl NormalLaw for Linear {
     const NAME: &'static str = "linear";
     const STIFFNESS: &'static str = "linear normal spring";
     const FORCE_POWER: i32 = 1;
+    const GPU: [(&'static str, bool); 1] = [("NORMAL_HERTZ", false)];
     #[inline(always)]
     fn element_stiffness(material: &Material, _r: f64) -> f64 {
         2.0 * material.kn
@@ -183,6 +187,7 @@ impl NormalLaw for Hertz {
     const NAME: &'static str = "hertz";
     const STIFFNESS: &'static str = "hertz normal stiffness";
     const FORCE_POWER: i32 = 2;
+    const GPU: [(&'static str, bool); 1] = [("NORMAL_HERTZ", true)];
     /// The tangent stiffness against a wall at an overlap of 5 % of r.
     #[inline(always)]
     fn element_stiffness(material: &Material, r: f64) -> f64 {
@@ -219,6 +224,9 @@ pub trait TangentialLaw: Copy + Send + Sync + 'static {
     /// The power of λ by which the shear force grows when a model is scaled by λ with its
     /// materials kept (as [`NormalLaw::FORCE_POWER`]): Ks's λ, Mindlin's λ².
     const FORCE_POWER: i32;
+    /// The switches of common.wgsl's contact law that select it on the GPU (as
+    /// [`NormalLaw::GPU`]).
+    const GPU: [(&'static str, bool); 2];
     /// A tangential dashpot acts in parallel with the spring (a compile-time constant, so a
     /// law without one carries no branch for it).
     const DAMPED: bool = false;
@@ -252,6 +260,7 @@ impl TangentialLaw for LinearShear {
     const DESCRIPTION: &'static str = "shear spring Ks";
     const STIFFNESS: &'static str = "shear spring";
     const FORCE_POWER: i32 = 1;
+    const GPU: [(&'static str, bool); 2] = [("MINDLIN", false), ("TANGENTIAL_DASHPOT", false)];
     #[inline(always)]
     fn stiffness(p: &PairParams, _r: f64, _overlap: f64) -> f64 {
         p.ks
@@ -263,6 +272,7 @@ impl TangentialLaw for MindlinShear {
     const DESCRIPTION: &'static str = "mindlin shear spring";
     const STIFFNESS: &'static str = "mindlin shear stiffness";
     const FORCE_POWER: i32 = 2;
+    const GPU: [(&'static str, bool); 2] = [("MINDLIN", true), ("TANGENTIAL_DASHPOT", false)];
     #[inline(always)]
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {
         // √R*·√δ rather than √(R*·δ): Hertz's force has taken both roots already.
@@ -278,6 +288,7 @@ impl TangentialLaw for MindlinDampedShear {
     const DESCRIPTION: &'static str = "mindlin shear spring + tangential dashpot";
     const STIFFNESS: &'static str = "mindlin shear stiffness";
     const FORCE_POWER: i32 = 2;
+    const GPU: [(&'static str, bool); 2] = [("MINDLIN", true), ("TANGENTIAL_DASHPOT", true)];
     const DAMPED: bool = true;
     #[inline(always)]
     fn stiffness(p: &PairParams, r_star: f64, overlap: f64) -> f64 {

@@ -1,7 +1,8 @@
 //! The scene's choice of contact laws, as values (`NormalKind`, `TangentialKind`: what a
 //! script sets and a checkpoint saves), and the one place a choice becomes its law: each
 //! method below asks the law's type ([`NormalLaw`], [`TangentialLaw`]), so the guard, the
-//! energies, the model, the plan and the scaling never switch on a kind themselves. A new law
+//! energies, the model, the plan, the scaling and the GPU's shader constants never switch on a
+//! kind themselves. A new law
 //! is its type, one variant and one arm in each macro here. Hot loops take the law as a type
 //! parameter instead ([`with_laws!`](crate::with_laws)).
 
@@ -97,6 +98,11 @@ impl NormalKind {
     pub fn force_power(self) -> i32 {
         normal_law!(self, L => L::FORCE_POWER)
     }
+
+    /// [`NormalLaw::GPU`].
+    pub fn gpu_switches(self) -> [(&'static str, bool); 1] {
+        normal_law!(self, L => L::GPU)
+    }
 }
 
 impl TangentialKind {
@@ -121,6 +127,11 @@ impl TangentialKind {
     /// [`TangentialLaw::FORCE_POWER`].
     pub fn force_power(self) -> i32 {
         tangential_law!(self, T => T::FORCE_POWER)
+    }
+
+    /// [`TangentialLaw::GPU`].
+    pub fn gpu_switches(self) -> [(&'static str, bool); 2] {
+        tangential_law!(self, T => T::GPU)
     }
 
     /// Whether a tangential dashpot acts ([`TangentialLaw::DAMPED`]).

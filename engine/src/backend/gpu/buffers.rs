@@ -9,7 +9,7 @@
 use super::bindings::{self as b, Holder, Lane};
 use super::device::GpuContext;
 use super::memory::{self, MemoryPlan};
-use super::rows;
+use super::row_slots;
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
@@ -159,7 +159,7 @@ impl HostLanes {
             _ => (Vec::new(), Vec::new(), Vec::new()),
         };
         let epsd = plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd);
-        let slots = rows::to_slots(&m.contacts, n, cap, plan.dashpot, epsd);
+        let slots = row_slots::to_slots(&m.contacts, n, cap, plan.dashpot, epsd);
         let wall_rolling = match (epsd, m.wall_rolling.len() == n * m.walls.len()) {
             (false, _) => Vec::new(),
             (true, true) => m.wall_rolling.iter().map(|s| v4(s, 0.0)).collect(),
@@ -360,28 +360,28 @@ impl DeviceLanes {
                 first: r.start,
                 count: r.len(),
                 uniform: uniform(ctx, "slab", &[r.start as u32, r.len() as u32, 0, 0]),
-                other: make("neighbour ids", bytes_of(&rows::by_rank(&h.other[r.start * cap..r.end * cap], cap)))?,
-                state: make("pair state", bytes_of(&rows::by_rank(&h.state[r.start * cap..r.end * cap], cap)))?,
+                other: make("neighbour ids", bytes_of(&row_slots::by_rank(&h.other[r.start * cap..r.end * cap], cap)))?,
+                state: make("pair state", bytes_of(&row_slots::by_rank(&h.state[r.start * cap..r.end * cap], cap)))?,
                 wall_state: make(
                     "wall contact state",
-                    bytes_of(&rows::by_rank(&h.wall_state[r.start * nw..r.end * nw], nw)),
+                    bytes_of(&row_slots::by_rank(&h.wall_state[r.start * nw..r.end * nw], nw)),
                 )?,
                 dashpot: if h.dashpot.is_empty() {
                     make("dashpot forces", &[])?
                 } else {
-                    make("dashpot forces", bytes_of(&rows::by_rank(&h.dashpot[r.start * cap..r.end * cap], cap)))?
+                    make("dashpot forces", bytes_of(&row_slots::by_rank(&h.dashpot[r.start * cap..r.end * cap], cap)))?
                 },
                 rolling: if h.rolling.is_empty() {
                     make("rolling springs", &[])?
                 } else {
-                    make("rolling springs", bytes_of(&rows::by_rank(&h.rolling[r.start * cap..r.end * cap], cap)))?
+                    make("rolling springs", bytes_of(&row_slots::by_rank(&h.rolling[r.start * cap..r.end * cap], cap)))?
                 },
                 wall_rolling: if h.wall_rolling.is_empty() {
                     make("wall rolling springs", &[])?
                 } else {
                     make(
                         "wall rolling springs",
-                        bytes_of(&rows::by_rank(&h.wall_rolling[r.start * nw..r.end * nw], nw)),
+                        bytes_of(&row_slots::by_rank(&h.wall_rolling[r.start * nw..r.end * nw], nw)),
                     )?
                 },
             });
@@ -661,21 +661,21 @@ pub fn download(ctx: &GpuContext, d: &DeviceLanes, h: &mut HostLanes, m: &mut Mo
     let mut wall_state = Vec::with_capacity(n * nw);
     let (mut rolling, mut wall_rolling) = (Vec::new(), Vec::new());
     for s in &slabs {
-        other.extend(rows::by_row(&got.take::<u32>(s.other), cap));
-        state.extend(rows::by_row(&got.take::<[f32; 4]>(s.state), cap));
+        other.extend(row_slots::by_row(&got.take::<u32>(s.other), cap));
+        state.extend(row_slots::by_row(&got.take::<[f32; 4]>(s.state), cap));
         if let Some(part) = s.dashpot {
-            dashpot.extend(rows::by_row(&got.take::<f32>(part), cap));
+            dashpot.extend(row_slots::by_row(&got.take::<f32>(part), cap));
         }
-        wall_state.extend(rows::by_row(&got.take::<[f32; 4]>(s.wall_state), nw));
+        wall_state.extend(row_slots::by_row(&got.take::<[f32; 4]>(s.wall_state), nw));
         if let Some((row, wall)) = s.rolling {
-            rolling.extend(rows::by_row(&got.take::<[f32; 4]>(row), cap));
-            wall_rolling.extend(rows::by_row(&got.take::<[f32; 4]>(wall), nw));
+            rolling.extend(row_slots::by_row(&got.take::<[f32; 4]>(row), cap));
+            wall_rolling.extend(row_slots::by_row(&got.take::<[f32; 4]>(wall), nw));
         }
     }
-    let slots = rows::Slots { cap, row_len: got.take(row_len), other, state, dashpot, rolling };
+    let slots = row_slots::Slots { cap, row_len: got.take(row_len), other, state, dashpot, rolling };
     let built: Vec<[f32; 4]> = got.take(built);
     let built_at = (0..n).map(|i| to64(&h.origin[i]) + to64(&built[i])).collect();
-    rows::into_contacts(&slots, built_at, &mut m.contacts);
+    row_slots::into_contacts(&slots, built_at, &mut m.contacts);
     for (s, g) in m.wall_contacts.iter_mut().zip(&wall_state) {
         *s = PairState { shear: to64(g), dashpot: g[3], ..PairState::default() };
     }

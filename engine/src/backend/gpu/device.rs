@@ -46,8 +46,18 @@ pub struct GpuContext {
     /// Command buffers submitted through [`submit`](Self::submit) (`bench --profile`).
     submitted: std::sync::atomic::AtomicU64,
     /// Pipelines compiled on this device ([`super::shaders::pipeline`]).
-    pub(crate) pipelines:
-        std::sync::Mutex<std::collections::HashMap<super::shaders::PipelineKey, wgpu::ComputePipeline>>,
+    pub(crate) pipelines: std::sync::Mutex<std::collections::HashMap<PipelineKey, wgpu::ComputePipeline>>,
+}
+
+/// What makes two pipelines the same (`shaders::pipeline`), the key of a device's cache.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PipelineKey {
+    pub label: String,
+    /// The whole source, the generated binding declarations with it.
+    pub source: String,
+    pub entry: String,
+    /// The pipeline constants, by name, as bits.
+    pub constants: Vec<(String, u64)>,
 }
 
 impl std::fmt::Debug for GpuContext {

@@ -24,8 +24,7 @@ use super::bindings::{conduction as co, pore_flow as pf, pore_heat as ph, Holder
 use super::buffers::{read, storage_lane, DeviceLanes};
 use super::conduction;
 use super::device::GpuContext;
-use super::pore_flow::Lanes as FlowLanes;
-use super::pore_flow::{MASS_LANES, PRESSURE_LANES};
+use super::pore_lanes::{Lanes as FlowLanes, MASS_LANES, PRESSURE_LANES};
 use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::model::Model;

@@ -7,9 +7,8 @@ use super::bindings::{
     self as b, applied_loads as al, buoyancy as by, conduction as co, moisture as mo, parallel_bond as pb,
     pore_flow as pf, pore_heat as ph, *,
 };
-use super::device::GpuContext;
+use super::device::{GpuContext, PipelineKey};
 use crate::error::Result;
-use crate::model::{NormalKind, TangentialKind};
 use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
 
@@ -397,16 +396,17 @@ pub fn source(stage: &Shader) -> String {
 /// The plan's choices as the overrides of common.wgsl.
 pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
-    vec![
-        ("NORMAL_HERTZ", flag(plan.normal == NormalKind::Hertz)),
-        ("MINDLIN", flag(plan.tangential.is_mindlin())),
-        ("TANGENTIAL_DASHPOT", flag(plan.tangential == TangentialKind::MindlinDamped)),
+    // The contact laws' own switches, as each law gives them.
+    let laws = plan.normal.gpu_switches().into_iter().chain(plan.tangential.gpu_switches());
+    let laws = laws.map(|(name, on)| (name, flag(on)));
+    laws.chain([
         ("DASHPOT", flag(plan.dashpot)),
         ("ROTATION", flag(plan.rotation)),
         ("VISCOUS", flag(plan.damping > 0.0)),
         ("LOCAL", flag(plan.local_damping > 0.0)),
         ("ROLLING_SPRING", flag(plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd))),
-    ]
+    ])
+    .collect()
 }
 
 /// A compute pipeline for `entry` of a stage, its bind group layout derived from the shader.
@@ -450,15 +450,6 @@ pub fn pipeline(
         })
         .clone();
     Pipeline { compute, stage }
-}
-
-/// What makes two pipelines the same ([`pipeline`]).
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct PipelineKey {
-    label: String,
-    source: String,
-    entry: String,
-    constants: Vec<(String, u64)>,
 }
 
 /// A compute pipeline and the stage it was built from, whose bindings its kernels bind.
@@ -557,6 +548,22 @@ pub fn grid(total: usize) -> (u32, u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_contact_law_switch_is_an_override_of_common_wgsl() {
+        use crate::model::{NormalKind, TangentialKind};
+        let names = NormalKind::ALL.iter().flat_map(|k| k.gpu_switches().map(|(n, _)| n));
+        let names: Vec<&str> =
+            names.chain(TangentialKind::ALL.iter().flat_map(|k| k.gpu_switches().map(|(n, _)| n))).collect();
+        for name in names {
+            assert!(COMMON.contains(&format!("override {name}: bool")), "common.wgsl has no override `{name}`");
+        }
+        // Each law is told apart from the others by its switches.
+        let normal: Vec<_> = NormalKind::ALL.map(|k| k.gpu_switches()).to_vec();
+        assert!(normal.iter().enumerate().all(|(a, x)| normal[a + 1..].iter().all(|y| x != y)));
+        let tangential: Vec<_> = TangentialKind::ALL.map(|k| k.gpu_switches()).to_vec();
+        assert!(tangential.iter().enumerate().all(|(a, x)| tangential[a + 1..].iter().all(|y| x != y)));
+    }
 
     #[test]
     fn every_stage_parses_and_validates() {
