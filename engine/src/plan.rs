@@ -112,6 +112,58 @@ impl Stage {
     }
 }
 
+/// Where a stage sits in a step, which decides how the backends run it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The core (walls, rows, contact and wall forces, integration): every plan runs it, fused
+    /// on the CPU's unobserved steps.
+    Core,
+    /// An optional force stage: adds its loads after the core's forces and before the move,
+    /// so a plan with one runs the core's passes apart.
+    Force,
+    /// An optional field stage: a field step after the move.
+    Field,
+    /// Booked inside the stages that dissipate (the heat ledger), no pass of its own.
+    Ledger,
+    /// The stability guard, every `guard_every` steps.
+    Guard,
+}
+
+impl Stage {
+    /// Where the stage sits in a step.
+    pub const fn role(self) -> Role {
+        match self {
+            Stage::Walls | Stage::Neighbours | Stage::ContactForces | Stage::WallForces | Stage::Integrate => {
+                Role::Core
+            }
+            Stage::ParallelBond
+            | Stage::RollingResistance
+            | Stage::PoreFlow
+            | Stage::AppliedLoads
+            | Stage::Buoyancy => Role::Force,
+            Stage::Conduction | Stage::Moisture => Role::Field,
+            Stage::Heat => Role::Ledger,
+            Stage::Guard => Role::Guard,
+        }
+    }
+}
+
+/// A set of stages, walked in step order ([`StepPlan::runs`]): bit k is `Stage::ALL[k]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stages(u32);
+
+impl Iterator for Stages {
+    type Item = Stage;
+    fn next(&mut self) -> Option<Stage> {
+        if self.0 == 0 {
+            return None;
+        }
+        let k = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(Stage::ALL[k])
+    }
+}
+
 impl fmt::Display for Stage {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
@@ -397,11 +449,14 @@ impl StepPlan {
     /// rolling resistance, pore flow, applied loads, buoyancy): the CPU then runs the core's
     /// passes apart instead of fused.
     pub fn has_force_stage(&self) -> bool {
-        self.has(Stage::ParallelBond)
-            || self.has(Stage::RollingResistance)
-            || self.has(Stage::PoreFlow)
-            || self.has(Stage::AppliedLoads)
-            || self.has(Stage::Buoyancy)
+        self.runs(Role::Force).next().is_some()
+    }
+
+    /// The stages of `role` this plan runs, in step order. A set apart from the plan, so a
+    /// backend may walk it while it borrows itself mutably, and allocates nothing.
+    pub fn runs(&self, role: Role) -> Stages {
+        let bits = Stage::ALL.iter().enumerate().filter(|(_, s)| s.role() == role && self.has(**s));
+        Stages(bits.fold(0, |set, (k, _)| set | 1 << k))
     }
 
     /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
@@ -705,5 +760,28 @@ mod tests {
         assert_eq!(names(&m), "neighbours contact_forces integrate guard");
         m.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -1e-3), Vec3::z(), 1e-4).unwrap()).unwrap();
         assert_eq!(names(&m), "walls neighbours contact_forces wall_forces integrate guard");
+        assert_eq!(
+            StepPlan::build(&m).runs(Role::Core).collect::<Vec<_>>(),
+            [Stage::Walls, Stage::Neighbours, Stage::ContactForces, Stage::WallForces, Stage::Integrate]
+        );
+        assert_eq!(StepPlan::build(&m).runs(Role::Force).next(), None);
+    }
+
+    /// The backends walk the stages by role in `Stage::ALL`'s order, so the roles must follow
+    /// the step: the contact and wall forces, then every force stage, the move, then every
+    /// field stage.
+    #[test]
+    fn the_roles_follow_the_step_order() {
+        let at = |s: Stage| Stage::ALL.iter().position(|x| *x == s).unwrap();
+        for s in Stage::ALL {
+            match s.role() {
+                Role::Force => assert!(at(Stage::WallForces) < at(s) && at(s) < at(Stage::Integrate), "{s}"),
+                Role::Field => assert!(at(Stage::Integrate) < at(s) && at(s) < at(Stage::Guard), "{s}"),
+                Role::Core | Role::Ledger | Role::Guard => {}
+            }
+        }
+        // A set walks in that order whatever order its bits were set in.
+        let set = Stages(1 << at(Stage::Moisture) | 1 << at(Stage::Walls) | 1 << at(Stage::Buoyancy));
+        assert_eq!(set.collect::<Vec<_>>(), [Stage::Walls, Stage::Buoyancy, Stage::Moisture]);
     }
 }

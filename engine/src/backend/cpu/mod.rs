@@ -24,7 +24,7 @@ use crate::error::Result;
 use crate::guard::{check_state, too_stiff, StiffContact};
 use crate::model::{Breakage, Model};
 use crate::neighbours;
-use crate::plan::{Stage, StepPlan};
+use crate::plan::{Role, Stage, StepPlan};
 use crate::status::{potential_energies, Energies, EnergySample};
 use contact_forces::{compute_contact_forces, sync_rows, Breaks, PairScratch};
 use integrate::integrate;
@@ -105,44 +105,18 @@ impl CpuBackend {
         let t = Instant::now();
         compute_wall_forces(m, &self.plan);
         times.add(Stage::WallForces, t.elapsed());
-        if self.plan.has(Stage::ParallelBond) {
+        for stage in self.plan.runs(Role::Force) {
             let t = Instant::now();
-            let breaks = parallel_bond::parallel_bond(m, &self.plan);
-            record_breaks(m, breaks);
-            times.add(Stage::ParallelBond, t.elapsed());
-        }
-        if self.plan.has(Stage::RollingResistance) {
-            let t = Instant::now();
-            rolling_resistance::rolling_resistance(m, &self.plan);
-            times.add(Stage::RollingResistance, t.elapsed());
-        }
-        if self.plan.has(Stage::PoreFlow) {
-            let t = Instant::now();
-            self.pore_flow(m);
-            times.add(Stage::PoreFlow, t.elapsed());
-        }
-        if let Some(a) = &self.plan.applied_loads {
-            let t = Instant::now();
-            applied_loads::applied_loads(m, a);
-            times.add(Stage::AppliedLoads, t.elapsed());
-        }
-        if let Some(b) = &self.plan.buoyancy {
-            let t = Instant::now();
-            buoyancy::buoyancy(m, b, &self.plan.heat);
-            times.add(Stage::Buoyancy, t.elapsed());
+            self.force_stage(m, stage);
+            times.add(stage, t.elapsed());
         }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
-        if let Some(c) = &self.plan.conduction {
+        for stage in self.plan.runs(Role::Field) {
             let t = Instant::now();
-            conduction::conduction(m, c, &mut self.next_temperature);
-            times.add(Stage::Conduction, t.elapsed());
-        }
-        if let Some(w) = &self.plan.moisture {
-            let t = Instant::now();
-            moisture::moisture(m, w, &mut self.next_water);
-            times.add(Stage::Moisture, t.elapsed());
+            self.field_stage(m, stage);
+            times.add(stage, t.elapsed());
         }
         m.clock.step += 1;
         m.clock.time += dt;
@@ -200,23 +174,14 @@ impl CpuBackend {
         let work_before: f64 = m.particles.heat.wall_work.iter().sum();
         compute_wall_forces(m, &self.plan);
         record_breaks(m, breaks);
-        if self.plan.has(Stage::ParallelBond) {
-            let breaks = parallel_bond::parallel_bond(m, &self.plan);
-            record_breaks(m, breaks);
-        }
-        if self.plan.has(Stage::RollingResistance) {
-            rolling_resistance::rolling_resistance(m, &self.plan);
-        }
-        if self.plan.has(Stage::PoreFlow) {
-            self.pore_flow(m);
-        }
-        if let Some(a) = &self.plan.applied_loads {
-            applied_loads::applied_loads(m, a);
-        }
+        // The buoyancy is the last force stage (its drag reads the others' sum); the energies
+        // book its drag's heat.
         let mut drag_heat = 0.0;
-        if let Some(b) = &self.plan.buoyancy {
-            // Last of the force stages: its drag reads the others' sum.
-            drag_heat = buoyancy::buoyancy(m, b, &self.plan.heat).0;
+        for stage in self.plan.runs(Role::Force) {
+            let heat = self.force_stage(m, stage);
+            if stage == Stage::Buoyancy {
+                drag_heat = heat;
+            }
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
@@ -257,21 +222,46 @@ impl CpuBackend {
         }
     }
 
-    /// The optional field stages after integration, each when the plan has it: heat
-    /// conduction, then moisture (their field steps).
+    /// One optional force stage of the plan (`Role::Force`), between the core's forces and the
+    /// move. Returns the heat of the buoyancy's drag (0 for the others), which the energies
+    /// of an observed step book.
+    fn force_stage(&mut self, m: &mut Model, stage: Stage) -> f64 {
+        let plan = &self.plan;
+        match (stage, &plan.applied_loads, &plan.buoyancy) {
+            (Stage::ParallelBond, ..) => {
+                let breaks = parallel_bond::parallel_bond(m, plan);
+                record_breaks(m, breaks);
+            }
+            (Stage::RollingResistance, ..) => rolling_resistance::rolling_resistance(m, plan),
+            (Stage::PoreFlow, ..) => self.pore_flow(m),
+            (Stage::AppliedLoads, Some(a), _) => applied_loads::applied_loads(m, a),
+            (Stage::Buoyancy, _, Some(b)) => return buoyancy::buoyancy(m, b, &plan.heat).0,
+            _ => unreachable!("{stage} is not a force stage of this plan"),
+        }
+        0.0
+    }
+
+    /// One optional field stage of the plan (`Role::Field`), a field step after the move.
+    fn field_stage(&mut self, m: &mut Model, stage: Stage) {
+        match (stage, &self.plan.conduction, &self.plan.moisture) {
+            (Stage::Conduction, Some(c), _) => conduction::conduction(m, c, &mut self.next_temperature),
+            (Stage::Moisture, _, Some(w)) => moisture::moisture(m, w, &mut self.next_water),
+            _ => unreachable!("{stage} is not a field stage of this plan"),
+        }
+    }
+
+    /// The plan's field stages after integration, in step order.
     fn field_stages(&mut self, m: &mut Model) {
-        if self.plan.conduction.is_none() && self.plan.moisture.is_none() {
+        let stages = self.plan.runs(Role::Field);
+        if stages.clone().next().is_none() {
             return;
         }
         // Their conductances read the bonds in the rows, and moisture writes the bonds'
         // strength shares there: the rows are the pair states' source again.
         sync_rows(m, &mut self.pairs);
         self.pairs.forget_records();
-        if let Some(c) = &self.plan.conduction {
-            conduction::conduction(m, c, &mut self.next_temperature);
-        }
-        if let Some(w) = &self.plan.moisture {
-            moisture::moisture(m, w, &mut self.next_water);
+        for stage in stages {
+            self.field_stage(m, stage);
         }
     }
 }

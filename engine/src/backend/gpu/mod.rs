@@ -541,47 +541,35 @@ impl GpuBackend {
         }
     }
 
-    /// One step's stages in the order the device runs them, `t` steps into the batch: walls
-    /// (last step's loads summed, then moved) → contact forces → wall forces → the force
-    /// stages the scene has → integration → the field stages due after this step.
+    /// One step's stages in the order the device runs them, `t` steps into the batch: the
+    /// plan's stages in step order (walls: last step's loads summed, then moved; contact forces;
+    /// wall forces; the force stages; integration; the field stages due after this step).
     fn step_stages<'s>(&'s self, s: &'s Session, t: u64) -> Vec<(Stage, StageWork<'s>)> {
         let kr = &s.kernels;
-        let mut out = Vec::with_capacity(10);
         let step = s.step0 + s.steps + t;
-        if let Some(w) = &kr.walls {
-            out.push((Stage::Walls, StageWork::Kernels(vec![&w.advance])));
-        }
-        out.push((Stage::ContactForces, StageWork::Kernels(kr.contact_forces.iter().collect())));
-        if let Some(w) = &kr.walls {
-            out.push((Stage::WallForces, StageWork::Kernels(w.forces.iter().collect())));
-        }
-        if let Some(k) = &kr.parallel_bond {
-            out.push((Stage::ParallelBond, StageWork::Kernels(vec![k])));
-        }
-        if !kr.rolling_resistance.is_empty() {
-            out.push((Stage::RollingResistance, StageWork::Kernels(kr.rolling_resistance.iter().collect())));
-        }
-        if let Some(f) = &s.pores {
-            out.push((Stage::PoreFlow, StageWork::Pores(f)));
-        }
-        if let Some(a) = &kr.applied_loads {
-            out.push((Stage::AppliedLoads, StageWork::Kernels(vec![a])));
-        }
-        if let Some(b) = &kr.buoyancy {
-            out.push((Stage::Buoyancy, StageWork::Kernels(vec![b])));
-        }
-        out.push((Stage::Integrate, StageWork::Kernels(vec![&kr.integrate])));
-        if let (Some(c), Some(plan)) = (&kr.conduction, &self.plan.conduction) {
-            if plan.runs_after(step) {
-                out.push((Stage::Conduction, StageWork::Conduction(c)));
-            }
-        }
-        if let (Some(w), Some(plan)) = (&kr.moisture, &self.plan.moisture) {
-            if plan.runs_after(step) {
-                out.push((Stage::Moisture, StageWork::Moisture(w)));
-            }
-        }
-        out
+        let work = |stage: Stage| -> Option<StageWork<'s>> {
+            Some(match stage {
+                Stage::Walls => StageWork::Kernels(vec![&kr.walls.as_ref()?.advance]),
+                Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
+                Stage::WallForces => StageWork::Kernels(kr.walls.as_ref()?.forces.iter().collect()),
+                Stage::ParallelBond => StageWork::Kernels(vec![kr.parallel_bond.as_ref()?]),
+                Stage::RollingResistance => StageWork::Kernels(kr.rolling_resistance.iter().collect()),
+                Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
+                Stage::AppliedLoads => StageWork::Kernels(vec![kr.applied_loads.as_ref()?]),
+                Stage::Buoyancy => StageWork::Kernels(vec![kr.buoyancy.as_ref()?]),
+                Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
+                Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
+                    StageWork::Conduction(kr.conduction.as_ref()?)
+                }
+                Stage::Moisture if self.plan.moisture.as_ref()?.runs_after(step) => {
+                    StageWork::Moisture(kr.moisture.as_ref()?)
+                }
+                // A field stage not due after this step; the rows' drift and the guard end a
+                // batch (`batch_tail`); the heat ledger is booked inside the stages that dissipate.
+                Stage::Conduction | Stage::Moisture | Stage::Neighbours | Stage::Heat | Stage::Guard => return None,
+            })
+        };
+        self.plan.stages().into_iter().filter_map(|stage| Some((stage, work(stage)?))).collect()
     }
 
     /// What ends a batch: the neighbours stage's drift measure (the pore network's too) and,
