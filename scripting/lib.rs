@@ -12,7 +12,7 @@
 //! ([`run`], [`repl`], [`bench`] and the binary's command line).
 
 pub mod api;
-pub mod atomic;
+pub mod atomic_write;
 pub mod bench;
 pub mod calibration;
 pub mod memory;

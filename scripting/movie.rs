@@ -20,7 +20,7 @@
 //! choosing its own (a frame costs about 20 ms to draw, map and encode at 800 × 700).
 //!
 //! **Atomic, and an interrupted run keeps what it took.** The GIF is written to a temporary
-//! file and renamed into place ([`crate::atomic::write_with`]), so `name.gif` is always whole.
+//! file and renamed into place ([`crate::atomic_write::write_with`]), so `name.gif` is always whole.
 //! A run stopped by Ctrl-C or SIGTERM (or failing) still ends its movies: the GIF holds the
 //! frames taken so far. An interrupted run keeps the spool beside its resume point, and the
 //! movie's state travels in the checkpoint, so `--resume` continues the same movie and ends
@@ -267,7 +267,7 @@ fn write_gif(s: &MovieSettings, frames: u64, spool_len: u64) -> Result<Vec<PathB
     let mut pngs = Vec::new();
     let mut failure = None;
     let gif_err = |e: gif::EncodingError| std::io::Error::other(e.to_string());
-    crate::atomic::write_with(&s.gif, |file| {
+    crate::atomic_write::write_with(&s.gif, |file| {
         let mut out = std::io::BufWriter::new(file);
         let mut palette = crate::plot::GifPalette::default();
         let mut encoder = gif::Encoder::new(&mut out, w as u16, h as u16, &palette.rgb).map_err(gif_err)?;
@@ -298,7 +298,7 @@ fn write_gif(s: &MovieSettings, frames: u64, spool_len: u64) -> Result<Vec<PathB
             if s.frames_png {
                 let png = crate::plot::encode_png(&rgb, w, h).map_err(std::io::Error::other)?;
                 let path = s.frames_dir.join(format!("{}_{:09}.png", gif_stem(s), frame.step));
-                crate::atomic::write(&path, &png)?;
+                crate::atomic_write::write(&path, &png)?;
                 pngs.push(path);
             }
             // The movie's one palette (see GifPalette): the same colours in every frame.

@@ -544,7 +544,7 @@ pub fn pack(dir: &Path, out: &Path) -> Result<usize, String> {
         count += 1;
     }
     let bytes = builder.into_inner().map_err(|e| format!("cannot finish the archive: {e}"))?;
-    crate::atomic::write(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    crate::atomic_write::write(out, &bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
     Ok(count)
 }
 

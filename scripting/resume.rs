@@ -174,7 +174,7 @@ pub fn model_file(dir: &Path, n: usize) -> PathBuf {
 pub fn write_journal(dir: &Path, journal: &JournalFile) -> std::io::Result<()> {
     let text = ron::ser::to_string_pretty(journal, ron::ser::PrettyConfig::default().compact_arrays(true))
         .map_err(|e| std::io::Error::other(e.to_string()))?;
-    crate::atomic::write(&dir.join(JOURNAL_FILE), text.as_bytes())
+    crate::atomic_write::write(&dir.join(JOURNAL_FILE), text.as_bytes())
 }
 
 /// The run folder of `--resume DIR`, where DIR is the run's output folder or its `resume`

@@ -39,7 +39,7 @@ impl RunRecord {
     pub fn write(&self, out_dir: &Path) -> std::io::Result<()> {
         let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
             .map_err(|e| std::io::Error::other(e.to_string()))?;
-        crate::atomic::write(&out_dir.join(RUN_RECORD), text.as_bytes())
+        crate::atomic_write::write(&out_dir.join(RUN_RECORD), text.as_bytes())
     }
 }
 

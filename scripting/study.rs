@@ -328,7 +328,7 @@ pub fn chart(study: &Study, metric: &str) -> LineChart {
 /// Writes `study.csv` and the chart; returns the files written.
 pub fn write_outputs(study: &Study, spec: &StudySpec, dir: &Path) -> Result<Vec<PathBuf>, String> {
     let csv = dir.join("study.csv");
-    crate::atomic::write(&csv, to_csv(study, &spec.metric).as_bytes())
+    crate::atomic_write::write(&csv, to_csv(study, &spec.metric).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut written = vec![csv];
     let results = study.runs.iter().filter(|r| r.outcome.is_ok()).count();

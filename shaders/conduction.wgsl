@@ -5,7 +5,7 @@
 // its own next temperature and ΣH; `settle` then makes the
 // next temperatures current, and `expand` sets r = r0·(1 + α·(T − T0)) in origin.w, which every
 // stage reads as the radius. With the dissipated heat fed in (the plan's `dissipation`), `feed`
-// first adds to each free element's temperature the heat its ledger slots (heat.wgsl; damping,
+// first adds to each free element's temperature the heat its ledger slots (heat_ledger.wgsl; damping,
 // contact damping, friction, breakage, not wall work) booked since the last field step, over
 // its capacity. No atomics. CPU twin: backend/cpu/conduction.rs.
 

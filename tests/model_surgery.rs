@@ -204,7 +204,7 @@ fn delete_keeps_groups_rows_and_the_bonds_among_survivors() {
     assert!(made > 20 && before.len() as i64 == made, "{made} bonds made, {} found", before.len());
     let states = pair_states(&s.d());
     let doomed: Vec<bool> = s
-        .eval::<matdem_rs::api::field::Mask>("let doomed = d.in_sphere(0.002, 0.002, 0.001, 0.0012); doomed")
+        .eval::<matdem_rs::api::arrays::Mask>("let doomed = d.in_sphere(0.002, 0.002, 0.001, 0.0012); doomed")
         .0
         .to_vec();
     let low: Vec<i64> = s.eval::<rhai::Array>("d.group(\"low\")").into_iter().map(|v| v.as_int().unwrap()).collect();

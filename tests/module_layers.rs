@@ -29,7 +29,7 @@ use crate::module_graph::{
 /// `show` draws with `plot`, `d.movie_every` records a `movie`, `export_*` write snapshots,
 /// the calibration functions call `calibration`, `run_points` plans and runs a `sweep`, and a
 /// run's parameters are a `package`'s. What those layers took from the script API went down:
-/// the metrics file's format (`metrics`), atomic writes (`atomic`), a picture's particle
+/// the metrics file's format (`metrics`), atomic writes (`atomic_write`), a picture's particle
 /// fields (`picture_fields`); the journal's file and types stay in `resume` while turning a
 /// script's values into them and writing and restoring a resume point moved into the API
 /// (`api::resume_point`), as did deciding `--backend auto` (`api::auto_backend`).
@@ -41,7 +41,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     (
         "core",
         &[
-            "atomic",
+            "atomic_write",
             "memory",
             "metrics",
             "out_lock",

@@ -3,7 +3,7 @@
 //! and a water table whose buoyancy acts on the elements below it. Each is an optional stage
 //! (`conduction`, `buoyancy`) that a scene switches on and pays for only then.
 //!
-//! This file holds what a plan takes from a scene's settings (`settings/heat.rs`,
+//! This file holds what a plan takes from a scene's settings (`settings/conduction.rs`,
 //! `settings/water_table.rs`, part of [`crate::model::Settings`]), and the model-level calls that switch heat on and write its
 //! lanes; the pair conductance and the submerged volume are in `physics/`, the passes in the
 //! backends.
@@ -12,7 +12,7 @@ use crate::element_values::base_name;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::physics::conduction::pair_conductance;
-pub use crate::settings::heat::{HeatSettings, ThermalProps};
+pub use crate::settings::conduction::{HeatSettings, ThermalProps};
 pub use crate::settings::water_table::WaterTable;
 use crate::state::thermal::{ThermalLanes, FIXED, FREE, INSULATED};
 

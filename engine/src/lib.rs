@@ -51,7 +51,7 @@ pub mod geometry;
 pub mod guard;
 pub mod kill;
 #[macro_use]
-pub mod laws;
+pub mod law_dispatch;
 pub mod materials;
 pub mod memory_budget;
 pub mod model;

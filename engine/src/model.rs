@@ -43,7 +43,7 @@ pub struct Settings {
     /// Heat conduction and thermal expansion (the `conduction` stage; off by default). Saved
     /// after the model in a checkpoint (format 4), so that older checkpoints still read.
     #[serde(skip)]
-    pub heat: crate::settings::heat::HeatSettings,
+    pub heat: crate::settings::conduction::HeatSettings,
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
     pub water: crate::settings::water_table::WaterTable,
@@ -75,7 +75,7 @@ impl Default for Settings {
             max_overlap_ratio: 0.5,
             guard: crate::settings::guard::GuardMode::Stop,
             heat_ledger: true,
-            heat: crate::settings::heat::HeatSettings::default(),
+            heat: crate::settings::conduction::HeatSettings::default(),
             water: crate::settings::water_table::WaterTable::default(),
             moisture: crate::settings::moisture::MoistureSettings::default(),
             rolling: None,

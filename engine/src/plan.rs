@@ -60,7 +60,7 @@ pub enum Stage {
     /// walls do. Its lanes exist only in plans that keep it; the core stages book into them
     /// as they dissipate, because each cause is a by-product of a core law (see
     /// docs/adding-an-effect.md).
-    Heat,
+    HeatLedger,
     /// Optional: heat conduction between elements in contact or bonded, sources, fixed and
     /// insulated groups, thermal expansion of radii, every field step (fields.rs).
     Conduction,
@@ -85,7 +85,7 @@ impl Stage {
         Stage::AppliedLoads,
         Stage::Buoyancy,
         Stage::Integrate,
-        Stage::Heat,
+        Stage::HeatLedger,
         Stage::Conduction,
         Stage::Moisture,
         Stage::Guard,
@@ -103,7 +103,7 @@ impl Stage {
             Stage::PoreFlow => "pore_flow",
             Stage::AppliedLoads => "applied_loads",
             Stage::Integrate => "integrate",
-            Stage::Heat => "heat",
+            Stage::HeatLedger => "heat_ledger",
             Stage::Buoyancy => "buoyancy",
             Stage::Conduction => "conduction",
             Stage::Moisture => "moisture",
@@ -142,7 +142,7 @@ impl Stage {
             | Stage::AppliedLoads
             | Stage::Buoyancy => Role::Force,
             Stage::Conduction | Stage::Moisture => Role::Field,
-            Stage::Heat => Role::Ledger,
+            Stage::HeatLedger => Role::Ledger,
             Stage::Guard => Role::Guard,
         }
     }
@@ -335,7 +335,7 @@ impl StepPlan {
     pub fn has(&self, stage: Stage) -> bool {
         match stage {
             Stage::Walls | Stage::WallForces => self.walls > 0,
-            Stage::Heat => self.heat.lanes() > 0,
+            Stage::HeatLedger => self.heat.lanes() > 0,
             Stage::ParallelBond => self.parallel_bond.is_some(),
             Stage::RollingResistance => self.rolling.is_some(),
             Stage::PoreFlow => self.pore_flow.is_some(),
@@ -389,9 +389,9 @@ impl StepPlan {
                 bytes_per_row_entry: v,
             });
         }
-        if self.has(Stage::Heat) {
+        if self.has(Stage::HeatLedger) {
             sets.push(LaneSet {
-                stage: Stage::Heat.name(),
+                stage: Stage::HeatLedger.name(),
                 lanes: self.heat.names(),
                 bytes_per_particle: self.heat.lanes() * f,
                 bytes_per_entry: 0,
@@ -718,7 +718,7 @@ impl StepPlan {
         if self.walls == 0 {
             off.push("walls");
         }
-        if !self.has(Stage::Heat) {
+        if !self.has(Stage::HeatLedger) {
             off.push("heat ledger");
         }
         if self.conduction.is_none() {

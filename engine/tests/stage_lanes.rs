@@ -140,7 +140,7 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
         assert_eq!(planned, bytes, "case {k}: the plan's bytes per particle");
         assert_eq!(held, bytes, "case {k}: the model's bytes per particle");
         assert_eq!(sim.plan().heat.names(), heat, "case {k}: heat lanes");
-        assert_eq!(sim.plan().stages().contains(&Stage::Heat), !heat.is_empty(), "case {k}: heat stage");
+        assert_eq!(sim.plan().stages().contains(&Stage::HeatLedger), !heat.is_empty(), "case {k}: heat stage");
         let allocated: Vec<usize> = sim.model.particles.heat.lanes().iter().map(|l| l.len()).collect();
         assert_eq!(allocated.iter().filter(|&&l| l == N).count(), heat.len(), "case {k}: {allocated:?}");
         assert_eq!(sim.model.particles.rotation.is_some(), effects.rotation || effects.parallel, "case {k}: rotation");

@@ -1,7 +1,7 @@
 //! The box builder (MatDEM: `B = obj_Box`): sample size, container, gradation and platens;
 //! `build_initial_model()` fills the container loosely and returns the model `d`.
 
-use super::field::to_numbers;
+use super::arrays::to_numbers;
 use super::model::ModelHandle;
 use super::{err, raise, Host, RhaiResult};
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};

@@ -3,7 +3,7 @@
 //! Levenberg–Marquardt on a script function, and the Mohr–Coulomb fit; charts of each.
 //! The numerics live in `crate::calibration`; this file converts and draws.
 
-use super::field::{to_numbers, Field};
+use super::arrays::{to_numbers, Field};
 use super::plot::save_figure;
 use super::table::{Table, TableData};
 use super::{err, write_atomic, Host, RhaiResult};
@@ -114,7 +114,7 @@ fn values_of(m: &Map, names: &[String], what: &str) -> RhaiResult<Vec<f64>> {
             let v = m.get(n.as_str()).ok_or_else(|| {
                 err(format!("{what}: `{n}` is missing; give a number for each of: {}", names.join(", ")))
             })?;
-            super::field::number(v)
+            super::arrays::number(v)
                 .ok_or_else(|| err(format!("{what}: `{n}` is a {}, expected a number", v.type_name())))
         })
         .collect()
@@ -278,7 +278,7 @@ fn write_text(host: &Host, call: &str, name: &str, text: String) -> RhaiResult<D
 fn map_numbers(m: &Map, what: &str) -> RhaiResult<Vec<(String, f64)>> {
     m.iter()
         .map(|(k, v)| {
-            super::field::number(v)
+            super::arrays::number(v)
                 .map(|x| (k.to_string(), x))
                 .ok_or_else(|| err(format!("{what}: `{k}` is a {}, expected a number", v.type_name())))
         })
@@ -478,7 +478,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 s.0.factors
                     .iter()
                     .map(|f| {
-                        point.get(f.as_str()).and_then(super::field::number).ok_or_else(|| {
+                        point.get(f.as_str()).and_then(super::arrays::number).ok_or_else(|| {
                             err(format!(
                                 "predict: the point needs a number for every factor ({}); `{f}` is missing",
                                 s.0.factors.join(", ")

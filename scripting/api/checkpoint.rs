@@ -107,7 +107,8 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
         h.observe("save", || {
             let path = h.out_path(&with_extension(name))?;
             let bytes = checkpoint_bytes(&d.data());
-            crate::atomic::write(&path, &bytes).map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
+            crate::atomic_write::write(&path, &bytes)
+                .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);
             Ok(Dynamic::from(path.display().to_string()))
         })

@@ -8,7 +8,7 @@
 //! so `g.copy()` exists only for MatDEM users who expect it. Nothing here reads a model, so
 //! nothing is journaled for resume.
 
-use super::field::{number, to_numbers, Field, Mask};
+use super::arrays::{number, to_numbers, Field, Mask};
 use super::table::{Table, TableData};
 use super::{err, raise, RhaiResult};
 use matdem_engine::geometry::{lattice, ElementSet, LatticeKind};

@@ -1,7 +1,7 @@
 //! Materials as scripts see them (MatDEM: `material(name, matTxt, ballR)`): from macro
 //! properties through the lattice formulas, or from micro values directly.
 
-use super::field::number;
+use super::arrays::number;
 use super::{err, raise, RhaiResult};
 use matdem_engine::materials::{MacroProperties, Material, MicroParameters};
 use matdem_engine::provenance::Source;

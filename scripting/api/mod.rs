@@ -3,12 +3,12 @@
 //! MatDEM's nouns in snake_case (see the glossary in the README): `new_box` (obj_Box),
 //! `new_zoned` (paper 001's zones), the model `d`, `material`, groups, boundaries, `record`/`status`, `plot`, `show`.
 
+pub mod arrays;
 pub mod auto_backend;
 pub mod box_builder;
 pub mod calibration;
 pub mod checkpoint;
 pub mod docs;
-pub mod field;
 pub mod files;
 pub mod geometry;
 pub mod materials;
@@ -231,7 +231,7 @@ pub fn cancelled(host: &Host) -> Box<EvalAltResult> {
 
 /// Writes an output file atomically (see [`crate::atomic`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    crate::atomic::write(path, bytes)
+    crate::atomic_write::write(path, bytes)
 }
 
 /// The message of a script error without Rhai's position (Rhai adds the position again
@@ -245,7 +245,7 @@ fn error_message(e: &EvalAltResult) -> String {
 
 /// Registers the whole script API.
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
-    field::register(engine);
+    arrays::register(engine);
     geometry::register(engine);
     statistics::register(engine);
     table::register(engine, host.clone());

@@ -1,7 +1,7 @@
 //! Plots and particle pictures (MatDEM: `d.show('aZ')`, `fs.plot`), rendered headlessly to
 //! SVG and PNG under the run's output folder.
 
-use super::field::{to_numbers, Field};
+use super::arrays::{to_numbers, Field};
 use super::model::ModelHandle;
 use super::table::Table;
 use super::{err, Host, RhaiResult};

@@ -2,7 +2,7 @@
 //! turned into the journal's [`Value`]s and back, the resume folder written when a run or
 //! balance is interrupted, and the models put back at the interrupted call of a resumed run.
 
-use super::field::{Field, Mask};
+use super::arrays::{Field, Mask};
 use super::Host;
 use crate::resume::{
     diverged, model_file, resume_dir, write_journal, Interrupted, JournalFile, SavedBalance, Value, JOURNAL_FILE,
@@ -81,7 +81,7 @@ pub fn write_resume(host: &Host, call: &str, how: SavedBalance, done: u64) -> Re
         if let Some(data) = weak.upgrade() {
             let path = model_file(&dir, n);
             let bytes = super::checkpoint::checkpoint_bytes(&data.borrow());
-            crate::atomic::write(&path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            crate::atomic_write::write(&path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
             numbers.push(n);
             digests.push(sha256_hex(&bytes));
         }

@@ -38,10 +38,11 @@ pub(super) fn write_next(log: &Rc<RefCell<SnapshotLog>>, m: &Model) -> Result<()
     let mut log = log.borrow_mut();
     let file = format!("{}_{:09}.vtp", log.name, m.clock.step);
     let path = log.folder.join(&file);
-    crate::atomic::write(&path, vtp(m).as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::atomic_write::write(&path, vtp(m).as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     log.entries.push((m.clock.time.to_bits(), format!("snapshots/{file}")));
     let entries: Vec<(f64, String)> = log.entries.iter().map(|(t, f)| (f64::from_bits(*t), f.clone())).collect();
-    crate::atomic::write(&log.collection, pvd(&entries).as_bytes())
+    crate::atomic_write::write(&log.collection, pvd(&entries).as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", log.collection.display()))
 }
 
@@ -83,7 +84,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                 if std::path::Path::new(name).extension().is_some() { name.to_string() } else { format!("{name}.vtp") };
             let path = h.out_path(&file)?;
             let text = vtp(&d.data().sim.model);
-            crate::atomic::write(&path, text.as_bytes())
+            crate::atomic_write::write(&path, text.as_bytes())
                 .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);
             Ok(Dynamic::from(path.display().to_string()))
@@ -112,7 +113,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
                     elements_csv(&data.sim.model)
                 }
             };
-            crate::atomic::write(&path, text.as_bytes())
+            crate::atomic_write::write(&path, text.as_bytes())
                 .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);
             Ok(Dynamic::from(path.display().to_string()))
@@ -135,7 +136,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             let text = pores_vtp(&d.data().sim.model)
                 .ok_or_else(|| err("export_pores: pore flow is off; call d.enable(\"pore_flow\") first"))?;
             let path = h.out_path(&file)?;
-            crate::atomic::write(&path, text.as_bytes())
+            crate::atomic_write::write(&path, text.as_bytes())
                 .map_err(|e| err(format!("cannot write {}: {e}", path.display())))?;
             h.note_written([path.clone()]);
             Ok(Dynamic::from(path.display().to_string()))

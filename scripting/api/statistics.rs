@@ -7,7 +7,7 @@
 //! [eₖ, eₖ₊₁) except the last, which includes its upper edge. A NaN or infinite element is
 //! refused by index (select the finite ones first), as the reductions do.
 
-use super::field::{to_numbers, Field};
+use super::arrays::{to_numbers, Field};
 use super::{err, RhaiResult};
 use rhai::{Array, Dynamic, Engine, Map, INT};
 
@@ -56,7 +56,7 @@ fn at(sorted: &[f64], p: f64, what: &str) -> RhaiResult<f64> {
 }
 
 fn number(v: &Dynamic, what: &str) -> RhaiResult<f64> {
-    super::field::number(v).ok_or_else(|| err(format!("{what}: expected a number, got {}", v.type_name())))
+    super::arrays::number(v).ok_or_else(|| err(format!("{what}: expected a number, got {}", v.type_name())))
 }
 
 /// Counts of `values` per bin between `edges` (increasing), and how many fell outside.

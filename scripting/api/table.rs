@@ -2,7 +2,7 @@
 //! `record`, saved as CSV. A table the host makes may also carry columns of text (the
 //! contact table's wall names and bond states), read as arrays of strings.
 
-use super::field::{number, Field};
+use super::arrays::{number, Field};
 use super::{err, write_atomic, Host, RhaiResult};
 use crate::memory::Charge;
 use rhai::{Dynamic, Engine, Map, INT};

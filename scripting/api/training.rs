@@ -2,7 +2,7 @@
 //! options)`, the numerical tests on a packed, bonded sample, trained material files and
 //! rescaling to another element size.
 
-use super::field::{number, to_numbers};
+use super::arrays::{number, to_numbers};
 use super::table::Table;
 use super::{err, raise, write_atomic, Host, RhaiResult};
 use crate::plot::LineChart;

@@ -3,7 +3,7 @@
 //! groups `zone1…`, `mix12…`), scaled copies of a model (`d.scaled(λ)`, `scale_model`) and
 //! the material scaling law (`m.scaled(λ)`, `scaled_material`).
 
-use super::field::to_numbers;
+use super::arrays::to_numbers;
 use super::model::ModelHandle;
 use super::{err, raise, Host, RhaiResult};
 use matdem_engine::scaling::{scaled_material, scaled_model};
@@ -44,7 +44,7 @@ impl ZonedBuilder {
 }
 
 fn numbers(v: &Dynamic, what: &str) -> RhaiResult<Vec<f64>> {
-    if let Some(x) = super::field::number(v) {
+    if let Some(x) = super::arrays::number(v) {
         return Ok(vec![x]);
     }
     to_numbers(v, what)
@@ -163,7 +163,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
             engine.register_get($name, |z: &mut ZonedBuilder| z.0.borrow().spec.$field).register_set(
                 $name,
                 |z: &mut ZonedBuilder, v: Dynamic| -> RhaiResult<()> {
-                    let x = super::field::number(&v)
+                    let x = super::arrays::number(&v)
                         .ok_or_else(|| err(format!("{} must be a number, got {}", $name, v.type_name())))?;
                     if !x.is_finite() || x < 0.0 {
                         return Err(err(format!("{} must be a finite number ≥ 0, got {x}", $name)));

@@ -77,10 +77,10 @@ pub(crate) fn draw_err(e: impl std::fmt::Display) -> PlotError {
     PlotError::Draw(e.to_string())
 }
 
-/// Writes a figure through [`crate::atomic::write`] (temporary file, then rename), naming
+/// Writes a figure through [`crate::atomic_write::write`] (temporary file, then rename), naming
 /// the path when it fails.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
-    crate::atomic::write(path, bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
+    crate::atomic_write::write(path, bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
 }
 
 /// A figure that draws itself on any plotters backend at a fixed size: SVG, PNG and `save`

@@ -55,6 +55,6 @@ pub fn write_run_page(out_dir: &Path, run: &RunSummary) -> std::io::Result<PathB
     }
     body.push_str(&output_sections(&Outputs::of(out_dir), &[METRICS_FILE]));
     let path = out_dir.join(super::PAGE_FILE);
-    crate::atomic::write(&path, page(&title, &body).as_bytes())?;
+    crate::atomic_write::write(&path, page(&title, &body).as_bytes())?;
     Ok(path)
 }

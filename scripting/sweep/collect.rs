@@ -256,7 +256,8 @@ pub fn write_tables(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -> Re
     let mut written = Vec::new();
     for (name, text) in [(TABLE_FILE, table_csv(plan, results)), (TIMINGS_FILE, timings_csv(results))] {
         let path = dir.join(name);
-        crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        crate::atomic_write::write(&path, text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         written.push(path);
     }
     Ok(written)

@@ -78,6 +78,6 @@ pub fn write_sweep_page(dir: &Path, plan: &SweepPlan, results: &[PointResult]) -
     body.push_str("</table>\n");
     body.push_str(&output_sections(&Outputs::of(dir), &[]));
     let path = dir.join(PAGE_FILE);
-    crate::atomic::write(&path, page(&format!("sweep of {source}"), &body).as_bytes())?;
+    crate::atomic_write::write(&path, page(&format!("sweep of {source}"), &body).as_bytes())?;
     Ok(path)
 }

@@ -234,7 +234,7 @@ fn save(dir: &Path, plan: &SweepPlan) -> Result<(), String> {
     let text = ron::ser::to_string_pretty(plan, ron::ser::PrettyConfig::default())
         .map_err(|e| format!("cannot write the sweep plan: {e}"))?;
     let path = dir.join(SWEEP_FILE);
-    crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    crate::atomic_write::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Reads and checks `DIR/sweep.ron`.

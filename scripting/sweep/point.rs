@@ -167,7 +167,7 @@ pub fn run_point(
     let _removed = RemoveOnDrop(&set_file);
     if !set.is_empty() {
         let text = ron::to_string(&set).map_err(|e| format!("cannot write the parameters of {}: {e}", point.name))?;
-        crate::atomic::write(&set_file, text.as_bytes())
+        crate::atomic_write::write(&set_file, text.as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", set_file.display()))?;
         cmd.arg("--set-file").arg(&set_file);
     }
@@ -208,7 +208,7 @@ pub fn run_point(
     let mut log = stdout;
     log.extend_from_slice(&stderr);
     let log_path = run_dir.join(LOG_FILE);
-    crate::atomic::write(&log_path, &log).map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
+    crate::atomic_write::write(&log_path, &log).map_err(|e| format!("cannot write {}: {e}", log_path.display()))?;
     let code = status.code();
     let (status_kind, error) = match code {
         Some(0) => (PointStatus::Ok, None),
@@ -234,7 +234,7 @@ fn record(dir: &Path, name: &str, outcome: Outcome) -> Result<PointRun, String> 
     let text = ron::ser::to_string_pretty(&outcome, ron::ser::PrettyConfig::default())
         .map_err(|e| format!("cannot write the outcome of {name}: {e}"))?;
     let path = outcome_path(dir, name);
-    crate::atomic::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::atomic_write::write(&path, text.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(PointRun::Ran(outcome))
 }
 

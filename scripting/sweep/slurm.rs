@@ -101,7 +101,7 @@ pub fn write_script(
     let logs = dir.join(LOG_DIR);
     std::fs::create_dir_all(&logs).map_err(|e| format!("cannot create {}: {e}", logs.display()))?;
     let path = dir.join(SCRIPT_FILE);
-    crate::atomic::write(&path, s.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::atomic_write::write(&path, s.as_bytes()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(Some((path, pending.len())))
 }
 

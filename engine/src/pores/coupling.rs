@@ -43,7 +43,7 @@ pub struct PoreFlowPlan {
     pub fixed_pressure_regions: usize,
     pub flux_regions: usize,
     /// The heat field is on too: each pore's fluid has a temperature (in the equation of
-    /// state, carried by the flow, exchanged with the grains; [`super::heat`]).
+    /// state, carried by the flow, exchanged with the grains; [`super::fluid_temperature`]).
     pub thermal: bool,
     /// The fluid's thermal properties (used when `thermal`).
     pub heat: super::FluidHeat,

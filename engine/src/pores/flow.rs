@@ -1,5 +1,5 @@
 //! The pore fluid: mass per pore, density ρ = m / V_p, pressure p = K_f·(ρ/ρ0 − 1) — with the
-//! heat field on, p = K_f·(ρ/ρ0 − 1 + β_f·(T − T0)) ([`super::heat`]) — and its explicit update.
+//! heat field on, p = K_f·(ρ/ρ0 − 1 + β_f·(T − T0)) ([`super::fluid_temperature`]) — and its explicit update.
 //!
 //! A throat carries the volumetric flow q = g·(p_a − p_b) (Poiseuille-type conductance g,
 //! [`super::geometry::poiseuille`]) and so the mass ρ0·q from a to b; each pore sums its own

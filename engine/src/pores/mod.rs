@@ -10,7 +10,7 @@
 //! - [`pressure_forces`]: pore pressure on the elements bounding each pore.
 //! - [`coupling`]: the `pore_flow` stage's settings and the model-level calls that switch it
 //!   on, set its boundaries and read its state (the pass is `backend/cpu/pore_flow.rs`).
-//! - [`heat`]: with the heat field on, each pore's fluid has a temperature: it enters the
+//! - [`fluid_temperature`]: with the heat field on, each pore's fluid has a temperature: it enters the
 //!   equation of state (thermal expansion of the fluid), is carried by the flow (upwind
 //!   advection) and exchanged with the elements at the pore's corners.
 
@@ -18,8 +18,8 @@ pub mod boundary;
 pub mod coupling;
 pub mod delaunay;
 pub mod flow;
+pub mod fluid_temperature;
 pub mod geometry;
-pub mod heat;
 pub mod network;
 pub mod pressure_forces;
 pub mod stiffness;
@@ -27,7 +27,7 @@ pub mod stiffness;
 pub use boundary::{BoundaryKind, PoreBoundary, PoreRegion};
 pub use coupling::{PoreFlowPlan, PoreSettings};
 pub use flow::PoreFlow;
-pub use heat::FluidHeat;
+pub use fluid_temperature::FluidHeat;
 pub use network::PoreNetwork;
 
 use serde::{Deserialize, Serialize};

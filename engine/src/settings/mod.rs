@@ -4,7 +4,7 @@
 //! model, becoming its dependencies (the engine's modules form no circle:
 //! `tests/module_deps.rs`). Each effect's module re-exports its settings.
 
+pub mod conduction;
 pub mod guard;
-pub mod heat;
 pub mod moisture;
 pub mod water_table;

@@ -37,7 +37,7 @@ mod regions;
 mod running;
 mod settings;
 
-use super::field::{number, to_numbers, Field, Mask};
+use super::arrays::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table, TableData};
 use super::{err, raise, resume_point, Host, RhaiResult};
 use crate::resume::SavedBalance;

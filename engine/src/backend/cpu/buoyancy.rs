@@ -27,7 +27,7 @@
 //! well the terminal speed is A/(1/τ + c/m) to first order in x.
 
 use super::blocks::{for_blocks, Reduce, Rows};
-use super::heat::HeatLanes;
+use super::heat_ledger::HeatLanes;
 use crate::fields::BuoyancyPlan;
 use crate::model::Model;
 use crate::physics::buoyancy::submerged_volume;

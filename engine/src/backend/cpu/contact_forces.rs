@@ -12,7 +12,7 @@
 //! the cost of the contact law. The loops are monomorphised for the plan's laws.
 
 use super::blocks::{for_blocks, Reduce, Rows};
-use super::heat::HeatLanes;
+use super::heat_ledger::HeatLanes;
 use crate::model::Model;
 use crate::physics::contact_law::{
     contact, contact_opened, BreakKind, ContactGeometry, NormalLaw, PairState, TangentialLaw,

@@ -12,7 +12,7 @@
 
 use super::blocks::{for_blocks, Rows, Strided};
 use super::contact_forces::{gather_row, pair_pass, Breaks, PairScratch};
-use super::heat::HeatLanes;
+use super::heat_ledger::HeatLanes;
 use super::integrate::{advance, spin, Motion, Observed, Translation};
 use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};

@@ -9,7 +9,7 @@ pub mod buoyancy;
 pub mod conduction;
 pub mod contact_forces;
 pub mod fused;
-pub mod heat;
+pub mod heat_ledger;
 pub mod integrate;
 pub mod moisture;
 pub mod parallel_bond;
@@ -85,7 +85,7 @@ impl CpuBackend {
             m.particles.enable_rotation();
         }
         let n = m.particles.len();
-        heat::fit(&mut m.particles.heat, &self.plan.heat, n);
+        heat_ledger::fit(&mut m.particles.heat, &self.plan.heat, n);
         let t = Instant::now();
         for w in &mut m.walls {
             w.advance(dt);
@@ -146,7 +146,7 @@ impl CpuBackend {
         }
         // The optional stages' lanes, allocated for the plan (a no-op once they are).
         let n = m.particles.len();
-        heat::fit(&mut m.particles.heat, &self.plan.heat, n);
+        heat_ledger::fit(&mut m.particles.heat, &self.plan.heat, n);
         for w in &mut m.walls {
             w.advance(dt);
         }

@@ -2,7 +2,7 @@
 //! is on too (the plan's pore flow is `thermal`): the fluid's temperatures fitted to the grains
 //! when they have none, and after the flow's sub-steps (which carry the heat upwind and hold the
 //! regions' temperatures, `pores/flow.rs`) the exchange with the elements at the pores' corners
-//! (`pores/heat.rs`). GPU twin: `backend/gpu/pore_heat.rs` (shaders/pore_heat.wgsl).
+//! (`pores/fluid_temperature.rs`). GPU twin: `backend/gpu/pore_heat.rs` (shaders/pore_heat.wgsl).
 
 use crate::error::Result;
 use crate::model::Model;

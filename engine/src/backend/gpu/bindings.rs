@@ -176,7 +176,7 @@ pub const PARTIALS: Lane = lane(Home::Core, "partials", "array<vec4<f32>>");
 pub const COUNTERS: Lane = lane(Home::Core, "counters", "array<atomic<u32>>");
 /// Bond breakages of the batch.
 pub const EVENTS: Lane = lane(Home::Core, "events", "array<vec4<u32>>");
-/// The heat ledger (heat.wgsl).
+/// The heat ledger (heat_ledger.wgsl).
 pub const HEAT: Lane = lane(Home::Core, "heat", "array<vec2<f32>>");
 
 // A slab's lanes (`SlabLanes`): per row entry (rank by rank), or per particle and wall.

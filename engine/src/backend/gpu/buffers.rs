@@ -37,7 +37,7 @@ pub struct Params {
     pub buckets: u32,
     pub skin: f32,
     pub cell: f32,
-    /// 1.0, opaque to the shader compiler (`ledger_add` in heat.wgsl).
+    /// 1.0, opaque to the shader compiler (`ledger_add` in heat_ledger.wgsl).
     pub one: f32,
     pub pad: [f32; 3],
 }
@@ -126,7 +126,7 @@ pub struct HostLanes {
     /// without epsd).
     pub rolling: Vec<[f32; 4]>,
     pub wall_rolling: Vec<[f32; 4]>,
-    /// Heat ledger slots per particle ([`super::heat::Layout`]).
+    /// Heat ledger slots per particle ([`super::heat_ledger::Layout`]).
     pub heat_lanes: usize,
 }
 

@@ -38,7 +38,7 @@ pub mod conduction;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
-pub mod heat;
+pub mod heat_ledger;
 pub mod integrate;
 pub mod memory;
 pub mod moisture;
@@ -212,7 +212,7 @@ pub struct GpuBackend {
     /// Bytes of the device buffers of the last run.
     device_bytes: u64,
     /// The heat ledger's slots.
-    ledger: heat::Layout,
+    ledger: heat_ledger::Layout,
     /// The first error the device reported outside a call (wgpu's uncaptured errors).
     errors: Arc<Mutex<Option<String>>>,
     /// A storage binding limit below the device's (tests of the split into slabs).
@@ -250,7 +250,7 @@ impl GpuBackend {
             }
         }));
         let device: &GpuContext = &ctx; // the pipelines are cached on the context
-        let ledger = heat::Layout::for_plan(&plan);
+        let ledger = heat_ledger::Layout::for_plan(&plan);
         let mut constants = shaders::constants(&plan);
         constants.extend(ledger.constants());
         let pipelines = Pipelines {
@@ -566,7 +566,9 @@ impl GpuBackend {
                 }
                 // A field stage not due after this step; the rows' drift and the guard end a
                 // batch (`batch_tail`); the heat ledger is booked inside the stages that dissipate.
-                Stage::Conduction | Stage::Moisture | Stage::Neighbours | Stage::Heat | Stage::Guard => return None,
+                Stage::Conduction | Stage::Moisture | Stage::Neighbours | Stage::HeatLedger | Stage::Guard => {
+                    return None
+                }
             })
         };
         self.plan.stages().into_iter().filter_map(|stage| Some((stage, work(stage)?))).collect()

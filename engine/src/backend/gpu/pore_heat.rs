@@ -5,7 +5,7 @@
 //! exchange with the grains at the pores' corners. Built only when the plan's pore flow is
 //! `thermal` (its pipelines, lanes and kernels are absent otherwise); run inside the
 //! `pore_flow` stage's debug group by [`super::pore_flow::PoreSession`]. CPU twin:
-//! `backend/cpu/pore_heat.rs` (`pores/heat.rs`, and `pores/flow.rs`'s `substep` for the
+//! `backend/cpu/pore_heat.rs` (`pores/fluid_temperature.rs`, and `pores/flow.rs`'s `substep` for the
 //! advection).
 //!
 //! - **Upload**: each pore's excess temperature T − T0, what its region supplies (the

@@ -1,5 +1,5 @@
 //! The WGSL sources (the only file that names shader paths), each with its bindings, and the
-//! one way a stage becomes a pipeline: `common.wgsl` and `heat.wgsl`, then the stage's binding
+//! one way a stage becomes a pipeline: `common.wgsl` and `heat_ledger.wgsl`, then the stage's binding
 //! declarations (generated from its [`Bindings`]), then the stage's file; the plan's choices
 //! passed as pipeline-overridable constants, so a switched-off effect is compiled out.
 
@@ -13,7 +13,7 @@ use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
 
 pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
-pub const HEAT_LEDGER: &str = include_str!("../../../../shaders/heat.wgsl");
+pub const HEAT_LEDGER: &str = include_str!("../../../../shaders/heat_ledger.wgsl");
 
 /// A stage's WGSL: its source (one file, or two compiled together) and its bindings.
 #[derive(Debug)]

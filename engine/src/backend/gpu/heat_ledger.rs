@@ -4,7 +4,7 @@
 //! without walls or bonds pays for no wall-work or breakage lane. Each download adds the
 //! device's sums to the model's f64 ledger; each upload starts them from zero.
 //!
-//! A slot is a compensated f32 pair (hi, lo) (`ledger_add` in heat.wgsl): a step's heat
+//! A slot is a compensated f32 pair (hi, lo) (`ledger_add` in heat_ledger.wgsl): a step's heat
 //! is ~1e-6 of what a run accumulates over 1e5–1e6 steps, and a plain f32 sum would round
 //! most of it away.
 
@@ -14,7 +14,7 @@ use crate::error::Result;
 use crate::model::Model;
 use crate::plan::StepPlan;
 
-/// The ledger's causes, in the order of `HeatLedger::lanes_mut`, by their names in heat.wgsl.
+/// The ledger's causes, in the order of `HeatLedger::lanes_mut`, by their names in heat_ledger.wgsl.
 const CAUSES: [&str; 5] = ["HEAT_DAMPING", "HEAT_CONTACT_DAMPING", "HEAT_FRICTION", "HEAT_BREAKAGE", "HEAT_WALL_WORK"];
 
 /// The slot of each cause on the device (`None`: the plan cannot produce that heat).
@@ -41,7 +41,7 @@ impl Layout {
         self.slots.iter().flatten().count()
     }
 
-    /// The slots as the pipeline constants of heat.wgsl (255: off).
+    /// The slots as the pipeline constants of heat_ledger.wgsl (255: off).
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
         let mut c = vec![("HEAT_LANES", self.lanes() as f64)];
         c.extend(CAUSES.iter().zip(self.slots).map(|(name, s)| (*name, f64::from(s.unwrap_or(255)))));
@@ -59,7 +59,7 @@ impl Layout {
         for (lane, slot) in m.particles.heat.lanes_mut().into_iter().zip(self.slots) {
             let Some(slot) = slot else { continue };
             for (i, h) in lane.iter_mut().enumerate() {
-                // Cause by cause, as ledger_index in heat.wgsl lays them.
+                // Cause by cause, as ledger_index in heat_ledger.wgsl lays them.
                 let [hi, lo] = sums[slot as usize * d.n + i];
                 *h += f64::from(hi) + f64::from(lo);
             }
