@@ -229,7 +229,7 @@ fn the_stage_costs_nothing_when_off_and_epsd_alone_has_lanes() {
     run(&mut c, 10);
     assert!(c.model.contacts.rolling.is_empty() && c.model.wall_rolling.is_empty(), "cdt keeps no lanes");
     let sets: Vec<&str> = c.plan().lane_sets().iter().map(|s| s.stage).collect();
-    assert_eq!(sets, ["core", "rotation", "heat"]);
+    assert_eq!(sets, ["core", "rotation", "heat_ledger"]);
 
     let mut e = Simulation::new(ball(epsd(0.1, 0.0), 0.0, 0.2));
     run(&mut e, 10);

@@ -97,18 +97,18 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
     let on = Effects { ledger: true, ..Default::default() };
     let cases = [
         (on, vec!["core"], CORE, vec![]),
-        (Effects { friction: true, ..on }, vec!["core", "heat"], CORE + 8, vec!["friction"]),
+        (Effects { friction: true, ..on }, vec!["core", "heat_ledger"], CORE + 8, vec!["friction"]),
         (
             Effects { friction: true, dashpot: true, ..on },
-            vec!["core", "heat"],
+            vec!["core", "heat_ledger"],
             CORE + 16,
             vec!["contact_damping", "friction"],
         ),
         (Effects { friction: true, dashpot: true, ledger: false, ..on }, vec!["core"], CORE, vec![]),
-        (Effects { bonds: true, ..on }, vec!["core", "heat"], CORE + 8, vec!["breakage"]),
+        (Effects { bonds: true, ..on }, vec!["core", "heat_ledger"], CORE + 8, vec!["breakage"]),
         (
             Effects { rotation: true, friction: true, ..on },
-            vec!["core", "rotation", "heat"],
+            vec!["core", "rotation", "heat_ledger"],
             CORE + 72 + 8,
             vec!["friction"],
         ),
@@ -122,7 +122,7 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_cpu() {
         // plus per bond end an id and the state, counted apart) and the breakage lane.
         (
             Effects { bonds: true, parallel: true, ..on },
-            vec!["core", "rotation", "parallel_bond", "heat"],
+            vec!["core", "rotation", "parallel_bond", "heat_ledger"],
             CORE + 72 + 4 + 8,
             vec!["breakage"],
         ),
