@@ -123,6 +123,38 @@ fn every_stage_has_a_wgsl_file_a_gpu_kernel_file_and_a_cpu_twin_of_its_name() {
     assert!(missing.is_empty(), "stages without their files:\n{}", missing.join("\n"));
 }
 
+/// The test files that hold the GPU parity tests of stages tested together; any other stage's
+/// are in `tests/<name>.rs` or `tests/<name>_parity.rs`.
+const PARITY_FILES: [(&str, &str); 9] = [
+    ("walls", "gpu_parity"),
+    ("neighbours", "gpu_parity"),
+    ("contact_forces", "gpu_parity"),
+    ("wall_forces", "gpu_parity"),
+    ("integrate", "gpu_parity"),
+    ("guard", "gpu_parity"),
+    ("heat_ledger", "gpu_energy"),
+    ("conduction", "field_parity"),
+    ("buoyancy", "field_parity"),
+];
+
+#[test]
+fn every_stage_has_a_test_that_runs_it_on_the_gpu() {
+    let tests = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let mut missing = Vec::new();
+    for stage in matdem_engine::plan::Stage::ALL {
+        let name = stage.name();
+        let listed = PARITY_FILES.iter().find(|(s, _)| *s == name).map(|(_, f)| vec![f.to_string()]);
+        let files = listed.unwrap_or_else(|| vec![name.to_string(), format!("{name}_parity")]);
+        // A test of the stage on the device takes one through `common::gpu(…)`.
+        let runs_on_gpu =
+            files.iter().any(|f| fs::read_to_string(tests.join(format!("{f}.rs"))).is_ok_and(|t| t.contains("gpu(")));
+        if !runs_on_gpu {
+            missing.push(format!("{name}: no tests/{}.rs that runs a GPU (common::gpu)", files.join(".rs or tests/")));
+        }
+    }
+    assert!(missing.is_empty(), "stages without a GPU parity test:\n{}", missing.join("\n"));
+}
+
 /// The engine's module graph, file by file: nodes are the files' module paths (`::`), and a
 /// file naming a path (`crate::backend::gpu::buffers::DeviceLanes`) joins it to the file that
 /// defines the path's longest prefix that is a module (`backend::gpu::buffers`). A file naming
