@@ -101,10 +101,18 @@ impl Model {
     /// Breaks every bond that has at least one end among `ids` (all when `None`).
     pub fn break_bonds(&mut self, ids: Option<&[u32]>) -> Result<usize> {
         let member = self.membership(ids)?;
+        let count = self.break_bonds_touching(&member);
+        self.touch();
+        Ok(count)
+    }
+
+    /// Breaks every bond with an end flagged in `member` (a script's cut or a kill, not a
+    /// breakage the loads made: none is recorded). Returns how many broke.
+    pub(crate) fn break_bonds_touching(&mut self, member: &[bool]) -> usize {
         let c = &mut self.contacts;
         let mut count = 0;
         for i in 0..c.row_start.len().saturating_sub(1) {
-            for e in c.row_start[i] as usize..c.row_start[i + 1] as usize {
+            for e in c.row(i) {
                 let j = c.other[e] as usize;
                 if (member[i] || member[j]) && c.state[e].bonded {
                     c.state[e].bonded = false;
@@ -116,8 +124,7 @@ impl Model {
                 }
             }
         }
-        self.touch();
-        Ok(count)
+        count
     }
 
     /// Sets every bond for which `selected(i, j)` holds (asked once per pair, i < j) to

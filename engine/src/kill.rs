@@ -73,20 +73,7 @@ impl Model {
         for &i in &doomed {
             member[i] = true;
         }
-        let c = &mut self.contacts;
-        for i in 0..c.row_start.len().saturating_sub(1) {
-            for e in c.row(i) {
-                let j = c.other[e] as usize;
-                if (member[i] || member[j]) && c.state[e].bonded {
-                    c.state[e].bonded = false;
-                    c.state[e].weakened = 0;
-                    c.state[e].shear = Vec3::zeros();
-                    if i < j {
-                        report.bonds_broken += 1;
-                    }
-                }
-            }
-        }
+        report.bonds_broken = self.break_bonds_touching(&member);
         let pb = &mut self.parallel_bonds;
         for i in 0..pb.row_start.len().saturating_sub(1) {
             for e in pb.row(i) {
