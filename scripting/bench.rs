@@ -1,9 +1,12 @@
 //! `matdem-rs bench`: times the standard lattice scene ([`matdem_engine::bench`]) and prints
 //! throughput, contacts, memory and the machine, as text or as one JSON object.
 
-use matdem_engine::backend::gpu::device::GpuContext;
+use crate::run_backend::GpuContext;
+#[cfg(feature = "gpu")]
 use matdem_engine::backend::gpu::profile::{GpuProfile, ProfileClock};
-use matdem_engine::bench::{profile, profile_gpu, run, BenchReport, LatticeScene, StageProfile};
+#[cfg(feature = "gpu")]
+use matdem_engine::bench::profile_gpu;
+use matdem_engine::bench::{profile, run, BenchReport, LatticeScene, StageProfile};
 use matdem_engine::Simulation;
 use std::sync::Arc;
 
@@ -91,10 +94,10 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     let (profile, gpu_profile) = match (cfg.profile, &cfg.gpu) {
         (false, _) => (None, None),
         (true, None) => (Some(profile(&model, cfg.warmup, cfg.steps).map_err(failed)?), None),
-        (true, Some(ctx)) => (None, Some(profile_gpu(&model, ctx.clone(), cfg.warmup, cfg.steps).map_err(failed)?)),
+        (true, Some(ctx)) => (None, Some(gpu_profile(&model, ctx, cfg).map_err(failed)?)),
     };
     let sim = match &cfg.gpu {
-        Some(ctx) => Simulation::with_gpu(model, ctx.clone()),
+        Some(ctx) => on_gpu(model, ctx),
         None => Simulation::new(model),
     };
     let (report, _) = run(sim, cfg.warmup, cfg.steps).map_err(|e| format!("error: the bench run failed: {e}"))?;
@@ -115,6 +118,45 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
         out.push_str(&gpu_profile_text(p));
     }
     Ok(out)
+}
+
+/// Each stage's time on the GPU ([`matdem_engine::bench::profile_gpu`]).
+#[cfg(feature = "gpu")]
+fn gpu_profile(
+    model: &matdem_engine::Model,
+    ctx: &Arc<GpuContext>,
+    cfg: &BenchConfig,
+) -> matdem_engine::Result<GpuProfile> {
+    profile_gpu(model, ctx.clone(), cfg.warmup, cfg.steps)
+}
+
+#[cfg(feature = "gpu")]
+fn on_gpu(model: matdem_engine::Model, ctx: &Arc<GpuContext>) -> Simulation {
+    Simulation::with_gpu(model, ctx.clone())
+}
+
+/// A build without the GPU backend has no device, so no GPU profile either.
+#[cfg(not(feature = "gpu"))]
+enum GpuProfile {}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_profile(_: &matdem_engine::Model, ctx: &Arc<GpuContext>, _: &BenchConfig) -> matdem_engine::Result<GpuProfile> {
+    match **ctx {}
+}
+
+#[cfg(not(feature = "gpu"))]
+fn on_gpu(_: matdem_engine::Model, ctx: &Arc<GpuContext>) -> Simulation {
+    match **ctx {}
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_profile_text(p: &GpuProfile) -> String {
+    match *p {}
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_profile_json(p: &GpuProfile) -> String {
+    match *p {}
 }
 
 /// Each named stage's share of a step, from separate passes.
@@ -139,6 +181,7 @@ fn profile_text(p: &StageProfile) -> String {
 }
 
 /// Each stage's time on the device, the bytes it binds and the bandwidth that makes.
+#[cfg(feature = "gpu")]
 fn gpu_profile_text(p: &GpuProfile) -> String {
     let mut o = String::new();
     let per_step = |x: f64| x / p.steps.max(1) as f64;
@@ -276,6 +319,7 @@ fn text(s: &LatticeScene, r: &BenchReport, b: &Backend, fields: &[BenchField]) -
 
 /// The GPU profile as a JSON object: the clock, each stage's seconds, bytes and dispatches
 /// over the profiled steps, the batched time, a run's dispatches and submissions a step.
+#[cfg(feature = "gpu")]
 fn gpu_profile_json(p: &GpuProfile) -> String {
     let stages: Vec<String> = p
         .stages

@@ -5,9 +5,23 @@
 //! and every model of the run, those made before included, steps on the faster. A resumed
 //! run steps where the interrupted one did, without measuring again.
 
-use matdem_engine::backend::gpu::device::GpuContext;
+#[cfg(feature = "gpu")]
+pub use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::Target;
 use std::sync::Arc;
+
+/// A build without the GPU backend (the `gpu` feature off) has no device: no GPU or `auto`
+/// backend can be made, and every match on one is a match on nothing.
+#[cfg(not(feature = "gpu"))]
+#[derive(Debug)]
+pub enum GpuContext {}
+
+#[cfg(not(feature = "gpu"))]
+impl GpuContext {
+    pub fn describe(&self) -> String {
+        match *self {}
+    }
+}
 
 /// Where the run's models step.
 #[derive(Clone, Default)]
@@ -48,7 +62,10 @@ impl RunBackend {
     /// Where a model made now steps (the CPU while `auto` is undecided).
     pub fn target(&self) -> Target {
         match self {
+            #[cfg(feature = "gpu")]
             RunBackend::Gpu(ctx) => Target::Gpu(ctx.clone()),
+            #[cfg(not(feature = "gpu"))]
+            RunBackend::Gpu(ctx) => match **ctx {},
             RunBackend::Cpu | RunBackend::Auto(_) => Target::Cpu,
         }
     }

@@ -4,7 +4,9 @@
 
 use super::model::ModelHandle;
 use super::Host;
+#[cfg(feature = "gpu")]
 use crate::run_backend::RunBackend;
+#[cfg(feature = "gpu")]
 use matdem_engine::backend::speed_test::{measure, Choice};
 
 /// Decides an undecided `auto` run at the run or balance of `d` about to start: measures
@@ -12,6 +14,7 @@ use matdem_engine::backend::speed_test::{measure, Choice};
 /// when the run is decided, or when `d` has no particles (the next run decides). A speed
 /// test that could not step the scene on the CPU leaves the run undecided: the run itself
 /// meets the same error and reports it.
+#[cfg(feature = "gpu")]
 pub fn settle(host: &Host, d: &ModelHandle) -> Result<(), String> {
     let ctx = match &*host.backend.borrow() {
         RunBackend::Auto(ctx) => ctx.clone(),
@@ -39,5 +42,11 @@ pub fn settle(host: &Host, d: &ModelHandle) -> Result<(), String> {
     host.session.borrow_mut().backend = chosen.describe();
     *host.speed_test.borrow_mut() = Some(line);
     *host.backend.borrow_mut() = chosen;
+    Ok(())
+}
+
+/// Without the GPU backend a run is never undecided: nothing to settle.
+#[cfg(not(feature = "gpu"))]
+pub fn settle(_host: &Host, _d: &ModelHandle) -> Result<(), String> {
     Ok(())
 }

@@ -9,6 +9,7 @@ mod sweep;
 
 use crate::cli::{Backend, Command};
 use clap::ValueEnum;
+#[cfg(feature = "gpu")]
 use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute};
 use matdem_engine::backend::RunControl;
 use matdem_rs::run_backend::RunBackend;
@@ -118,6 +119,7 @@ fn stop_on_signals(control: &RunControl, what: &str) {
 /// on the CPU, why). With a GPU to measure, `auto` is left for the first run to decide
 /// ([`matdem_rs::run_backend`]). `--backend gpu` without a usable adapter ends the command
 /// (exit 2).
+#[cfg(feature = "gpu")]
 fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
     let choice = match backend {
         Backend::Auto => BackendChoice::Auto,
@@ -149,6 +151,21 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
             Ok(RunBackend::Cpu)
         }
     }
+}
+
+/// [`open_backend`] in a build without the GPU backend (the `gpu` feature off): the CPU, and
+/// `--backend gpu` ends the command as it does without a usable adapter (exit 2).
+#[cfg(not(feature = "gpu"))]
+fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
+    if matches!(backend, Backend::Gpu) {
+        return Err(Failure::error(
+            "no usable GPU: this build of matdem-rs has no GPU backend (built without the `gpu` feature); run with \
+             --backend cpu (or auto, which falls back to the CPU)",
+        ));
+    }
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    eprintln!("backend: cpu (f64, {threads} threads)");
+    Ok(RunBackend::Cpu)
 }
 
 /// This binary, which runs each point of a study or sweep.
