@@ -37,15 +37,15 @@ impl Reduce for Breaks {
 /// evaluates, so the gather pass recomputes it bit for bit from 8 bytes instead of 24
 /// (this record is written and read back every step: its size is memory traffic).
 #[derive(Clone, Copy, Default)]
-struct PairOut {
+pub(super) struct PairOut {
     /// New state.
-    state: PairState,
+    pub state: PairState,
     /// Unit normal from the lower id towards the higher (zero while apart).
-    normal: Vec3,
+    pub normal: Vec3,
     /// Normal force on the lower id, positive in compression (zero while apart).
-    normal_force: f64,
+    pub normal_force: f64,
     /// Heat of the whole pair this step: (dashpot, friction, breakage).
-    heat: [f64; 3],
+    pub heat: [f64; 3],
 }
 
 /// Per-pair results passed from the pair pass to the gather pass, indexed by pair id
@@ -162,7 +162,8 @@ fn contact_loop<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: 
 }
 
 /// Pass 1: every pair once, from its lower id. It reads the pair states from the records
-/// when they hold the current ones, else from the rows.
+/// when they hold the current ones, else from the rows. The pairs go through the law four at
+/// a time (pair_batch.rs), in AVX2 where the processor has it: the same numbers either way.
 pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
     m: &Model,
     plan: &StepPlan,
@@ -170,82 +171,131 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
 ) -> Breaks {
     let from_records = scratch.records_current;
     scratch.records_current = true;
-    let dt = m.clock.dt;
     let (p, c) = (&m.particles, &m.contacts);
-    let (pos, vel, radius, mass, material) = (&p.pos, &p.vel, &p.radius, &p.mass, &p.material);
-    let ang_vel = p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]);
-    let (row_start, other, state, pair_start) = (&c.row_start[..], &c.other[..], &c.state[..], &c.pair_start[..]);
+    let inputs = PairInputs {
+        pos: &p.pos,
+        vel: &p.vel,
+        radius: &p.radius,
+        mass: &p.mass,
+        material: &p.material,
+        ang_vel: p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]),
+        plan,
+        dt: m.clock.dt,
+    };
+    let rows = PairRows { row_start: &c.row_start, other: &c.other, state: &c.state, pair_start: &c.pair_start };
     let dashpots = Some(&mut scratch.dashpot[..]).filter(|_| T::DAMPED);
     let outs = (&mut scratch.out[..], dashpots);
-    for_blocks(0..p.len(), Rows::Csr(pair_start), (), outs, &|range, (), (out, mut dashpots)| {
-        let base = pair_start[range.start] as usize;
-        let mut breaks = Breaks::default();
-        for i in range.clone() {
-            let (xi, ri, vi, mi, mati) = (pos[i], radius[i], vel[i], mass[i], material[i]);
-            let wi = ang_vel.map_or(Vec3::zeros(), |w| w[i]);
-            // The pairs this particle owns end its row.
-            let (first_pair, end) = (pair_start[i] as usize, row_start[i + 1] as usize);
-            let first = end - (pair_start[i + 1] as usize - first_pair);
-            // The row's tail and the scratch records are walked in step, as slices checked
-            // once per particle rather than indexed (and bounds-checked) once per pair.
-            let k0 = first_pair - base;
-            let records = &mut out[k0..k0 + (end - first)];
-            let row_states = &state[first..end];
-            for (n, (&j, record)) in other[first..end].iter().zip(records.iter_mut()).enumerate() {
-                let (j, k) = (j as usize, k0 + n);
-                debug_assert!(j > i && c.pair[first + n] as usize == k + base);
-                // The rows' copy is not read when the record's is current: that read was
-                // ~10 % of a fused step's memory traffic.
-                let mut st = if from_records { record.state } else { row_states[n] };
-                let d = pos[j] - xi;
-                let rj = radius[j];
-                let touch = ri + rj;
-                let dist2 = d.norm_squared();
-                let (mut normal_force, mut nrm, mut heat) = (0.0, Vec3::zeros(), [0.0; 3]);
-                let mut td = Vec3::zeros();
-                if !st.bonded && dist2 >= touch * touch {
-                    if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
-                        // The contact has just opened.
-                        let nrm = d / dist2.sqrt();
-                        let mut v_rel = vi - vel[j];
-                        if let Some(w) = ang_vel {
-                            v_rel += wi.cross(&(nrm * ri)) - w[j].cross(&(nrm * -rj));
-                        }
-                        let pp = plan.pair(mati, material[j]);
-                        let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, &mut st, &nrm, v_rel, dt);
-                        heat = [damping, friction, 0.0];
-                    }
-                } else {
-                    let dist = dist2.sqrt();
-                    nrm = d / dist;
-                    let mut v_rel = vi - vel[j];
-                    if let Some(w) = ang_vel {
-                        v_rel += wi.cross(&(nrm * ri)) - w[j].cross(&(nrm * -rj));
-                    }
-                    let mj = mass[j];
-                    let g = ContactGeometry {
-                        n: nrm,
-                        overlap: touch - dist,
-                        v_rel,
-                        r_star: ri * rj / touch,
-                        m_star: mi * mj / (mi + mj),
-                    };
-                    let r = contact::<N, T, DASHPOT>(&g, plan.pair(mati, material[j]), &mut st, dt);
-                    normal_force = r.normal_force;
-                    heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
-                    td = r.tangential_dashpot;
-                    if let Some(kind) = r.broke {
-                        breaks.0.push((i as u32, j as u32, kind));
-                    }
-                }
-                *record = PairOut { state: st, normal: nrm, normal_force, heat };
-                if let Some(d) = dashpots.as_deref_mut().filter(|_| T::DAMPED) {
-                    d[k] = td;
-                }
-            }
-        }
-        breaks
+    let avx2 = super::pair_batch::has_avx2();
+    for_blocks(0..p.len(), Rows::Csr(&c.pair_start), (), outs, &|range, (), (out, dashpots)| {
+        let block = BlockPairs { range, rows: &rows, from_records, out, dashpots };
+        super::pair_batch::run::<N, T, DASHPOT, ROT>(&inputs, block, avx2)
     })
+}
+
+/// What the law reads of the particles.
+pub(super) struct PairInputs<'a> {
+    pub pos: &'a [Vec3],
+    pub vel: &'a [Vec3],
+    pub radius: &'a [f64],
+    pub mass: &'a [f64],
+    pub material: &'a [u32],
+    /// The spins, when the plan rotates.
+    pub ang_vel: Option<&'a [Vec3]>,
+    pub plan: &'a StepPlan,
+    pub dt: f64,
+}
+
+/// The neighbour rows the pair pass walks.
+pub(super) struct PairRows<'a> {
+    pub row_start: &'a [u32],
+    pub other: &'a [u32],
+    pub state: &'a [PairState],
+    pub pair_start: &'a [u32],
+}
+
+/// One block of the pair pass: its particles, and the records of the pairs they own.
+pub(super) struct BlockPairs<'a, 'r> {
+    pub range: std::ops::Range<usize>,
+    pub rows: &'r PairRows<'r>,
+    /// The records hold the current pair states (else the rows do).
+    pub from_records: bool,
+    /// The block's records, from its first particle's first pair.
+    pub out: &'a mut [PairOut],
+    /// The block's tangential dashpot forces (a damped law only).
+    pub dashpots: Option<&'a mut [Vec3]>,
+}
+
+impl BlockPairs<'_, '_> {
+    /// Pair `i`–`j`'s state this step began with: its record's, or its row entry `e`'s.
+    #[inline(always)]
+    pub fn state(&self, k: usize, e: usize) -> PairState {
+        if self.from_records {
+            self.out[k].state
+        } else {
+            self.rows.state[e]
+        }
+    }
+
+    /// Stores the pair's results in its record `k` (block-local).
+    #[inline(always)]
+    pub fn store<T: TangentialLaw>(&mut self, k: usize, record: PairOut, tangential_dashpot: Vec3) {
+        self.out[k] = record;
+        if let Some(d) = self.dashpots.as_deref_mut().filter(|_| T::DAMPED) {
+            d[k] = tangential_dashpot;
+        }
+    }
+}
+
+/// One pair `i` < `j` through the law, whatever its state, from the state `st` it began the
+/// step with: its record, its tangential dashpot force, and the kind of break if its bond broke.
+#[inline(always)]
+pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
+    inp: &PairInputs,
+    i: usize,
+    j: usize,
+    mut st: PairState,
+) -> (PairOut, Vec3, Option<BreakKind>) {
+    let (xi, ri, vi) = (inp.pos[i], inp.radius[i], inp.vel[i]);
+    let d = inp.pos[j] - xi;
+    let rj = inp.radius[j];
+    let touch = ri + rj;
+    let dist2 = d.norm_squared();
+    let (mut normal_force, mut nrm, mut heat) = (0.0, Vec3::zeros(), [0.0; 3]);
+    let (mut td, mut broke) = (Vec3::zeros(), None);
+    // The contact points' relative velocity along the normal `n`.
+    let v_rel = |n: &Vec3| {
+        let mut v_rel = vi - inp.vel[j];
+        if let Some(w) = inp.ang_vel {
+            v_rel += w[i].cross(&(n * ri)) - w[j].cross(&(n * -rj));
+        }
+        v_rel
+    };
+    let pp = inp.plan.pair(inp.material[i], inp.material[j]);
+    if !st.bonded && dist2 >= touch * touch {
+        if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
+            // The contact has just opened.
+            let nrm = d / dist2.sqrt();
+            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, &mut st, &nrm, v_rel(&nrm), inp.dt);
+            heat = [damping, friction, 0.0];
+        }
+    } else {
+        let dist = dist2.sqrt();
+        nrm = d / dist;
+        let (mi, mj) = (inp.mass[i], inp.mass[j]);
+        let g = ContactGeometry {
+            n: nrm,
+            overlap: touch - dist,
+            v_rel: v_rel(&nrm),
+            r_star: ri * rj / touch,
+            m_star: mi * mj / (mi + mj),
+        };
+        let r = contact::<N, T, DASHPOT>(&g, pp, &mut st, inp.dt);
+        normal_force = r.normal_force;
+        heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
+        td = r.tangential_dashpot;
+        broke = r.broke;
+    }
+    (PairOut { state: st, normal: nrm, normal_force, heat }, td, broke)
 }
 
 /// Pass 2: each particle sums its row in row order and mirrors the new pair states.
