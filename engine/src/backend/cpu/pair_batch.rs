@@ -75,6 +75,7 @@ fn run_block<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
         let (first_pair, end) = (rows.pair_start[i] as usize, rows.row_start[i + 1] as usize);
         let first = end - (rows.pair_start[i + 1] as usize - first_pair);
         for (n, &j) in rows.other[first..end].iter().enumerate() {
+            debug_assert!(j as usize > i && rows.pair[first + n] as usize == first_pair + n);
             let l = batch.len;
             (batch.i[l], batch.j[l], batch.k[l], batch.e[l]) = (i, j as usize, first_pair - base + n, first + n);
             batch.len += 1;
@@ -356,7 +357,13 @@ mod tests {
             plan,
             dt: 1e-5,
         };
-        let rows = PairRows { row_start: &c.row_start, other: &c.other, state: &c.state, pair_start: &c.pair_start };
+        let rows = PairRows {
+            row_start: &c.row_start,
+            other: &c.other,
+            state: &c.state,
+            pair_start: &c.pair_start,
+            pair: &c.pair,
+        };
         let pairs = c.pair_count();
         let mut expected = vec![(PairOut::default(), Vec3::zeros(), None); pairs];
         for i in 0..p.len() {
