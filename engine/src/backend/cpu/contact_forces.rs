@@ -11,42 +11,15 @@
 //! evaluating every pair from both rows gave, bit for bit (up to the sign of a zero), at half
 //! the cost of the contact law. The loops are monomorphised for the plan's laws.
 
-use super::blocks::{for_blocks, Reduce, Rows};
+use super::blocks::{for_blocks, Rows};
 use super::heat_ledger::HeatLanes;
+use super::pair_records::{BlockPairs, PairInputs, PairOut, PairRows};
 use crate::model::Model;
-use crate::physics::contact_law::{
-    contact, contact_opened, BreakKind, ContactGeometry, NormalLaw, PairState, TangentialLaw,
-};
+use crate::physics::contact_law::{NormalLaw, PairState, TangentialLaw};
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 
-/// Bonds that broke during the pass, in particle order: (i, j, kind) with i < j.
-#[derive(Default)]
-pub struct Breaks(pub Vec<(u32, u32, BreakKind)>);
-
-impl Reduce for Breaks {
-    fn combine(mut self, mut other: Self) -> Self {
-        self.0.append(&mut other.0);
-        self
-    }
-}
-
-/// What the pair pass leaves for the gather pass about one pair, as seen from its lower id.
-/// One record per pair, so the gather pass meets each pair in one place. The force on the
-/// lower id is `state.shear − normal·normal_force`, the very expression the contact law
-/// evaluates, so the gather pass recomputes it bit for bit from 8 bytes instead of 24
-/// (this record is written and read back every step: its size is memory traffic).
-#[derive(Clone, Copy, Default)]
-pub(super) struct PairOut {
-    /// New state.
-    pub state: PairState,
-    /// Unit normal from the lower id towards the higher (zero while apart).
-    pub normal: Vec3,
-    /// Normal force on the lower id, positive in compression (zero while apart).
-    pub normal_force: f64,
-    /// Heat of the whole pair this step: (dashpot, friction, breakage).
-    pub heat: [f64; 3],
-}
+pub use super::pair_records::Breaks;
 
 /// Per-pair results passed from the pair pass to the gather pass, indexed by pair id
 /// ([`Contacts::pair`](crate::state::contacts::Contacts::pair)). Kept between steps so a
@@ -196,116 +169,6 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
         let block = BlockPairs { range, rows: &rows, from_records, out, dashpots };
         super::pair_batch::run::<N, T, DASHPOT, ROT>(&inputs, block, avx2)
     })
-}
-
-/// What the law reads of the particles.
-pub(super) struct PairInputs<'a> {
-    pub pos: &'a [Vec3],
-    pub vel: &'a [Vec3],
-    pub radius: &'a [f64],
-    pub mass: &'a [f64],
-    pub material: &'a [u32],
-    /// The spins, when the plan rotates.
-    pub ang_vel: Option<&'a [Vec3]>,
-    pub plan: &'a StepPlan,
-    pub dt: f64,
-}
-
-/// The neighbour rows the pair pass walks.
-pub(super) struct PairRows<'a> {
-    pub row_start: &'a [u32],
-    pub other: &'a [u32],
-    pub state: &'a [PairState],
-    pub pair_start: &'a [u32],
-    /// Each row entry's pair id (read by debug checks only).
-    pub pair: &'a [u32],
-}
-
-/// One block of the pair pass: its particles, and the records of the pairs they own.
-pub(super) struct BlockPairs<'a, 'r> {
-    pub range: std::ops::Range<usize>,
-    pub rows: &'r PairRows<'r>,
-    /// The records hold the current pair states (else the rows do).
-    pub from_records: bool,
-    /// The block's records, from its first particle's first pair.
-    pub out: &'a mut [PairOut],
-    /// The block's tangential dashpot forces (a damped law only).
-    pub dashpots: Option<&'a mut [Vec3]>,
-}
-
-impl BlockPairs<'_, '_> {
-    /// The state pair `k` began this step with: its record's while that is current (the rows'
-    /// copy is then not read: that read was ~10 % of a fused step's memory traffic), else its
-    /// entry `e` in the lower id's row.
-    #[inline(always)]
-    pub fn state(&self, k: usize, e: usize) -> PairState {
-        if self.from_records {
-            self.out[k].state
-        } else {
-            self.rows.state[e]
-        }
-    }
-
-    /// Stores the pair's results in its record `k` (block-local).
-    #[inline(always)]
-    pub fn store<T: TangentialLaw>(&mut self, k: usize, record: PairOut, tangential_dashpot: Vec3) {
-        self.out[k] = record;
-        if let Some(d) = self.dashpots.as_deref_mut().filter(|_| T::DAMPED) {
-            d[k] = tangential_dashpot;
-        }
-    }
-}
-
-/// One pair `i` < `j` through the law, whatever its state, from the state `st` it began the
-/// step with: its record, its tangential dashpot force, and the kind of break if its bond broke.
-#[inline(always)]
-pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
-    inp: &PairInputs,
-    i: usize,
-    j: usize,
-    mut st: PairState,
-) -> (PairOut, Vec3, Option<BreakKind>) {
-    let (xi, ri, vi) = (inp.pos[i], inp.radius[i], inp.vel[i]);
-    let d = inp.pos[j] - xi;
-    let rj = inp.radius[j];
-    let touch = ri + rj;
-    let dist2 = d.norm_squared();
-    let (mut normal_force, mut nrm, mut heat) = (0.0, Vec3::zeros(), [0.0; 3]);
-    let (mut td, mut broke) = (Vec3::zeros(), None);
-    // The contact points' relative velocity along the normal `n`.
-    let v_rel = |n: &Vec3| {
-        let mut v_rel = vi - inp.vel[j];
-        if let Some(w) = inp.ang_vel {
-            v_rel += w[i].cross(&(n * ri)) - w[j].cross(&(n * -rj));
-        }
-        v_rel
-    };
-    let pp = inp.plan.pair(inp.material[i], inp.material[j]);
-    if !st.bonded && dist2 >= touch * touch {
-        if st.shear != Vec3::zeros() || st.dashpot != 0.0 {
-            // The contact has just opened.
-            let nrm = d / dist2.sqrt();
-            let (friction, damping) = contact_opened::<T>(pp, ri * rj / touch, &mut st, &nrm, v_rel(&nrm), inp.dt);
-            heat = [damping, friction, 0.0];
-        }
-    } else {
-        let dist = dist2.sqrt();
-        nrm = d / dist;
-        let (mi, mj) = (inp.mass[i], inp.mass[j]);
-        let g = ContactGeometry {
-            n: nrm,
-            overlap: touch - dist,
-            v_rel: v_rel(&nrm),
-            r_star: ri * rj / touch,
-            m_star: mi * mj / (mi + mj),
-        };
-        let r = contact::<N, T, DASHPOT>(&g, pp, &mut st, inp.dt);
-        normal_force = r.normal_force;
-        heat = [r.heat_damping, r.heat_friction, r.heat_breakage];
-        td = r.tangential_dashpot;
-        broke = r.broke;
-    }
-    (PairOut { state: st, normal: nrm, normal_force, heat }, td, broke)
 }
 
 /// Pass 2: each particle sums its row in row order and mirrors the new pair states.

@@ -14,6 +14,7 @@ pub mod integrate;
 mod lanes;
 pub mod moisture;
 mod pair_batch;
+mod pair_records;
 pub mod parallel_bond;
 pub mod pore_flow;
 pub mod pore_heat;

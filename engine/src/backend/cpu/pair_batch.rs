@@ -9,8 +9,8 @@
 //! every law, sliding, opening and bonded pairs included). The laws' own formulas (normal
 //! force, stiffnesses, dashpots) are called lane by lane, so they are written once.
 
-use super::contact_forces::{one_pair, BlockPairs, Breaks, PairInputs, PairOut};
 use super::lanes::{LANES, M4, V4, X4};
+use super::pair_records::{one_pair, BlockPairs, Breaks, PairInputs, PairOut};
 use crate::physics::contact_law::{NormalLaw, PairParams, PairState, TangentialLaw};
 
 /// Whether this processor runs the AVX2 build of the pass (checked once a pass).
@@ -266,7 +266,7 @@ fn released_signed(trial: V4, kept: V4, prev: V4, k: X4) -> X4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::backend::cpu::contact_forces::{PairOut, PairRows};
+    use crate::backend::cpu::pair_records::{PairOut, PairRows};
     use crate::materials::Material;
     use crate::model::{Model, NormalKind, TangentialKind};
     use crate::physics::Vec3;
