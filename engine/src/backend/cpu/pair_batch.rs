@@ -61,6 +61,7 @@ struct Batch {
     e: [usize; LANES],
 }
 
+/// The block's pairs in row order, queued in fours; a last batch of fewer goes scalar.
 #[inline(always)]
 fn run_block<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
     inp: &PairInputs,
