@@ -144,28 +144,11 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
 ) -> Breaks {
     let from_records = scratch.records_current;
     scratch.records_current = true;
-    let (p, c) = (&m.particles, &m.contacts);
-    let inputs = PairInputs {
-        pos: &p.pos,
-        vel: &p.vel,
-        radius: &p.radius,
-        mass: &p.mass,
-        material: &p.material,
-        ang_vel: p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]),
-        plan,
-        dt: m.clock.dt,
-    };
-    let rows = PairRows {
-        row_start: &c.row_start,
-        other: &c.other,
-        state: &c.state,
-        pair_start: &c.pair_start,
-        pair: &c.pair,
-    };
+    let (inputs, rows) = (PairInputs::of(m, plan, ROT), PairRows::of(&m.contacts));
     let dashpots = Some(&mut scratch.dashpot[..]).filter(|_| T::DAMPED);
     let outs = (&mut scratch.out[..], dashpots);
     let avx2 = super::pair_batch::has_avx2();
-    for_blocks(0..p.len(), Rows::Csr(&c.pair_start), (), outs, &|range, (), (out, dashpots)| {
+    for_blocks(0..m.particles.len(), Rows::Csr(&m.contacts.pair_start), (), outs, &|range, (), (out, dashpots)| {
         let block = BlockPairs { range, rows: &rows, from_records, out, dashpots };
         super::pair_batch::run::<N, T, DASHPOT, ROT>(&inputs, block, avx2)
     })

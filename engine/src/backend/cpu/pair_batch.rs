@@ -348,23 +348,8 @@ mod tests {
         plan: &StepPlan,
     ) -> [usize; 3] {
         let (p, c) = (&m.particles, &m.contacts);
-        let inp = PairInputs {
-            pos: &p.pos,
-            vel: &p.vel,
-            radius: &p.radius,
-            mass: &p.mass,
-            material: &p.material,
-            ang_vel: p.rotation.as_ref().filter(|_| ROT).map(|r| &r.ang_vel[..]),
-            plan,
-            dt: 1e-5,
-        };
-        let rows = PairRows {
-            row_start: &c.row_start,
-            other: &c.other,
-            state: &c.state,
-            pair_start: &c.pair_start,
-            pair: &c.pair,
-        };
+        let inp = PairInputs { dt: 1e-5, ..PairInputs::of(m, plan, ROT) };
+        let rows = PairRows::of(c);
         let pairs = c.pair_count();
         let mut expected = vec![(PairOut::default(), Vec3::zeros(), None); pairs];
         for i in 0..p.len() {

@@ -3,11 +3,13 @@
 //! its four-lane batches (pair_batch.rs) work on these.
 
 use super::blocks::Reduce;
+use crate::model::Model;
 use crate::physics::contact_law::{
     contact, contact_opened, BreakKind, ContactGeometry, NormalLaw, PairState, TangentialLaw,
 };
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
+use crate::state::contacts::Contacts;
 
 /// Bonds that broke during the pass, in particle order: (i, j, kind) with i < j.
 #[derive(Default)]
@@ -58,6 +60,29 @@ pub(super) struct PairRows<'a> {
     pub pair_start: &'a [u32],
     /// Each row entry's pair id (read by debug checks only).
     pub pair: &'a [u32],
+}
+
+impl<'a> PairInputs<'a> {
+    /// The model's lanes and step, with the spins when `rotation` (the plan rotates).
+    pub fn of(m: &'a Model, plan: &'a StepPlan, rotation: bool) -> Self {
+        let p = &m.particles;
+        PairInputs {
+            pos: &p.pos,
+            vel: &p.vel,
+            radius: &p.radius,
+            mass: &p.mass,
+            material: &p.material,
+            ang_vel: p.rotation.as_ref().filter(|_| rotation).map(|r| &r.ang_vel[..]),
+            plan,
+            dt: m.clock.dt,
+        }
+    }
+}
+
+impl<'a> PairRows<'a> {
+    pub fn of(c: &'a Contacts) -> Self {
+        PairRows { row_start: &c.row_start, other: &c.other, state: &c.state, pair_start: &c.pair_start, pair: &c.pair }
+    }
 }
 
 /// One block of the pair pass: its particles, and the records of the pairs they own.
