@@ -2,13 +2,18 @@
 // scene has at most eight) and adds the contact forces to its own force; each workgroup sums its
 // particles' loads on each wall in a fixed tree order and leaves one partial per wall, which the
 // walls stage of the next step adds up (walls.wgsl). Runs once per slab; a slab starts on a
-// workgroup boundary, so the partials are the same however the particles are split. CPU twin:
-// backend/cpu/wall_forces.rs.
+// workgroup boundary, so the partials are the same however the particles are split. A wall no
+// particle of the workgroup touches has a zero partial, written without the tree: each wall's
+// tree costs the workgroup 8 barriers, and in a large scene most workgroups touch few walls.
+// CPU twin: backend/cpu/wall_forces.rs.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 var<workgroup> red_force: array<vec4<f32>, 64>;
 var<workgroup> red_stiffness: array<vec4<f32>, 64>;
+// Bit w: some particle of the workgroup touches wall w (zero at the start of a dispatch).
+var<workgroup> touching: atomic<u32>;
+var<workgroup> touching_all: u32;
 
 @compute @workgroup_size(64)
 fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -36,6 +41,21 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     let group = slab.first / 64u + wg.x + wg.y * groups.x;
     // This particle's heat (damping, friction) and the work the walls did on it.
     var h = vec3<f32>(0.0);
+    // Which walls the workgroup touches: their loads are the only ones to sum.
+    var mine = 0u;
+    for (var w = 0u; w < nw; w++) {
+        if inside && wall_overlap(walls[w], k, oi, ui, ri).overlap > 0.0 {
+            mine |= 1u << w;
+        }
+    }
+    if mine != 0u {
+        atomicOr(&touching, mine);
+    }
+    workgroupBarrier();
+    if li == 0u {
+        touching_all = atomicLoad(&touching);
+    }
+    let touched = workgroupUniformLoad(&touching_all);
     // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
     // the workgroup's loads on the wall, summed in a fixed tree order.
     for (var w = 0u; w < nw; w++) {
@@ -44,11 +64,9 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         var load = vec4<f32>(0.0);
         var load2 = vec4<f32>(0.0);
         let wall = walls[w];
-        let hit = wall_hit(wall, oi, ui);
-        let ng = hit.ng;
-        let inward = ng.xyz;
-        // A killed element never touches a wall (its wall states were cleared when it was killed).
-        let overlap = select(ri - ng.w, -1.0, (kind[k] & KILLED) != 0u);
+        let hit = wall_overlap(wall, k, oi, ui, ri);
+        let inward = hit.ng.xyz;
+        let overlap = hit.overlap;
         let e = row_slot(kl, w, slab.count);
         if inside {
             let st = wall_state[e];
@@ -95,6 +113,14 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                 }
             }
         }
+        if (touched & (1u << w)) == 0u {
+            // Every load is +0: the tree would sum them to +0.
+            if li == 0u && group < params.wall_groups {
+                partials[(group * nw + w) * 2u] = vec4<f32>(0.0);
+                partials[(group * nw + w) * 2u + 1u] = vec4<f32>(0.0);
+            }
+            continue;
+        }
         red_force[li] = load;
         red_stiffness[li] = load2;
         workgroupBarrier();
@@ -121,6 +147,22 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         book(HEAT_FRICTION, k, h.y);
         book(HEAT_WALL_WORK, k, h.z);
     }
+}
+
+struct WallOverlap {
+    // The wall's unit normal into the particles' region and the gap (w).
+    ng: vec4<f32>,
+    part: u32,
+    overlap: f32,
+}
+
+// Where particle k (origin o, displacement u, radius r) meets wall `wall`: both loops of the
+// pass ask this, so the workgroup's touch mask and the contacts agree bit for bit.
+fn wall_overlap(wall: Wall, k: u32, o: vec3<f32>, u: vec3<f32>, r: f32) -> WallOverlap {
+    let hit = wall_hit(wall, o, u);
+    // A killed element never touches a wall (its wall states were cleared when it was killed).
+    let overlap = select(r - hit.ng.w, -1.0, (kind[k] & KILLED) != 0u);
+    return WallOverlap(hit.ng, hit.part, overlap);
 }
 
 // Adds x to particle i's ledger lane `slot` (nothing when the plan has no such lane).
