@@ -102,3 +102,54 @@ fn cpt_package_over_two_packings_gives_the_mean_and_standard_deviation_of_its_ru
     assert_eq!(column(&summary, "capped").iter().sum::<f64>(), capped);
     assert!(out.contains("group B: packed in ") && out.contains("grains zone1 "), "{out}");
 }
+
+// A narrow chamber (R 30 mm, 30 mm high) under 5 MPa: the grains beside the cone are squeezed
+// towards the guard's 50 % overlap within 7 mm, as the paper's R 150 mm chamber squeezed them
+// near 30 mm (packings 4 and 5, docs/cpt.md). Before the refusal check the guard stopped this
+// run at step 14,026 (A left out, no residuals, exit 1); now the push ends at refusal and the
+// run finishes, its curve and its end depth saying where.
+#[test]
+fn cpt_push_stops_at_refusal_before_the_guard_and_the_run_finishes() {
+    let dir = temp_dir("cpt_refusal");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
+    let set = ["quick=true", "scale=0.2", "height_mm=30", "depth_mm=12", "groups=A", "confinement=5e6"];
+    let mut cmd = bin();
+    cmd.args(["run", example, "--backend", "cpu"]);
+    for s in set {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.arg("--out").arg(&dir).output().unwrap();
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "stderr:\n{err}\nstdout:\n{out}");
+    assert!(out.contains("group A: refusal at ") && out.contains("(the guard stops a run at 50%)"), "{out}");
+    assert!(!out.contains("unstable"), "{out}");
+    let runs = std::fs::read_to_string(dir.join("runs.csv")).unwrap();
+    assert_eq!(column(&runs, "refused"), [1.0]);
+    let end = column(&runs, "depth_end")[0];
+    assert!(end > 0.0 && end < 0.012, "stopped short of 12 mm: {end}");
+    let curves = std::fs::read_to_string(dir.join("qc_depth.csv")).unwrap();
+    let (depth, qc) = (column(&curves, "depth"), column(&curves, "qc"));
+    assert!(depth.len() >= 2 && depth.len() < 40, "{} of quick mode's 40 points", depth.len());
+    assert_eq!(*depth.last().unwrap(), end);
+    assert_eq!(*qc.last().unwrap(), column(&runs, "qc_end")[0]);
+}
+
+// A push that would bring the apex within a cone diameter of the bottom is refused before
+// anything is packed, with the depth that fits.
+#[test]
+fn cpt_deeper_than_the_chamber_allows_is_refused_before_packing() {
+    let dir = temp_dir("cpt_too_deep");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
+    let o = bin()
+        .args(["run", example, "--set", "height_mm=30", "--set", "depth_mm=20", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert_eq!(o.status.code(), Some(1), "stderr:\n{err}\nstdout:\n{out}");
+    assert!(
+        err.contains("within a cone diameter (18 mm) of the chamber's bottom") && err.contains("push to at most 12 mm"),
+        "{err}"
+    );
+    assert!(!out.contains("packed in"), "nothing was packed: {out}");
+}

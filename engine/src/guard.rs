@@ -117,10 +117,9 @@ pub fn check_state(m: &Model) -> Result<()> {
     for i in 0..p.len() {
         for k in c.row(i) {
             let j = c.other[k] as usize;
-            let rmin = p.radius[i].min(p.radius[j]);
-            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
-            if overlap > ratio * rmin {
-                let what = format!("overlaps particle {j} by {:.0}% of the smaller radius", 100.0 * overlap / rmin);
+            let share = overlap_share(m, i, j);
+            if share > ratio {
+                let what = format!("overlaps particle {j} by {:.0}% of the smaller radius", 100.0 * share);
                 return Err(with_load_fix(m, unstable(m, i, what), &[i, j]));
             }
         }
@@ -132,6 +131,42 @@ pub fn check_state(m: &Model) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The overlap of particles i and j as a share of the smaller radius (negative apart): what
+/// the guard holds below `max_overlap_ratio`.
+fn overlap_share(m: &Model, i: usize, j: usize) -> f64 {
+    let p = &m.particles;
+    let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+    overlap / p.radius[i].min(p.radius[j])
+}
+
+/// The deepest particle–particle overlap and its pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeepestOverlap {
+    /// Overlap over the smaller radius; the guard stops a run above `max_overlap_ratio`.
+    pub share: f64,
+    pub i: usize,
+    pub j: usize,
+}
+
+/// The deepest overlap of any touching pair (`None` when none touches), so that a procedure
+/// can stop loading before the guard stops the run: a cone pushed until the grains beside
+/// it are pressed deeper than a linear spring means anything (examples/cpt). The rows must
+/// be current, as after any step.
+pub fn deepest_overlap(m: &Model) -> Option<DeepestOverlap> {
+    let c = &m.contacts;
+    let mut deepest: Option<DeepestOverlap> = None;
+    for i in 0..m.len() {
+        for k in c.row(i) {
+            let j = c.other[k] as usize;
+            let share = overlap_share(m, i, j);
+            if share > 0.0 && deepest.is_none_or(|d| share > d.share) {
+                deepest = Some(DeepestOverlap { share, i: i.min(j), j: i.max(j) });
+            }
+        }
+    }
+    deepest
 }
 
 /// A deep overlap with dt under the critical step: the step is not the likely cause, so the
@@ -473,6 +508,27 @@ mod tests {
         assert!(too_stiff(&m, &plan).is_none());
         m.clock.dt = 0.71 * c.critical_dt;
         assert_eq!(too_stiff(&m, &plan).map(|c| c.particle), Some(1));
+    }
+
+    // Three spheres in a line, the outer pair overlapping the middle one by 10 % and 30 % of
+    // the smaller radius: the deepest pair and its share, as the guard's limit measures it.
+    #[test]
+    fn deepest_overlap_names_the_deepest_pair_and_its_share_of_the_smaller_radius() {
+        let mut m = Model::new();
+        let k = m.add_material(material("a", 5.0e8, 0.2, 1e5)).unwrap();
+        let (big, small) = (1.0e-3, 0.5e-3);
+        m.add_particle(Vec3::zeros(), big, k).unwrap();
+        m.add_particle(Vec3::new(big + small - 0.1 * small, 0.0, 0.0), small, k).unwrap();
+        m.add_particle(Vec3::new(-(big + small - 0.3 * small), 0.0, 0.0), small, k).unwrap();
+        m.set_standard_dt().unwrap();
+        rebuild(&mut m);
+        let d = deepest_overlap(&m).expect("two pairs touch");
+        assert_eq!((d.i, d.j), (0, 2));
+        assert!((d.share - 0.3).abs() < 1e-12, "share {}", d.share);
+        // Apart: nothing to name.
+        m.particles.pos[1].x = 1.0;
+        m.particles.pos[2].x = -1.0;
+        assert_eq!(deepest_overlap(&m), None);
     }
 
     // The same contact seen by a single element's estimate (a rigid wall at 5% of r) has the

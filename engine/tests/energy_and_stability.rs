@@ -79,16 +79,7 @@ fn assert_finite_and_inside_walls(m: &Model) -> f64 {
 
 /// Deepest overlap between two particles, as a fraction of the smaller radius.
 fn max_overlap_ratio(m: &Model) -> f64 {
-    let (p, c) = (&m.particles, &m.contacts);
-    let mut worst = 0.0f64;
-    for i in 0..p.len() {
-        for k in c.row(i) {
-            let j = c.other[k] as usize;
-            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
-            worst = worst.max(overlap / p.radius[i].min(p.radius[j]));
-        }
-    }
-    worst
+    matdem_engine::guard::deepest_overlap(m).map_or(0.0, |d| d.share)
 }
 
 /// Plane walls around the box [lo, hi]: floor, four sides and, if given, a lid at `lid` z.

@@ -28,6 +28,7 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     ("contact_ty", "Model (read)", "sum of the contact torques on every element, y, N·m"),
     ("contact_tz", "Model (read)", "sum of the contact torques on every element, z, N·m"),
     ("tx", "Model (read)", "resultant torque x on every element in the last step, N·m (rotation on); also ty, tz"),
+    ("deepest_overlap", "Model (read)", "the deepest overlap of two touching elements: #{ share (overlap over the smaller radius, 0 when none touches), i, j (the pair, () when none), limit (the share above which the guard stops the run, 0.5) }; a procedure that loads until something gives can stop before the guard does (examples/cpt stops the cone at 0.8 of the limit)"),
     ("ty", "Model (read)", "resultant torque y on every element in the last step, N·m"),
     ("tz", "Model (read)", "resultant torque z on every element in the last step, N·m"),
 ];
@@ -249,6 +250,20 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         let ids = resolve_ids(&d.model(), &sel)?;
         let cols = h.observe("contacts", || Ok(Dynamic::from_array(columns(d, Some(&ids)))))?;
         table_of(cols.cast::<Array>())
+    });
+    let h = host.clone();
+    engine.register_get("deepest_overlap", move |d: &mut ModelHandle| -> RhaiResult<Dynamic> {
+        h.observe("deepest_overlap", || {
+            let m = d.model();
+            let deepest = matdem_engine::guard::deepest_overlap(&m);
+            let mut map = Map::new();
+            let id = |k: usize| Dynamic::from_int(k as INT);
+            map.insert("share".into(), Dynamic::from_float(deepest.map_or(0.0, |o| o.share)));
+            map.insert("i".into(), deepest.map_or(Dynamic::UNIT, |o| id(o.i)));
+            map.insert("j".into(), deepest.map_or(Dynamic::UNIT, |o| id(o.j)));
+            map.insert("limit".into(), Dynamic::from_float(m.settings.max_overlap_ratio));
+            Ok(Dynamic::from_map(map))
+        })
     });
     for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
         let (h, name): (_, &'static str) = (host.clone(), ["contact_fx", "contact_fy", "contact_fz"][k]);
