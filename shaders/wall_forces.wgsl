@@ -3,14 +3,18 @@
 // particles' loads on each wall in a fixed tree order and leaves one partial per wall, which the
 // walls stage of the next step adds up (walls.wgsl). Runs once per slab; a slab starts on a
 // workgroup boundary, so the partials are the same however the particles are split. A wall no
-// particle of the workgroup touches has a zero partial, written without the tree: each wall's
-// tree costs the workgroup 8 barriers, and in a large scene most workgroups touch few walls.
+// particle of the workgroup touches has a zero partial, written without a tree, and the walls
+// it touches are summed up to four at a time in one tree: a tree costs the workgroup 8
+// barriers, and in a large scene most workgroups touch few walls.
 // CPU twin: backend/cpu/wall_forces.rs.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
-var<workgroup> red_force: array<vec4<f32>, 64>;
-var<workgroup> red_stiffness: array<vec4<f32>, 64>;
+// The loads of up to TREES touched walls, summed by one tree together (8 KiB of the 16 KiB a
+// workgroup may hold; the walls' trees side by side keep each wall's own order of sums).
+const TREES: u32 = 4u;
+var<workgroup> red_force: array<array<vec4<f32>, 64>, TREES>;
+var<workgroup> red_stiffness: array<array<vec4<f32>, 64>, TREES>;
 // Bit w: some particle of the workgroup touches wall w (zero at the start of a dispatch).
 var<workgroup> touching: atomic<u32>;
 var<workgroup> touching_all: u32;
@@ -56,8 +60,11 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         touching_all = atomicLoad(&touching);
     }
     let touched = workgroupUniformLoad(&touching_all);
-    // One wall at a time, in wall order (as the CPU adds them): this particle's contact, then
-    // the workgroup's loads on the wall, summed in a fixed tree order.
+    // One wall at a time, in wall order (as the CPU adds them): this particle's contact; the
+    // workgroup's loads on the touched walls, TREES walls at a time, summed in a fixed tree
+    // order. `queued` and `queue` depend only on `touched`: uniform across the workgroup.
+    var queued = 0u;
+    var queue = array<u32, TREES>();
     for (var w = 0u; w < nw; w++) {
         // Force on the particle (xyz) and normal load (w); stiffness, contact count and (cone)
         // tip and sleeve loads or (other walls) the dashpot coefficient.
@@ -121,21 +128,32 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             }
             continue;
         }
-        red_force[li] = load;
-        red_stiffness[li] = load2;
+        red_force[queued][li] = load;
+        red_stiffness[queued][li] = load2;
+        queue[queued] = w;
+        queued += 1u;
+        // Sum when the trees are full or no touched wall is left.
+        if queued < TREES && (touched >> (w + 1u)) != 0u {
+            continue;
+        }
         workgroupBarrier();
         for (var s = 32u; s > 0u; s >>= 1u) {
             if li < s {
-                red_force[li] += red_force[li + s];
-                red_stiffness[li] += red_stiffness[li + s];
+                for (var q = 0u; q < queued; q++) {
+                    red_force[q][li] += red_force[q][li + s];
+                    red_stiffness[q][li] += red_stiffness[q][li + s];
+                }
             }
             workgroupBarrier();
         }
         if li == 0u && group < params.wall_groups {
-            partials[(group * nw + w) * 2u] = red_force[0];
-            partials[(group * nw + w) * 2u + 1u] = red_stiffness[0];
+            for (var q = 0u; q < queued; q++) {
+                partials[(group * nw + queue[q]) * 2u] = red_force[q][0];
+                partials[(group * nw + queue[q]) * 2u + 1u] = red_stiffness[q][0];
+            }
         }
         workgroupBarrier();
+        queued = 0u;
     }
     if inside {
         force[k] = vec4<f32>(f, 0.0);
