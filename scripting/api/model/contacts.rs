@@ -28,7 +28,7 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     ("contact_ty", "Model (read)", "sum of the contact torques on every element, y, N·m"),
     ("contact_tz", "Model (read)", "sum of the contact torques on every element, z, N·m"),
     ("tx", "Model (read)", "resultant torque x on every element in the last step, N·m (rotation on); also ty, tz"),
-    ("deepest_overlap", "Model (read)", "the deepest overlap of two touching elements: #{ share (overlap over the smaller radius, 0 when none touches), i, j (the pair, () when none), limit (the share above which the guard stops the run, 0.5) }; a procedure that loads until something gives can stop before the guard does (examples/cpt stops the cone at 0.8 of the limit)"),
+    ("deepest_overlap", "Model (read)", "the deepest overlap of two touching elements: #{ share (overlap over the smaller radius, 0 when none touches), i, j (the pair, () when none), limit (the share above which the guard stops the run, 0.5) }; a procedure that loads until something gives can stop before the guard does (examples/cpt stops the cone at 0.9 of the limit)"),
     ("ty", "Model (read)", "resultant torque y on every element in the last step, N·m"),
     ("tz", "Model (read)", "resultant torque z on every element in the last step, N·m"),
 ];
