@@ -8,6 +8,19 @@
 
 use crate::common::{bin, temp_dir};
 
+/// Runs examples/cpt with `--set` for each of `set`, writing into `dir`; the output and its
+/// stdout and stderr.
+fn run_cpt(dir: &std::path::Path, set: &[&str]) -> (std::process::Output, String, String) {
+    let mut cmd = bin();
+    cmd.args(["run", concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt")]);
+    for s in set {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.arg("--out").arg(dir).output().unwrap();
+    let (out, err) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
+    (o, out, err)
+}
+
 fn column(csv: &str, name: &str) -> Vec<f64> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -18,16 +31,10 @@ fn column(csv: &str, name: &str) -> Vec<f64> {
 #[test]
 fn cpt_package_quick_runs_groups_a_to_e_and_qc_rises_with_depth() {
     let dir = temp_dir("cpt_quick");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
     // The quick chamber at 36 mm, two of E's 18 mm grains, rather than its 54 mm: two
     // thirds of the grains, so the test stays near 2 min on 2 cores; E arches at this height
     // (its residual is large), which this test does not judge.
-    let o = bin()
-        .args(["run", example, "--set", "quick=true", "--set", "height_mm=36", "--set", "depth_mm=12", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let (o, out, err) = run_cpt(&dir, &["quick=true", "height_mm=36", "depth_mm=12"]);
     assert!(o.status.success(), "stderr:\n{err}\nstdout:\n{out}");
     for f in ["qc_depth.csv", "summary.csv", "qc_depth.svg", "qc_depth.png", "study.svg", "study.png", "metrics.csv"] {
         assert!(dir.join(f).is_file(), "missing {f}");
@@ -62,15 +69,8 @@ fn cpt_package_over_two_packings_gives_the_mean_and_standard_deviation_of_its_ru
     // A chamber small enough for seconds a run (R 45 mm, 24 mm high, 4 mm deep): A and B on
     // seeds 1 and 2.
     let dir = temp_dir("cpt_seeds");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
     let set = ["quick=true", "scale=0.3", "height_mm=24", "depth_mm=4", "groups=B", "seeds=2"];
-    let mut cmd = bin();
-    cmd.args(["run", example]);
-    for s in set {
-        cmd.args(["--set", s]);
-    }
-    let o = cmd.arg("--out").arg(&dir).output().unwrap();
-    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let (o, out, err) = run_cpt(&dir, &set);
     assert!(o.status.success(), "stderr:\n{err}\nstdout:\n{out}");
     let runs = std::fs::read_to_string(dir.join("runs.csv")).unwrap();
     assert_eq!(column(&runs, "group"), [1.0, 2.0, 1.0, 2.0], "each packing's A first");
@@ -111,15 +111,8 @@ fn cpt_package_over_two_packings_gives_the_mean_and_standard_deviation_of_its_ru
 #[test]
 fn cpt_push_stops_at_refusal_before_the_guard_and_the_run_finishes() {
     let dir = temp_dir("cpt_refusal");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
     let set = ["quick=true", "scale=0.2", "height_mm=30", "depth_mm=12", "groups=A", "confinement=5e6"];
-    let mut cmd = bin();
-    cmd.args(["run", example, "--backend", "cpu"]);
-    for s in set {
-        cmd.args(["--set", s]);
-    }
-    let o = cmd.arg("--out").arg(&dir).output().unwrap();
-    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let (o, out, err) = run_cpt(&dir, &set);
     assert!(o.status.success(), "stderr:\n{err}\nstdout:\n{out}");
     assert!(out.contains("group A: refusal at ") && out.contains("(the guard stops a run at 50%)"), "{out}");
     assert!(!out.contains("unstable"), "{out}");
@@ -139,13 +132,7 @@ fn cpt_push_stops_at_refusal_before_the_guard_and_the_run_finishes() {
 #[test]
 fn cpt_deeper_than_the_chamber_allows_is_refused_before_packing() {
     let dir = temp_dir("cpt_too_deep");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cpt");
-    let o = bin()
-        .args(["run", example, "--set", "height_mm=30", "--set", "depth_mm=20", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let (o, out, err) = run_cpt(&dir, &["height_mm=30", "depth_mm=20"]);
     assert_eq!(o.status.code(), Some(1), "stderr:\n{err}\nstdout:\n{out}");
     assert!(
         err.contains("within a cone diameter (18 mm) of the chamber's bottom") && err.contains("push to at most 12 mm"),
