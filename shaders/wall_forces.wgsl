@@ -175,7 +175,9 @@ struct WallOverlap {
 }
 
 // Where particle k (origin o, displacement u, radius r) meets wall `wall`: both loops of the
-// pass ask this, so the workgroup's touch mask and the contacts agree bit for bit.
+// pass ask this, so the workgroup's touch mask and the contacts agree bit for bit. Asked twice
+// rather than kept: eight walls' answers in private memory would spill to memory, and the
+// geometry is a few dozen operations.
 fn wall_overlap(wall: Wall, k: u32, o: vec3<f32>, u: vec3<f32>, r: f32) -> WallOverlap {
     let hit = wall_hit(wall, o, u);
     // A killed element never touches a wall (its wall states were cleared when it was killed).
