@@ -64,6 +64,8 @@ struct Params {
     cell: f32,
     // 1.0, which the shader compiler cannot know (see ledger_add).
     one: f32,
+    // Blocks of 64 wall-load partials the walls stage folds first; 0: it sums them directly.
+    wall_blocks: u32,
 }
 
 // The particles a dispatch of a per-entry kernel covers: the per-entry lanes (rows, pair

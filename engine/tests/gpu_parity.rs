@@ -354,6 +354,56 @@ fn oedometer_stage_with_ring_and_servo_platen_matches_cpu() {
     }
 }
 
+/// 70 × 70 = 4,900 fixed spheres of radius `r`, 2.5·r apart (no two touch), each pressing
+/// `overlap` into a floor; a top platen `gap` above them under a servo to a load of `load` N.
+fn spheres_between_floor_and_servo(r: f64, overlap: f64, gap: f64, load: f64) -> Model {
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, 1e4, 1e9, 0.2)).unwrap();
+    let (n, pitch) = (70, 2.5 * r);
+    for iy in 0..n {
+        for ix in 0..n {
+            m.add_particle(Vec3::new(ix as f64 * pitch, iy as f64 * pitch, r - overlap), r, k).unwrap();
+        }
+    }
+    let ids: Vec<u32> = (0..m.len() as u32).collect();
+    m.fix(&ids, dof::ALL, true).unwrap();
+    let area = (n as f64 * pitch).powi(2);
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), area).unwrap()).unwrap();
+    let mut top = Wall::plane("top", Vec3::new(0.0, 0.0, 2.0 * r - overlap + gap), -Vec3::z(), area).unwrap();
+    top.motion = WallMotion::Servo { stress: load / area, max_speed: 0.01 };
+    m.add_wall(top).unwrap();
+    m.set_standard_dt().unwrap();
+    m
+}
+
+// Wall loads of more workgroups than the load sum has invocations (4,900 spheres: 77
+// workgroups, folded into 2 blocks before the sum). Each sphere presses 1e-5 m into the floor
+// with its own spring, 2·kn = 2e4 N/m against a rigid wall (`pair_params`): the floor carries
+// 4,900 × 0.2 N on both backends (the GPU within 1e-4, f32; measured 7.6e-6), and
+// a servo platen that reads the folded sum every step comes down onto the spheres and holds
+// its target stress within 1e-3 on both, as the folded sum at the run's end reports it.
+#[test]
+fn wall_loads_of_many_workgroups_are_folded_and_summed() {
+    use matdem_engine::backend::gpu::{wall_forces, walls};
+    let Some(ctx) = gpu("wall_fold") else { return };
+    let (r, overlap) = (1e-3, 1e-5);
+    let platen = 245.0;
+    let model = spheres_between_floor_and_servo(r, overlap, 2e-5, platen);
+    let n = model.len();
+    assert!(walls::blocks(wall_forces::partial_groups(n)) >= 2, "the scene folds its partials");
+    let floor = n as f64 * 2e4 * overlap;
+    let (mut cpu, mut gpu) = both(model, &ctx);
+    for sim in [&mut cpu, &mut gpu] {
+        run(sim, 1000).unwrap();
+    }
+    let loads = |s: &Simulation| (s.model.walls[0].normal_force, s.model.walls[1].normal_force);
+    let ((fa, pa), (fb, pb)) = (loads(&cpu), loads(&gpu));
+    eprintln!("floor cpu {fa:.6} gpu {fb:.6} N (analytic {floor}); platen cpu {pa:.6} gpu {pb:.6} N (target {platen})");
+    assert!(rel(fa, floor) < 1e-9, "cpu floor {fa}");
+    assert!(rel(fb, floor) < 1e-4, "gpu floor {fb}");
+    assert!(rel(pa, platen) < 1e-3 && rel(pb, platen) < 1e-3, "platen cpu {pa}, gpu {pb}");
+}
+
 // The stability guard on the GPU stops a run with the CPU guard's message: two spheres
 // placed 60% into each other (the guard allows 50% of the smaller radius).
 #[test]

@@ -39,7 +39,9 @@ pub struct Params {
     pub cell: f32,
     /// 1.0, opaque to the shader compiler (`ledger_add` in heat_ledger.wgsl).
     pub one: f32,
-    pub pad: [f32; 3],
+    /// [`super::walls::blocks`] of the wall-load partials: 0 when they are summed directly.
+    pub wall_blocks: u32,
+    pub pad: [f32; 2],
 }
 
 /// A wall (`Wall` in common.wgsl).
@@ -329,6 +331,8 @@ pub struct DeviceLanes {
     pub pairs: wgpu::Buffer,
     pub wall_pairs: wgpu::Buffer,
     pub partials: wgpu::Buffer,
+    /// The partials summed 64 workgroups at a time (walls.wgsl `fold_partials`).
+    pub folded: wgpu::Buffer,
     pub counters: wgpu::Buffer,
     pub events: wgpu::Buffer,
     /// The heat ledger ([`super::heat`]), zero at upload.
@@ -425,6 +429,10 @@ impl DeviceLanes {
             pairs: make("pair constants", bytes_of(&h.pairs))?,
             wall_pairs: make("wall constants", bytes_of(&h.wall_pairs))?,
             partials: make("wall load partials", bytes_of(&initial_partials(h, params.wall_groups as usize)))?,
+            folded: make(
+                "wall load partials, folded",
+                &vec![0u8; params.wall_blocks.max(1) as usize * h.walls.len().max(1) * 32],
+            )?,
             counters: make("counters", bytes_of(&counters))?,
             events: make("breakage events", &vec![0u8; plan.max_events * 16])?,
             params: ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -461,6 +469,7 @@ impl Holder for DeviceLanes {
             b::PAIRS => &self.pairs,
             b::WALL_PAIRS => &self.wall_pairs,
             b::PARTIALS => &self.partials,
+            b::FOLDED => &self.folded,
             b::COUNTERS => &self.counters,
             b::EVENTS => &self.events,
             b::HEAT => &self.heat,

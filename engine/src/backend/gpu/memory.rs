@@ -166,7 +166,9 @@ impl MemoryPlan {
         let spring = if scene.rolling { 16 } else { 0 };
         let per_slot = 4 + STATE_BYTES + if scene.dashpot { 4 } else { 0 } + spring;
         let per_entry = per_slot * cap as u64 + (STATE_BYTES + spring) * scene.walls as u64;
+        // The wall pass's partials, and the same folded 64 at a time.
         let partials = (n.div_ceil(WORKGROUP) * scene.walls * 32) as u64;
+        let partials = partials + partials.div_ceil(64);
         let bytes = n as u64 * (per_particle + per_entry)
             + 4 * scene.pore_corners as u64
             + table

@@ -117,6 +117,8 @@ struct WallPipelines {
     forces: Pipeline,
     /// The loads summed alone (before a download).
     sum_loads: Pipeline,
+    /// The partials folded 64 at a time before either sum (scenes of over 64 workgroups).
+    fold: Pipeline,
 }
 
 /// Kernels bound to one upload; those that read per-entry lanes, one per slab.
@@ -141,6 +143,14 @@ struct WallKernels {
     advance: Kernel,
     forces: Vec<Kernel>,
     sum_loads: Kernel,
+    fold: Option<Kernel>,
+}
+
+impl WallKernels {
+    /// The walls stage's kernels: the partials folded (when they are), then `sum`.
+    fn summing<'k>(&'k self, sum: &'k Kernel) -> Vec<&'k Kernel> {
+        self.fold.iter().chain([sum]).collect()
+    }
 }
 
 /// The model on the device, from an upload to the next download.
@@ -261,6 +271,7 @@ impl GpuBackend {
                 advance: walls::pipeline(device, &constants),
                 forces: wall_forces::pipeline(device, &constants),
                 sum_loads: walls::sum_pipeline(device, &constants),
+                fold: walls::fold_pipeline(device, &constants),
             }),
             parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
             rolling_resistance: plan.rolling.as_ref().map(|r| rolling_resistance::pipeline(device, &constants, r)),
@@ -410,7 +421,8 @@ impl GpuBackend {
             // The longest reach, padded so f32 round-off never puts a neighbour two cells away.
             cell: ((2.0 * r_max + skin) * 1.001) as f32,
             one: 1.0,
-            pad: [0.0; 3],
+            wall_blocks: walls::blocks(wall_groups) as u32,
+            pad: [0.0; 2],
         };
         let limit = limits.binding.min(limits.buffer);
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
@@ -444,6 +456,7 @@ impl GpuBackend {
                     advance: walls::kernel(device, &w.advance, &lanes)?,
                     forces: wall_forces::kernels(device, &w.forces, &lanes)?,
                     sum_loads: walls::kernel(device, &w.sum_loads, &lanes)?,
+                    fold: walls::fold_kernel(device, &w.fold, &lanes, walls::blocks(wall_groups))?,
                 }),
                 None => None,
             },
@@ -549,7 +562,10 @@ impl GpuBackend {
         let step = s.step0 + s.steps + t;
         let work = |stage: Stage| -> Option<StageWork<'s>> {
             Some(match stage {
-                Stage::Walls => StageWork::Kernels(vec![&kr.walls.as_ref()?.advance]),
+                Stage::Walls => {
+                    let w = kr.walls.as_ref()?;
+                    StageWork::Kernels(w.summing(&w.advance))
+                }
                 Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
                 Stage::WallForces => StageWork::Kernels(kr.walls.as_ref()?.forces.iter().collect()),
                 Stage::ParallelBond => StageWork::Kernels(vec![kr.parallel_bond.as_ref()?]),
@@ -620,8 +636,11 @@ impl GpuBackend {
             // The walls hold the loads of the step before the last: sum the last step's.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
             let label = Some("walls: sum_wall_loads");
-            w.sum_loads
-                .dispatch(&mut enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None }));
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label, timestamp_writes: None });
+            for k in w.summing(&w.sum_loads) {
+                k.dispatch(&mut pass);
+            }
+            drop(pass);
             self.ctx.submit(enc);
         }
         download(&self.ctx, &s.lanes, &mut s.host, m, self.plan.rotation)?;

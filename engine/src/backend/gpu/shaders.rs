@@ -119,7 +119,7 @@ pub const WALL_FORCES: Shader = Shader {
 pub const WALLS: Shader = Shader {
     name: "walls",
     source: include_str!("../../../../shaders/walls.wgsl"),
-    bindings: Bindings(&[&[uniform(PARAMS), read_write(b::WALLS), read(PARTIALS)]]),
+    bindings: Bindings(&[&[uniform(PARAMS), read_write(b::WALLS), read(PARTIALS), read_write(FOLDED)]]),
 };
 
 pub const PARALLEL_BOND: Shader = Shader {

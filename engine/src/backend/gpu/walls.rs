@@ -1,11 +1,13 @@
 //! The `walls` stage on the GPU: the wall loads of the last step are summed and the walls move
 //! (prescribed velocity or servo), in one single-workgroup dispatch (shaders/walls.wgsl),
-//! so a servo platen runs without a round trip to the host. Built only when the scene has
-//! walls. CPU twin: [`crate::walls::Wall::advance`].
+//! so a servo platen runs without a round trip to the host; in scenes of more than 64
+//! workgroups the partials are first folded 64 at a time by a parallel dispatch. Built only
+//! when the scene has walls. CPU twin: [`crate::walls::Wall::advance`].
 
+use super::bindings::{FOLDED, PARAMS, PARTIALS};
 use super::buffers::DeviceLanes;
 use super::device::GpuContext;
-use super::shaders::{self, Kernel, Pipeline};
+use super::shaders::{self, grid, Kernel, Pipeline};
 use crate::error::Result;
 use crate::plan::Stage;
 
@@ -20,4 +22,43 @@ pub fn sum_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline 
 
 pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Kernel> {
     Kernel::bind(device, p, &[d], (1, 1))
+}
+
+/// Folds the wall pass's partials 64 workgroups at a time, before a load sum.
+pub fn fold_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    shaders::pipeline(device, "fold_wall_partials", &shaders::WALLS, "fold_partials", constants)
+}
+
+/// The fold's kernel, when the scene has more than 64 partials per wall (`None` otherwise:
+/// the load sum reads the partials themselves).
+pub fn fold_kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, blocks: usize) -> Result<Option<Kernel>> {
+    if blocks == 0 {
+        return Ok(None);
+    }
+    Kernel::bind_lanes(device, p, &[PARAMS, PARTIALS, FOLDED], &[d], grid(blocks)).map(Some)
+}
+
+/// Blocks of 64 that the `groups` partials per wall are folded into before they are summed,
+/// 0 when there are at most 64 (the load sum's 64 invocations then read one each).
+pub fn blocks(groups: usize) -> usize {
+    if groups > 64 {
+        groups.div_ceil(64)
+    } else {
+        0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::blocks;
+
+    #[test]
+    fn partials_are_folded_only_past_one_per_invocation() {
+        assert_eq!(blocks(1), 0);
+        assert_eq!(blocks(64), 0);
+        assert_eq!(blocks(65), 2);
+        assert_eq!(blocks(4096), 64);
+        // 10 M particles: 156,250 workgroups, each invocation of the sum then reads 39 values.
+        assert_eq!(blocks(156_250), 2442);
+    }
 }
