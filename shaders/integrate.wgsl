@@ -1,6 +1,8 @@
 // The `integrate` stage on the GPU: gravity, MatDEM's viscous damping (semi-implicit), Cundall's
 // local damping, blocked degrees of freedom and leapfrog integration; rotation (and its
 // accumulated angle) when the plan has it. Also counts the step. CPU twin: backend/cpu/integrate.rs.
+// Its own pass only when a force stage runs between the wall pass and it, or without walls;
+// otherwise the wall pass integrates each particle as it finishes it (wall_forces.wgsl).
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
@@ -8,17 +10,32 @@
 fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = gid.x + gid.y * groups.x * 64u;
     if i == 0u {
-        atomicAdd(&counters[C_STEP], 1u);
+        count_step();
     }
     if i >= params.n {
         return;
     }
+    var t = vec3<f32>(0.0);
+    if ROTATION {
+        t = torque[i].xyz;
+    }
+    integrate_particle(i, force[i].xyz, t);
+}
+
+// The step counter, advanced once a step by particle 0's invocation.
+fn count_step() {
+    atomicAdd(&counters[C_STEP], 1u);
+}
+
+// Moves particle i under its summed force f and torque t (the wall pass calls this for its own
+// particle when no force stage comes between them: wall_forces.wgsl).
+fn integrate_particle(i: u32, f: vec3<f32>, t: vec3<f32>) {
     let dt = params.dt;
     let mi = body[i].x;
     // Half the viscous damping coefficient times dt over m (semi-implicit form).
     let a = 0.5 * body[i].y * dt;
     let v0 = vel[i].xyz;
-    var f_total = force[i].xyz + params.gravity.xyz * mi;
+    var f_total = f + params.gravity.xyz * mi;
     // Heat of the damping this step (booked in the ledger's damping lane).
     var h = 0.0;
     if LOCAL {
@@ -55,9 +72,9 @@ fn integrate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let r = origin[i].w;
         let inertia = 0.4 * mi * r * r;
         let w0 = ang_vel[i].xyz;
-        var w1 = w0 + torque[i].xyz / inertia * dt;
+        var w1 = w0 + t / inertia * dt;
         if VISCOUS {
-            w1 = w0 + (torque[i].xyz / inertia * dt - 2.0 * a * w0) / (1.0 + a);
+            w1 = w0 + (t / inertia * dt - 2.0 * a * w0) / (1.0 + a);
         }
         // A fixed rotation (dof bits 3..5: rx, ry, rz) keeps its component.
         if (fixed & 8u) != 0u {

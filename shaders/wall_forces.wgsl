@@ -24,6 +24,19 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
                        @builtin(num_workgroups) groups: vec3<u32>,
                        @builtin(workgroup_id) wg: vec3<u32>,
                        @builtin(local_invocation_index) li: u32) {
+    wall_pass(gid, groups, wg, li);
+}
+
+// The particle an invocation of the wall pass finished, and its summed force and torque.
+struct Finished {
+    k: u32,
+    inside: bool,
+    force: vec3<f32>,
+    torque: vec3<f32>,
+}
+
+// The pass for one invocation (all of a workgroup's invocations call it: it has barriers).
+fn wall_pass(gid: vec3<u32>, groups: vec3<u32>, wg: vec3<u32>, li: u32) -> Finished {
     let local = invocation(gid, groups);
     let nw = params.nw;
     let inside = local < slab.count;
@@ -165,6 +178,7 @@ fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         book(HEAT_FRICTION, k, h.y);
         book(HEAT_WALL_WORK, k, h.z);
     }
+    return Finished(k, inside, f, t);
 }
 
 struct WallOverlap {

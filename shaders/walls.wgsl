@@ -5,10 +5,11 @@
 // At the first step after an upload the partials hold
 // the model's last loads. CPU twin: Wall::advance in walls.rs.
 //
-// With more than 64 partials per wall (over 4,096 particles), `fold_partials` first sums them 64
-// at a time, in parallel, into `folded`, and the one workgroup sums those: its invocations then
-// read one value in 4,096 partials each, where a chain of reads one after another (one per 64
-// partials) made the sum the step's longest serial path in a scene of millions.
+// With more than 256 partials per wall (over 16,384 particles; walls.rs FOLD_PAST),
+// `fold_partials` first sums them 64 at a time, in parallel, into `folded`, and the one
+// workgroup sums those: its invocations then read one value in 4,096 partials each, where a
+// chain of reads one after another (one per 64 partials) made the sum the step's longest serial
+// path in a scene of millions.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 

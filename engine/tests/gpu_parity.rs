@@ -354,12 +354,12 @@ fn oedometer_stage_with_ring_and_servo_platen_matches_cpu() {
     }
 }
 
-/// 70 × 70 = 4,900 fixed spheres of radius `r`, 2.5·r apart (no two touch), each pressing
+/// 135 × 135 = 18,225 fixed spheres of radius `r`, 2.5·r apart (no two touch), each pressing
 /// `overlap` into a floor; a top platen `gap` above them under a servo to a load of `load` N.
 fn spheres_between_floor_and_servo(r: f64, overlap: f64, gap: f64, load: f64) -> Model {
     let mut m = Model::new();
     let k = m.add_material(material("m", 2650.0, 1e4, 1e9, 0.2)).unwrap();
-    let (n, pitch) = (70, 2.5 * r);
+    let (n, pitch) = (135, 2.5 * r);
     for iy in 0..n {
         for ix in 0..n {
             m.add_particle(Vec3::new(ix as f64 * pitch, iy as f64 * pitch, r - overlap), r, k).unwrap();
@@ -376,25 +376,25 @@ fn spheres_between_floor_and_servo(r: f64, overlap: f64, gap: f64, load: f64) ->
     m
 }
 
-// Wall loads of more workgroups than the load sum has invocations (4,900 spheres: 77
-// workgroups, folded into 2 blocks before the sum). Each sphere presses 1e-5 m into the floor
-// with its own spring, 2·kn = 2e4 N/m against a rigid wall (`pair_params`): the floor carries
-// 4,900 × 0.2 N on both backends (the GPU within 1e-4, f32; measured 7.6e-6), and
-// a servo platen that reads the folded sum every step comes down onto the spheres and holds
-// its target stress within 1e-3 on both, as the folded sum at the run's end reports it.
+// Wall loads of many workgroups (18,225 spheres: 285 workgroups, folded into 5 blocks before
+// the sum). Each sphere presses 1e-5 m into the floor with its own spring, 2·kn = 2e4 N/m
+// against a rigid wall (`pair_params`): the floor carries 18,225 × 0.2 N on both backends (the
+// GPU within 1e-4, f32), and a servo platen that reads the folded sum every step comes down
+// onto the spheres and holds its target within 1e-3 on both, as the folded sum at the run's
+// end reports it. With the fold skipped both loads read 0.
 #[test]
 fn wall_loads_of_many_workgroups_are_folded_and_summed() {
     use matdem_engine::backend::gpu::{wall_forces, walls};
     let Some(ctx) = gpu("wall_fold") else { return };
     let (r, overlap) = (1e-3, 1e-5);
-    let platen = 245.0;
-    let model = spheres_between_floor_and_servo(r, overlap, 2e-5, platen);
+    let platen = 900.0;
+    let model = spheres_between_floor_and_servo(r, overlap, 5e-6, platen);
     let n = model.len();
     assert!(walls::blocks(wall_forces::partial_groups(n)) >= 2, "the scene folds its partials");
     let floor = n as f64 * 2e4 * overlap;
     let (mut cpu, mut gpu) = both(model, &ctx);
     for sim in [&mut cpu, &mut gpu] {
-        run(sim, 1000).unwrap();
+        run(sim, 400).unwrap();
     }
     let loads = |s: &Simulation| (s.model.walls[0].normal_force, s.model.walls[1].normal_force);
     let ((fa, pa), (fb, pb)) = (loads(&cpu), loads(&gpu));
@@ -402,6 +402,35 @@ fn wall_loads_of_many_workgroups_are_folded_and_summed() {
     assert!(rel(fa, floor) < 1e-9, "cpu floor {fa}");
     assert!(rel(fb, floor) < 1e-4, "gpu floor {fb}");
     assert!(rel(pa, platen) < 1e-3 && rel(pb, platen) < 1e-3, "platen cpu {pa}, gpu {pb}");
+}
+
+// Integration inside the wall pass (a plan with walls and no force stage) against integration
+// in a pass of its own: 2,000 steps of the oedometer stage (64 grains in contact in a ring,
+// a servo platen pressing down) leave positions, velocities, spins, wall loads and heat
+// bitwise the same. (Scaling the force the fused pass integrates by 0.5 fails it.)
+#[test]
+fn integration_in_the_wall_pass_changes_no_bit() {
+    let Some(ctx) = gpu("wall_pass_integrates") else { return };
+    let mut sample = oedometer_sample();
+    sample.wall_mut("top_platen").unwrap().motion = WallMotion::Servo { stress: 2e4, max_speed: 0.2 };
+    let go = |separate: bool| {
+        let mut m = sample.clone();
+        let mut backend = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+        if separate {
+            backend.separate_passes();
+        }
+        run_steps(&mut backend, &mut m, 2000, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
+        let p = &m.particles;
+        let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
+        let w = &p.rotation.as_ref().unwrap().ang_vel;
+        let loads: Vec<u64> = m.walls.iter().map(|w| w.normal_force.to_bits()).collect();
+        let e = m.clone();
+        let heat = Simulation::new(e).energies();
+        (bits(&p.pos), bits(&p.vel), bits(w), loads, heat.heat_friction.to_bits(), m.clock.step)
+    };
+    let (fused, separate) = (go(false), go(true));
+    assert_eq!(fused.5, sample.clock.step + 2000);
+    assert!(fused == separate, "the fused wall pass and integration differ from the separate passes");
 }
 
 // The stability guard on the GPU stops a run with the CPU guard's message: two spheres

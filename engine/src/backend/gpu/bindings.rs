@@ -172,7 +172,7 @@ pub const PAIRS: Lane = lane(Home::Core, "pairs", "array<Pair>");
 pub const WALL_PAIRS: Lane = lane(Home::Core, "wall_pairs", "array<Pair>");
 /// Wall loads per workgroup and wall, summed by the walls stage.
 pub const PARTIALS: Lane = lane(Home::Core, "partials", "array<vec4<f32>>");
-/// The partials summed 64 workgroups at a time, in scenes with more than 64 workgroups.
+/// The partials summed 64 workgroups at a time, in scenes of more than 256 workgroups.
 pub const FOLDED: Lane = lane(Home::Core, "folded", "array<vec4<f32>>");
 /// The C_* slots of common.wgsl.
 pub const COUNTERS: Lane = lane(Home::Core, "counters", "array<atomic<u32>>");

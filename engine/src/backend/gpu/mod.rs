@@ -6,8 +6,8 @@
 //! next run continues on the device when the model is as that sync left it ([`Resident`]). One
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
 //! wall forces → parallel bonds, rolling resistance, pore flow, applied loads, buoyancy (when the
-//! scene has them) → integration; when the drift reaches half the skin the rows are rebuilt on the
-//! device ([`rows`]). The pore network's topology is built on the host and rebuilt through it
+//! scene has them) → integration (inside the wall pass when none of those runs); when the drift
+//! reaches half the skin the rows are rebuilt on the device ([`rows`]). The pore network's topology is built on the host and rebuilt through it
 //! ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
@@ -115,9 +115,11 @@ struct WallPipelines {
     /// Last step's loads summed, then the walls moved.
     advance: Pipeline,
     forces: Pipeline,
+    /// The wall pass with integration in it, when the plan has no force stage between them.
+    integrating: Option<Pipeline>,
     /// The loads summed alone (before a download).
     sum_loads: Pipeline,
-    /// The partials folded 64 at a time before either sum (scenes of over 64 workgroups).
+    /// The partials folded 64 at a time before either sum (scenes of over 256 workgroups).
     fold: Pipeline,
 }
 
@@ -142,8 +144,21 @@ struct Kernels {
 struct WallKernels {
     advance: Kernel,
     forces: Vec<Kernel>,
+    /// The wall pass integrates too (`forces` are the integrating pipeline's): the integrate
+    /// stage has no pass of its own.
+    integrates: bool,
     sum_loads: Kernel,
     fold: Option<Kernel>,
+}
+
+impl Kernels {
+    /// The name of `stage`'s pass: the wall pass that integrates says so.
+    fn label(&self, stage: Stage) -> &'static str {
+        match (stage, &self.walls) {
+            (Stage::WallForces, Some(w)) if w.integrates => "wall_forces + integrate",
+            _ => stage.name(),
+        }
+    }
 }
 
 impl WallKernels {
@@ -237,6 +252,8 @@ pub struct GpuBackend {
     batch: u64,
     /// The last guard found a contact too stiff for dt (its lowest particle id).
     stiff: Option<u32>,
+    /// Integration may run inside the wall pass (off: every stage its own pass, for tests).
+    fuse: bool,
 }
 
 impl GpuBackend {
@@ -270,6 +287,7 @@ impl GpuBackend {
             walls: (plan.walls > 0).then(|| WallPipelines {
                 advance: walls::pipeline(device, &constants),
                 forces: wall_forces::pipeline(device, &constants),
+                integrating: (!plan.has_force_stage()).then(|| wall_forces::integrating_pipeline(device, &constants)),
                 sum_loads: walls::sum_pipeline(device, &constants),
                 fold: walls::fold_pipeline(device, &constants),
             }),
@@ -299,6 +317,7 @@ impl GpuBackend {
             resident: None,
             batch: 1,
             stiff: None,
+            fuse: true,
         };
         backend.check_device()?;
         Ok(backend)
@@ -324,6 +343,20 @@ impl GpuBackend {
     /// change: a split run is bitwise the unsplit one.
     pub fn limit_bindings(&mut self, bytes: u64) {
         self.binding_limit = Some(bytes);
+    }
+
+    /// Runs integration in a pass of its own even where the wall pass could do it: the two
+    /// ways give the same bits (`engine/tests/gpu_parity.rs`). Takes effect at the next upload.
+    pub fn separate_passes(&mut self) {
+        self.fuse = false;
+    }
+
+    /// The wall pass's pipeline, and whether it integrates too.
+    fn wall_pass<'p>(&self, w: &'p WallPipelines) -> (&'p Pipeline, bool) {
+        match &w.integrating {
+            Some(p) if self.fuse => (p, true),
+            _ => (&w.forces, false),
+        }
     }
 
     fn limits(&self) -> memory::Limits {
@@ -454,7 +487,8 @@ impl GpuBackend {
             walls: match &p.walls {
                 Some(w) => Some(WallKernels {
                     advance: walls::kernel(device, &w.advance, &lanes)?,
-                    forces: wall_forces::kernels(device, &w.forces, &lanes)?,
+                    forces: wall_forces::kernels(device, self.wall_pass(w).0, &lanes)?,
+                    integrates: self.wall_pass(w).1,
                     sum_loads: walls::kernel(device, &w.sum_loads, &lanes)?,
                     fold: walls::fold_kernel(device, &w.fold, &lanes, walls::blocks(wall_groups))?,
                 }),
@@ -573,6 +607,7 @@ impl GpuBackend {
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
                 Stage::AppliedLoads => StageWork::Kernels(vec![kr.applied_loads.as_ref()?]),
                 Stage::Buoyancy => StageWork::Kernels(vec![kr.buoyancy.as_ref()?]),
+                Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
                 Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
                     StageWork::Conduction(kr.conduction.as_ref()?)

@@ -107,7 +107,7 @@ impl GpuBackend {
                     let passes: Vec<&[(Stage, StageWork)]> = work.chunks(1).collect();
                     for ((stage, w), secs) in work.iter().zip(self.time_passes(&passes)?) {
                         let (count, bytes) = w.cost().unwrap_or((0, 0));
-                        book(&mut stages, stage.name(), secs, bytes, count);
+                        book(&mut stages, s.kernels.label(*stage), secs, bytes, count);
                     }
                 } else {
                     batched_steps += k;

@@ -116,6 +116,39 @@ pub const WALL_FORCES: Shader = Shader {
     ]]),
 };
 
+/// The wall pass with integration after it in one kernel (plans with walls and no force stage):
+/// wall_forces.wgsl and integrate.wgsl, then the entry point that calls both. The wall pass's
+/// bindings, with the particle lanes integration writes made writable, then integration's own.
+pub const WALL_FORCES_INTEGRATE: Shader = Shader {
+    name: "wall_forces_integrate",
+    source: concat!(
+        include_str!("../../../../shaders/wall_forces.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/integrate.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/wall_forces_integrate.wgsl")
+    ),
+    bindings: Bindings(&[&[
+        uniform(PARAMS),
+        read(ORIGIN),
+        read_write(DISP),
+        read_write(VEL),
+        read(BODY),
+        read(KIND),
+        read(b::WALLS),
+        read(WALL_PAIRS),
+        read_write(WALL_STATE),
+        read_write(FORCE),
+        read_write(ANG_VEL),
+        read_write(TORQUE),
+        read_write(PARTIALS),
+        uniform(SLAB),
+        read_write(HEAT),
+        read_write(COUNTERS),
+        read_write(ANGLE),
+    ]]),
+};
+
 pub const WALLS: Shader = Shader {
     name: "walls",
     source: include_str!("../../../../shaders/walls.wgsl"),
@@ -366,7 +399,7 @@ pub const PORE_HEAT: Shader = Shader {
 };
 
 /// Every stage, for validation without a device.
-pub const STAGES: [&Shader; 17] = [
+pub const STAGES: [&Shader; 18] = [
     &NEIGHBOURS,
     &CELL_LIST,
     &SCAN,
@@ -377,6 +410,7 @@ pub const STAGES: [&Shader; 17] = [
     &PARALLEL_BOND,
     &ROLLING_RESISTANCE,
     &INTEGRATE,
+    &WALL_FORCES_INTEGRATE,
     &GUARD,
     &APPLIED_LOADS,
     &BUOYANCY,

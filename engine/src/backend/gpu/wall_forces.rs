@@ -1,5 +1,6 @@
 //! The `wall_forces` stage on the GPU: particle–wall contacts and per-workgroup wall loads
-//! (shaders/wall_forces.wgsl), one kernel per slab. Built only when the scene has walls.
+//! (shaders/wall_forces.wgsl), one kernel per slab. Built only when the scene has walls. When
+//! no force stage runs between it and integration, the pass integrates each particle too.
 //! CPU twin: `backend/cpu/wall_forces.rs`.
 
 use super::buffers::DeviceLanes;
@@ -10,6 +11,13 @@ use crate::plan::Stage;
 
 pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
     shaders::pipeline(device, Stage::WallForces.name(), &shaders::WALL_FORCES, "compute_wall_forces", constants)
+}
+
+/// The wall pass that also integrates each particle it finishes (shaders/wall_forces_integrate.wgsl):
+/// for plans with walls and no force stage between the two, one dispatch a step fewer.
+pub fn integrating_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+    let (shader, entry) = (&shaders::WALL_FORCES_INTEGRATE, "compute_wall_forces_and_integrate");
+    shaders::pipeline(device, "wall_forces + integrate", shader, entry, constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
