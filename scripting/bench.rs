@@ -31,6 +31,19 @@ pub struct BenchConfig {
     pub gpu: Option<Arc<GpuContext>>,
     /// Field stages switched on in the scene, so that a run shows what each costs a step.
     pub fields: Vec<BenchField>,
+    /// The lattice at rest (as LIGGGHTS is measured on) or stirred.
+    pub scene: BenchScene,
+}
+
+/// Which lattice `bench` times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum BenchScene {
+    /// The standard lattice at rest, as LIGGGHTS is measured on.
+    #[default]
+    Packed,
+    /// The same lattice with every grain started at up to ±0.5 m/s a component: the grains
+    /// collide and the neighbour rows are rebuilt every few hundred steps, as in a deposition.
+    Stirred,
 }
 
 /// A field stage `bench --field` switches on in the standard scene, every step (a field step
@@ -82,6 +95,10 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
         Some(0) => return Err("error: --particles must be at least 1".into()),
         Some(n) => LatticeScene::with_particles(n),
         None => LatticeScene::default(),
+    };
+    let scene = match cfg.scene {
+        BenchScene::Packed => scene,
+        BenchScene::Stirred => scene.stirred(),
     };
     if cfg.steps == 0 {
         return Err("error: --steps must be at least 1".into());
@@ -253,7 +270,7 @@ pub fn cpu_model() -> String {
 }
 
 fn scene_line(s: &LatticeScene) -> String {
-    format!(
+    let mut line = format!(
         "lattice {}×{}×{} = {} spheres, d = {} mm at spacing {} mm, ρ = {} kg/m³, Hertz–Mindlin E = {} MPa ν = {}, \
          μ = {}, e = {}, 5 plane walls, gravity {} m/s², rotation {}, dt = {:e} s",
         s.nx,
@@ -270,7 +287,11 @@ fn scene_line(s: &LatticeScene) -> String {
         s.gravity,
         if s.rotation { "on" } else { "off" },
         s.dt
-    )
+    );
+    if s.stir > 0.0 {
+        let _ = write!(line, ", stirred: start velocities within ±{} m/s a component", s.stir);
+    }
+    line
 }
 
 fn text(s: &LatticeScene, r: &BenchReport, b: &Backend, fields: &[BenchField]) -> String {
@@ -383,7 +404,7 @@ fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField], profi
         ("backend", json_str(b.name)),
         ("device", json_str(&b.device)),
         ("threads", r.threads.to_string()),
-        ("scene", json_str("lattice")),
+        ("scene", json_str(if s.stir > 0.0 { "stirred lattice" } else { "lattice" })),
         ("fields", format!("[{}]", on.join(","))),
         ("nx", s.nx.to_string()),
         ("ny", s.ny.to_string()),

@@ -115,10 +115,14 @@ pub enum Command {
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
-        /// Also time each named stage (CPU only): the same steps run as separate passes, one
-        /// per stage, and each stage's share of them printed.
+        /// Also time each named stage: the same steps run as separate passes, one per stage
+        /// (on the GPU each its own compute pass, timed by the device), and each stage's share
+        /// of them printed.
         #[arg(long)]
         profile: bool,
+        /// The lattice at rest (as LIGGGHTS is measured on) or stirred (rows rebuilt as it moves).
+        #[arg(long, value_enum, default_value_t = matdem_rs::bench::BenchScene::Packed)]
+        scene: matdem_rs::bench::BenchScene,
         /// Switch a field stage on in the scene (repeat for several): what it costs a step.
         #[arg(long = "field", value_enum)]
         fields: Vec<matdem_rs::bench::BenchField>,

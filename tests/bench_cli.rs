@@ -109,6 +109,22 @@ fn gpu_profile_lists_every_stage_and_they_sum_to_the_step() {
     panic!("the stages' passes do not sum to the step within 10 %: ratios {ratios:?}");
 }
 
+// The stirred scene moves: `bench --scene stirred` says so in its JSON, and its GPU profile (on
+// lavapipe in CI) books the row builds its motion needs beside the stages.
+#[test]
+fn stirred_scene_is_timed_with_its_row_builds() {
+    let o =
+        bin().args(["bench", "--scene", "stirred", "--particles", "500", "--steps", "200", "--json"]).output().unwrap();
+    assert!(o.status.success(), "stderr:\n{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["scene"], "stirred lattice");
+    let args = ["--profile", "--scene", "stirred", "--particles", "2000", "--steps", "400", "--warmup", "10"];
+    let Some(v) = gpu_bench_json(&args) else { return };
+    let names: Vec<&str> =
+        v["profile"]["stages"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert!(names.contains(&"neighbours: row builds"), "{names:?}");
+}
+
 /// `bench --backend gpu --json` with `args`, parsed; `None` (said) when there is no GPU adapter
 /// and the run does not require one.
 fn gpu_bench_json(args: &[&str]) -> Option<serde_json::Value> {

@@ -53,8 +53,10 @@ pub fn dispatch(command: Command) -> Outcome {
         Command::Doc => run::doc(),
         Command::Info { package } => package::info(&package),
         Command::Pack { package, output } => package::pack(&package, output),
-        Command::Bench { backend, particles, steps, warmup, json, profile, fields } => {
-            bench::bench(backend, particles, steps, warmup, json, profile, fields)
+        Command::Bench { backend, particles, steps, warmup, json, profile, fields, scene } => {
+            let cfg =
+                matdem_rs::bench::BenchConfig { particles, warmup, steps, json, profile, gpu: None, fields, scene };
+            bench::bench(backend, cfg)
         }
         Command::Study { script, vary, metric, set, reference, out, backend, jobs, max_points } => {
             study::study(study::StudyArgs {
