@@ -4,9 +4,10 @@
 // each with the state and dashpot force the old row held for it (zero when new), as the CPU carries
 // the whole PairState. Runs once per slab of rows.
 //
-// Rows are written in place, so the build runs twice: a counting pass (WRITE_ROWS off) finds
-// the longest new row and the rows with more set states than MAX_CARRY, and the writing pass
-// does nothing unless every row fits its slots; the host then builds the rows instead.
+// Rows are written in place, so the build runs twice: a counting pass (`count_rows`, WRITE_ROWS
+// off) finds the longest new row and the rows with more set states than MAX_CARRY, and the
+// writing pass (`build_rows`, WRITE_ROWS on) does nothing unless every row fits its slots; the
+// host then builds the rows instead.
 // CPU twin: rebuild in backend/cpu/neighbours.rs.
 
 override WRITE_ROWS: bool = false;
@@ -16,15 +17,48 @@ const MAX_CARRY: u32 = 64u;
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
+// The counting pass's findings per workgroup (zero at the start of a dispatch): each workgroup
+// sends one maximum and one count to the device-wide counters, not one per particle.
+var<workgroup> group_longest: atomic<u32>;
+var<workgroup> group_crowded: atomic<u32>;
+
+// The counting pass (WRITE_ROWS off): the longest new row and the rows that carry too much.
+@compute @workgroup_size(64)
+fn count_rows(@builtin(global_invocation_id) gid: vec3<u32>,
+              @builtin(num_workgroups) groups: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    let local = invocation(gid, groups);
+    if local < slab.count {
+        let found = build_row(local);
+        atomicMax(&group_longest, found.x);
+        atomicAdd(&group_crowded, found.y);
+    }
+    workgroupBarrier();
+    if li == 0u {
+        atomicMax(&counters[C_LONGEST], atomicLoad(&group_longest));
+        let crowded = atomicLoad(&group_crowded);
+        if crowded != 0u {
+            atomicAdd(&counters[C_CROWDED], crowded);
+        }
+    }
+}
+
+// The writing pass (WRITE_ROWS on): nothing unless the counting pass found every row fits.
 @compute @workgroup_size(64)
 fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let local = invocation(gid, groups);
     if local >= slab.count {
         return;
     }
-    if WRITE_ROWS && (atomicLoad(&counters[C_LONGEST]) > params.cap || atomicLoad(&counters[C_CROWDED]) != 0u) {
+    if atomicLoad(&counters[C_LONGEST]) > params.cap || atomicLoad(&counters[C_CROWDED]) != 0u {
         return;
     }
+    build_row(local);
+}
+
+// Builds the row of the slab's particle `local`: with WRITE_ROWS off only counts it, and
+// returns its length and whether it has more set states than MAX_CARRY (1) or not (0).
+fn build_row(local: u32) -> vec2<u32> {
     let i = slab.first + local;
     let cap = params.cap;
     // The old row's set states, in j order (the old row is sorted). A state is set when any
@@ -122,11 +156,7 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         }
     }
     if !WRITE_ROWS {
-        atomicMax(&counters[C_LONGEST], len);
-        if crowded {
-            atomicAdd(&counters[C_CROWDED], 1u);
-        }
-        return;
+        return vec2<u32>(len, select(0u, 1u, crowded));
     }
     // Sort by j (insertion: rows are short), then give each entry its old state.
     for (var k = 1u; k < len; k++) {
@@ -163,4 +193,5 @@ fn build_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     row_len[i] = len;
     built[i] = vec4<f32>(ui, 0.0);
+    return vec2<u32>(len, 0u);
 }

@@ -659,6 +659,42 @@ fn rows_that_outgrow_their_slots_are_rebuilt_through_the_host() {
     device_rows_match_cpu(&ctx, &m);
 }
 
+// A row that carries more set states than a device build holds (memory::MAX_CARRY = 64) goes
+// through the host: 80 grains touching a hub, each contact with a shear spring. The counting
+// pass (one finding per workgroup) says so and the device writes nothing; 60 such grains
+// fit, and the device's rows equal the CPU's with every spring carried.
+#[test]
+fn rows_that_carry_more_than_a_device_build_holds_are_built_by_the_host() {
+    let Some(ctx) = gpu("rows_crowded") else { return };
+    let hub_with = |count: usize| {
+        let (big, small) = (0.01, 0.001);
+        let mut m = Model::new();
+        let k = m.add_material(material("glass", 2500.0, 1e5, 5e7, 0.25)).unwrap();
+        let centre = Vec3::repeat(0.05);
+        m.add_particle(centre, big, k).unwrap();
+        for q in 0..count {
+            let z = 1.0 - (2.0 * q as f64 + 1.0) / count as f64;
+            let phi = q as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let dir = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+            m.add_particle(centre + dir * (big + small - 1e-5), small, k).unwrap();
+        }
+        rebuild(&mut m);
+        // A shear spring on every contact of the hub, the same at both ends of each pair.
+        for e in 0..m.contacts.other.len() {
+            m.contacts.state[e].shear = Vec3::new(1e-3, 0.0, 0.0);
+        }
+        m
+    };
+    let mut crowded = hub_with(80);
+    assert_eq!(crowded.contacts.row(0).len(), 80);
+    let mut backend = GpuBackend::prepare(ctx.clone(), &crowded).unwrap();
+    let verdict = backend.build_rows_once(&mut crowded).unwrap();
+    assert!(verdict.as_ref().is_err_and(|why| why.starts_with("1 rows carry more than 64")), "{verdict:?}");
+    assert_eq!(backend.row_stats().device_builds, 0);
+    let fits = hub_with(60);
+    device_rows_match_cpu(&ctx, &fits);
+}
+
 // A device build of 40,000 jittered grains of radii 0.9–1.0·r on a 2r lattice, bonded where
 // they nearly touch: the cell list's scan takes three levels (65,537 bucket counts), and the
 // rows equal the CPU's rebuild, bonds and all.

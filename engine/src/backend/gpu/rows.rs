@@ -33,7 +33,7 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
         fill: shaders::pipeline(device, "fill_cells", &shaders::CELL_LIST, "fill_cells", constants),
         scan: shaders::pipeline(device, "scan_blocks", &shaders::SCAN, "scan_blocks", constants),
         add_sums: shaders::pipeline(device, "add_block_sums", &shaders::SCAN, "add_block_sums", constants),
-        count: shaders::pipeline(device, "count_rows", &shaders::ROWS, "build_rows", &with_write(0.0)),
+        count: shaders::pipeline(device, "count_rows", &shaders::ROWS, "count_rows", &with_write(0.0)),
         write: shaders::pipeline(device, "write_rows", &shaders::ROWS, "build_rows", &with_write(1.0)),
     }
 }
