@@ -7,8 +7,8 @@
 //! step dispatches, in order: walls (last step's loads summed, then moved) → contact forces →
 //! wall forces → parallel bonds, rolling resistance, pore flow, applied loads, buoyancy (when the
 //! scene has them) → integration (inside the wall pass when none of those runs); when the drift
-//! reaches half the skin the rows are rebuilt on the device ([`rows`]). The pore network's topology is built on the host and rebuilt through it
-//! ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
+//! reaches half the skin the rows are rebuilt on the device ([`rows`]). The pore network's
+//! topology is built on the host and rebuilt through it ([`pore_flow`]). Pipelines are built once per plan, with the plan's laws as pipeline
 //! constants; stages the scene does not need (walls) are neither built nor dispatched, and
 //! lanes it does not need (rotation, the dashpot force, heat causes it cannot produce) are
 //! 128-byte placeholders or absent. Rows live in fixed-width slots, and the per-entry lanes
@@ -114,9 +114,10 @@ struct Pipelines {
 struct WallPipelines {
     /// Last step's loads summed, then the walls moved.
     advance: Pipeline,
+    /// The wall pass; with integration in it when `integrates`.
     forces: Pipeline,
-    /// The wall pass with integration in it, when the plan has no force stage between them.
-    integrating: Option<Pipeline>,
+    /// No force stage runs between the wall pass and integration, so the pass integrates too.
+    integrates: bool,
     /// The loads summed alone (before a download).
     sum_loads: Pipeline,
     /// The partials folded 64 at a time before either sum (scenes of over 256 workgroups).
@@ -252,8 +253,6 @@ pub struct GpuBackend {
     batch: u64,
     /// The last guard found a contact too stiff for dt (its lowest particle id).
     stiff: Option<u32>,
-    /// Integration may run inside the wall pass (off: every stage its own pass, for tests).
-    fuse: bool,
 }
 
 impl GpuBackend {
@@ -286,8 +285,8 @@ impl GpuBackend {
             contact_forces: contact_forces::pipeline(device, &constants),
             walls: (plan.walls > 0).then(|| WallPipelines {
                 advance: walls::pipeline(device, &constants),
-                forces: wall_forces::pipeline(device, &constants),
-                integrating: (!plan.has_force_stage()).then(|| wall_forces::integrating_pipeline(device, &constants)),
+                forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage()),
+                integrates: !plan.has_force_stage(),
                 sum_loads: walls::sum_pipeline(device, &constants),
                 fold: walls::fold_pipeline(device, &constants),
             }),
@@ -317,7 +316,6 @@ impl GpuBackend {
             resident: None,
             batch: 1,
             stiff: None,
-            fuse: true,
         };
         backend.check_device()?;
         Ok(backend)
@@ -348,14 +346,11 @@ impl GpuBackend {
     /// Runs integration in a pass of its own even where the wall pass could do it: the two
     /// ways give the same bits (`engine/tests/gpu_parity.rs`). Takes effect at the next upload.
     pub fn separate_passes(&mut self) {
-        self.fuse = false;
-    }
-
-    /// The wall pass's pipeline, and whether it integrates too.
-    fn wall_pass<'p>(&self, w: &'p WallPipelines) -> (&'p Pipeline, bool) {
-        match &w.integrating {
-            Some(p) if self.fuse => (p, true),
-            _ => (&w.forces, false),
+        let mut constants = shaders::constants(&self.plan);
+        constants.extend(self.ledger.constants());
+        if let Some(w) = self.pipelines.walls.as_mut().filter(|w| w.integrates) {
+            w.forces = wall_forces::pipeline(&self.ctx, &constants, false);
+            w.integrates = false;
         }
     }
 
@@ -487,8 +482,8 @@ impl GpuBackend {
             walls: match &p.walls {
                 Some(w) => Some(WallKernels {
                     advance: walls::kernel(device, &w.advance, &lanes)?,
-                    forces: wall_forces::kernels(device, self.wall_pass(w).0, &lanes)?,
-                    integrates: self.wall_pass(w).1,
+                    forces: wall_forces::kernels(device, &w.forces, &lanes)?,
+                    integrates: w.integrates,
                     sum_loads: walls::kernel(device, &w.sum_loads, &lanes)?,
                     fold: walls::fold_kernel(device, &w.fold, &lanes, walls::blocks(wall_groups))?,
                 }),

@@ -9,15 +9,15 @@ use super::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+/// The wall pass; with `integrates`, the one that also moves each particle it finishes
+/// (shaders/wall_forces_integrate.wgsl): for plans with walls and no force stage between the
+/// two, one dispatch a step fewer.
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], integrates: bool) -> Pipeline {
+    if integrates {
+        let (shader, entry) = (&shaders::WALL_FORCES_INTEGRATE, "compute_wall_forces_and_integrate");
+        return shaders::pipeline(device, "wall_forces + integrate", shader, entry, constants);
+    }
     shaders::pipeline(device, Stage::WallForces.name(), &shaders::WALL_FORCES, "compute_wall_forces", constants)
-}
-
-/// The wall pass that also integrates each particle it finishes (shaders/wall_forces_integrate.wgsl):
-/// for plans with walls and no force stage between the two, one dispatch a step fewer.
-pub fn integrating_pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
-    let (shader, entry) = (&shaders::WALL_FORCES_INTEGRATE, "compute_wall_forces_and_integrate");
-    shaders::pipeline(device, "wall_forces + integrate", shader, entry, constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {

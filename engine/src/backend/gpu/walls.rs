@@ -2,8 +2,7 @@
 //! (prescribed velocity or servo), in one single-workgroup dispatch (shaders/walls.wgsl),
 //! so a servo platen runs without a round trip to the host; in scenes of more than 256
 //! workgroups (16,384 particles) the partials are first folded 64 at a time by a parallel
-//! dispatch. Built only
-//! when the scene has walls. CPU twin: [`crate::walls::Wall::advance`].
+//! dispatch. Built only when the scene has walls. CPU twin: [`crate::walls::Wall::advance`].
 
 use super::bindings::{FOLDED, PARAMS, PARTIALS};
 use super::buffers::DeviceLanes;
