@@ -94,31 +94,34 @@ pub const CONTACT_FORCES: Shader = Shader {
     ]]),
 };
 
+/// The wall pass's bindings. The particle lanes integration writes are writable here, so the
+/// pass with integration in it (below) binds the same list and integration's own after it.
+const WALL_PASS_BINDINGS: &[Binding] = &[
+    uniform(PARAMS),
+    read(ORIGIN),
+    read_write(DISP),
+    read_write(VEL),
+    read(BODY),
+    read(KIND),
+    read(b::WALLS),
+    read(WALL_PAIRS),
+    read_write(WALL_STATE),
+    read_write(FORCE),
+    read_write(ANG_VEL),
+    read_write(TORQUE),
+    read_write(PARTIALS),
+    uniform(SLAB),
+    read_write(HEAT),
+];
+
 pub const WALL_FORCES: Shader = Shader {
     name: "wall_forces",
     source: include_str!("../../../../shaders/wall_forces.wgsl"),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read(ORIGIN),
-        read(DISP),
-        read(VEL),
-        read(BODY),
-        read(KIND),
-        read(b::WALLS),
-        read(WALL_PAIRS),
-        read_write(WALL_STATE),
-        read_write(FORCE),
-        read(ANG_VEL),
-        read_write(TORQUE),
-        read_write(PARTIALS),
-        uniform(SLAB),
-        read_write(HEAT),
-    ]]),
+    bindings: Bindings(&[WALL_PASS_BINDINGS]),
 };
 
 /// The wall pass with integration after it in one kernel (plans with walls and no force stage):
-/// wall_forces.wgsl and integrate.wgsl, then the entry point that calls both. The wall pass's
-/// bindings, with the particle lanes integration writes made writable, then integration's own.
+/// wall_forces.wgsl and integrate.wgsl, then the entry point that calls both.
 pub const WALL_FORCES_INTEGRATE: Shader = Shader {
     name: "wall_forces_integrate",
     source: concat!(
@@ -128,25 +131,7 @@ pub const WALL_FORCES_INTEGRATE: Shader = Shader {
         "\n",
         include_str!("../../../../shaders/wall_forces_integrate.wgsl")
     ),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read(ORIGIN),
-        read_write(DISP),
-        read_write(VEL),
-        read(BODY),
-        read(KIND),
-        read(b::WALLS),
-        read(WALL_PAIRS),
-        read_write(WALL_STATE),
-        read_write(FORCE),
-        read_write(ANG_VEL),
-        read_write(TORQUE),
-        read_write(PARTIALS),
-        uniform(SLAB),
-        read_write(HEAT),
-        read_write(COUNTERS),
-        read_write(ANGLE),
-    ]]),
+    bindings: Bindings(&[WALL_PASS_BINDINGS, &[read_write(COUNTERS), read_write(ANGLE)]]),
 };
 
 pub const WALLS: Shader = Shader {
