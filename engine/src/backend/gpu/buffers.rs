@@ -77,6 +77,8 @@ pub const C_PORE_DRIFT: usize = 12;
 pub const C_PORE_EXCHANGE: usize = 13;
 pub const COUNTERS: usize = 14;
 
+const ZERO: Vec3 = Vec3::new(0.0, 0.0, 0.0);
+
 fn v4(v: &Vec3, w: f32) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w]
 }
@@ -200,7 +202,10 @@ impl HostLanes {
                     normal,
                     motion: [kind, stress, max_speed, w.area as f32],
                     prescribed: v4(&prescribed, cone_h),
-                    velocity: v4(&w.velocity, cone_end),
+                    // A fixed wall is at rest, whatever it did before: the walls stage, which
+                    // would say so at the first step, does not run in a scene whose walls never
+                    // move.
+                    velocity: v4(if w.motion == WallMotion::Fixed { &ZERO } else { &w.velocity }, cone_end),
                     moved: [0.0; 4],
                     load: v4(&w.force, w.normal_force as f32),
                     load2: match &w.shape {

@@ -591,6 +591,10 @@ impl GpuBackend {
         let step = s.step0 + s.steps + t;
         let work = |stage: Stage| -> Option<StageWork<'s>> {
             Some(match stage {
+                // Walls that never move need no pass a step: their loads are summed when a
+                // download reads them (`download`), and a fixed wall's velocity is zero from
+                // the upload.
+                Stage::Walls if self.plan.moving_walls + self.plan.servo_walls == 0 => return None,
                 Stage::Walls => {
                     let w = kr.walls.as_ref()?;
                     StageWork::Kernels(w.summing(&w.advance))
