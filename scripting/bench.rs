@@ -72,8 +72,11 @@ impl BenchField {
         match self {
             BenchField::Heat => {
                 m.enable_heat();
-                let props =
-                    matdem_engine::fields::ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 0.0 };
+                let props = matdem_engine::effects::conduction::ThermalProps {
+                    conductivity: 1.0,
+                    specific_heat: 800.0,
+                    expansion: 0.0,
+                };
                 m.set_thermal_material("bench", props)
             }
             BenchField::Moisture => {

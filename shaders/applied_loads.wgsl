@@ -2,8 +2,8 @@
 // whose drag reads their sum) and `integrate`: each loaded element adds its applied force to its
 // own force lane and, when the plan has torques (APPLIED_TORQUE), its applied torque to its own
 // torque lane. Killed elements feel nothing. No atomics. Their work is booked on the host, from
-// the positions and angles a download brings back (state/applied_loads.rs).
-// CPU twin: backend/cpu/applied_loads.rs.
+// the positions and angles a download brings back (effects/applied_loads/lanes.rs).
+// CPU twin: effects/applied_loads/cpu.rs.
 
 // Some element carries a torque: the torque lane is written (it exists only with rotation).
 override APPLIED_TORQUE: bool = false;

@@ -8,7 +8,7 @@
 // dv/dt = A − v/τ over the step (stable for any viscosity). With the ledger's damping slot
 // the drag's heat −F_d·v̄·dt (v̄ the mean of the velocity before and the kick's, free
 // components) is booked there. No atomics.
-// CPU twin: backend/cpu/buoyancy.rs.
+// CPU twin: effects/buoyancy/cpu.rs.
 
 struct Water {
     level: f32,
@@ -54,7 +54,7 @@ fn buoyancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         let fd = -(v0 * (loss / params.dt) + a * phi_loss) * m;
         f = f + fd;
         if HEAT_DAMPING != HEAT_OFF {
-            // The drag's heat, −F_d·v̄·dt over the free components (cpu/buoyancy.rs' drag_heat).
+            // The drag's heat, −F_d·v̄·dt over the free components (effects/buoyancy/cpu.rs' drag_heat).
             let v1 = v0 + (a + fd / m) * params.dt;
             let fixed = kind[i] >> 24u;
             let free = vec3<f32>(select(1.0, 0.0, (fixed & 1u) != 0u), select(1.0, 0.0, (fixed & 2u) != 0u),

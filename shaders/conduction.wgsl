@@ -7,7 +7,7 @@
 // stage reads as the radius. With the dissipated heat fed in (the plan's `dissipation`), `feed`
 // first adds to each free element's temperature the heat its ledger slots (heat_ledger.wgsl; damping,
 // contact damping, friction, breakage, not wall work) booked since the last field step, over
-// its capacity. No atomics. CPU twin: backend/cpu/conduction.rs.
+// its capacity. No atomics. CPU twin: effects/conduction/cpu.rs.
 
 // Some element expands (the plan's `expansion`).
 override EXPANSION: bool = false;

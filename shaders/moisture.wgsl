@@ -7,7 +7,7 @@
 // (which every stage reads as the radius), `shrink_expand` the same times the thermal
 // expansion's factor when heat expands the elements too; `strengthen` sets each bond's share of its
 // strength s(ω̄) in state.w, ω̄ the pair's mean, quantised as the CPU's u16 share is.
-// No atomics. CPU twin: backend/cpu/moisture.rs (physics/moisture.rs for the laws).
+// No atomics. CPU twin: effects/moisture/cpu.rs (effects/moisture/physics.rs for the laws).
 
 const PI: f32 = 3.14159265358979;
 

@@ -3,8 +3,8 @@
 // bond in the bond's canonical orientation (lower id first, so both rows compute the same
 // numbers and take the same breaking decision), stores the new state in its own row entry and
 // adds its side's force and torque to what contact_forces and wall_forces summed: no float
-// atomics. `update` in engine/src/physics/parallel_bond.rs, line for line, in f32; CPU twin:
-// engine/src/backend/cpu/parallel_bond.rs. Runs after wall_forces, before integrate.
+// atomics. `update` in engine/src/effects/parallel_bond/physics.rs, line for line, in f32; CPU twin:
+// engine/src/effects/parallel_bond/cpu.rs. Runs after wall_forces, before integrate.
 
 // The bonds' parameters (ParallelBondParams), and the count of particles.
 struct BondParams {

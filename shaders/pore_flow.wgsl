@@ -31,8 +31,8 @@
 // increment, and the download adds it back. No float atomics: both pores of a throat compute the
 // same g·Δp, so what one loses the other gains (to f32 round-off), and each element sums its own
 // row.
-// CPU twins: pores/network.rs (`refresh`), pores/flow.rs (`substep`),
-// pores/pressure_forces.rs, run by backend/cpu/pore_flow.rs. With the heat field on, the
+// CPU twins: effects/pore_flow/network.rs (`refresh`), effects/pore_flow/flow.rs (`substep`),
+// effects/pore_flow/pressure_forces.rs, run by effects/pore_flow/cpu/mod.rs. With the heat field on, the
 // kernels of pore_heat.wgsl (appended to this file) replace `pore_pressure` and `pore_mass`.
 
 struct PoreParams {

@@ -1,11 +1,11 @@
 // The `rolling_resistance` stage on the GPU: one invocation per particle walks its own
 // neighbour row and the walls, and adds to its torque each contact's rolling resistance
-// (engine/src/physics/rolling_resistance.rs, line for line, in f32): cdt, −μ_r·R_eff·Fn·ω̂_t
+// (engine/src/effects/rolling_resistance/physics.rs, line for line, in f32): cdt, −μ_r·R_eff·Fn·ω̂_t
 // capped at I_eff·|ω_t|/dt; or, with ROLLING_SPRING (common.wgsl), epsd's rolling spring, kept
 // per row entry and per wall in this slab's lanes. Each pair is evaluated from both rows with
 // exactly opposite inputs, so no float atomics. The torques' work −M·ω_rel·dt goes to the heat
 // ledger's friction lane: half of each pair's from each row, all of a wall contact's. Runs once
-// per slab of rows, after wall_forces, before integrate. CPU twin: engine/src/backend/cpu/rolling_resistance.rs.
+// per slab of rows, after wall_forces, before integrate. CPU twin: engine/src/effects/rolling_resistance/cpu.rs.
 
 // The rolling resistance coefficient μ_r and epsd's viscous damping ratio η_r, set for this
 // pipeline only.

@@ -53,6 +53,7 @@ mod script_errors;
 mod script_reference;
 mod slope_cli;
 mod snapshot_cli;
+mod stage_switches;
 mod study_cli;
 mod sweep_cli;
 mod sweep_slurm;

@@ -130,7 +130,7 @@ mod tests {
             let dz = 1e-6;
             let force = -(buoyant_potential(z + dz, r, level, rho, gz) - buoyant_potential(z - dz, r, level, rho, gz))
                 / (2.0 * dz);
-            let v_sub = crate::physics::buoyancy::submerged_volume(z, r, level);
+            let v_sub = crate::effects::buoyancy::physics::submerged_volume(z, r, level);
             assert!(
                 (force - rho * 9.81 * v_sub).abs() < 1e-6 * rho * 9.81 * v,
                 "h {h}: {force} vs {}",

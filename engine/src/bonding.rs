@@ -2,10 +2,10 @@
 //! on the model that edit its rows' pair states, rebuilding the rows first where a bond must
 //! find its pairs.
 
+use crate::effects::parallel_bond::physics::ParallelBondParams;
 use crate::error::{check_positive, Error, Result};
 use crate::model::Model;
 use crate::physics::contact_law::PairState;
-use crate::physics::parallel_bond::ParallelBondParams;
 use crate::physics::Vec3;
 
 impl Model {
@@ -62,7 +62,7 @@ impl Model {
     }
 
     /// Turns every MatDEM bond into a parallel bond with `params` (Potyondy & Cundall's model,
-    /// physics/parallel_bond.rs): the pair keeps a plain linear contact (compression and
+    /// effects/parallel_bond/physics.rs): the pair keeps a plain linear contact (compression and
     /// friction, no tension) and gains a bond of radius λ̄·min(Ri, Rj) in parallel with it,
     /// unloaded at the current positions. Rotation is simulated from then on. Returns the
     /// number of bonds made; refuses a model with none (connect it first) and bad parameters.

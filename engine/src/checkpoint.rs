@@ -32,22 +32,23 @@
 //! The engine does no file I/O: hosts write the bytes (atomically) and read them back.
 
 use crate::body_potential::{BodyFields, BodyWork};
+use crate::effects::applied_loads::lanes::AppliedLoads;
+use crate::effects::buoyancy::WaterTable;
+use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
+use crate::effects::conduction::HeatSettings;
+use crate::effects::moisture::lanes::MoistureLanes;
+use crate::effects::moisture::physics::Table;
+use crate::effects::moisture::MoistureSettings;
+use crate::effects::parallel_bond::lanes::ParallelBonds;
+use crate::effects::pore_flow::coupling::PoreSettings;
+use crate::effects::pore_flow::flow::{PoreBoundary, PoreFlow};
+use crate::effects::pore_flow::{Fluid, FluidHeat};
+use crate::effects::rolling_resistance::physics::RollingResistance;
 use crate::element_values::MAX_MATERIALS;
-use crate::fields::{HeatSettings, WaterTable};
 use crate::model::Model;
-use crate::moisture::MoistureSettings;
-use crate::physics::moisture::Table;
-use crate::physics::rolling_resistance::RollingResistance;
 use crate::physics::Vec3;
-use crate::pores::coupling::PoreSettings;
-use crate::pores::flow::{PoreBoundary, PoreFlow};
-use crate::pores::{Fluid, FluidHeat};
 use crate::provenance::Provenance;
-use crate::state::applied_loads::AppliedLoads;
 use crate::state::check_row_starts;
-use crate::state::moisture::MoistureLanes;
-use crate::state::parallel_bonds::ParallelBonds;
-use crate::state::thermal::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::walls::{WallMotion, WallShape, MAX_WALLS};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -733,7 +734,7 @@ fn check_neighbour_rows(m: &Model) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pores::{BoundaryKind, PoreRegion};
+    use crate::effects::pore_flow::{BoundaryKind, PoreRegion};
     use crate::Material;
 
     // A format-7 file written before the pore heat section existed (its pore flow section

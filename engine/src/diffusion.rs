@@ -13,7 +13,7 @@
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 
-/// [`crate::state::thermal::ThermalLanes::mode`] and the moisture lanes' mode: the element
+/// [`crate::effects::conduction::lanes::ThermalLanes::mode`] and the moisture lanes' mode: the element
 /// exchanges with its neighbours.
 pub const FREE: u8 = 0;
 /// Held at its value (a boundary at a fixed temperature or water content).

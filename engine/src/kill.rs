@@ -19,9 +19,9 @@
 //! account: it is constant, for they never move again. Statistics (contacts, coordination,
 //! porosity, unbalanced force) and pictures leave them out.
 
+use crate::effects::parallel_bond::physics::{status, BondState};
 use crate::error::Result;
 use crate::model::Model;
-use crate::physics::parallel_bond::{status, BondState};
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::state::contacts::Contacts;

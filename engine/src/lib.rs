@@ -17,10 +17,13 @@
 //!   f32) runs one step as named stages, a chunk of steps at a time, ending with the guard.
 //! - [`simulation::Simulation`] runs many steps on either, with one run loop (chunks, the
 //!   stability [`guard`]'s cadence, sampling, observers, cancellation) and MatDEM's `balance`.
-//! - [`fields`] holds the scene's fields: heat conduction with thermal expansion (the
-//!   `conduction` stage) and the water table's buoyancy (the `buoyancy` stage);
-//!   [`moisture`] the water content with evaporation, drying shrinkage and bond strength (the
-//!   `moisture` stage); both diffuse through the shared core [`diffusion`].
+//! - [`effects`] holds the optional effects, one folder each, every one a stage of the step
+//!   that a scene pays for only when it switches it on: heat conduction with thermal expansion,
+//!   the water table's buoyancy, the water content with evaporation, drying shrinkage and bond
+//!   strength (conduction and moisture diffuse through the shared core [`diffusion`]), parallel
+//!   bonds, rolling resistance, applied loads, the energy ledger, and pore density flow (the
+//!   Delaunay pore network of the packing, fluid mass and pressure per pore, flow through the
+//!   throats, pressure on the grains). [`plan::registry`] has a row per stage.
 //! - [`analysis`] reads a settled model: the contact list by the contact laws, fabric,
 //!   Love–Weber stress, porosity and strain in a region.
 //! - [`status`] measures energies, heat, coordination number and porosity;
@@ -30,8 +33,6 @@
 //!   later run continues it bit for bit.
 //! - [`zoned`] packs concentric zones of growing grain size with mixing layers (paper 001);
 //!   [`scaling`] makes scaled copies of a packing and scales materials by its law.
-//! - [`pores`] is pore density flow: the Delaunay pore network of the packing, fluid mass
-//!   and pressure per pore, flow through the throats, pressure on the grains.
 //! - [`bench`] builds the standard throughput scene and times it.
 //!
 //! Units are SI; particle ids are 0-based.
@@ -44,9 +45,9 @@ pub mod bonding;
 pub mod builder;
 pub mod checkpoint;
 pub mod diffusion;
+pub mod effects;
 pub mod element_values;
 pub mod error;
-pub mod fields;
 pub mod geometry;
 pub mod guard;
 pub mod kill;
@@ -55,11 +56,9 @@ pub mod law_dispatch;
 pub mod materials;
 pub mod memory_budget;
 pub mod model;
-pub mod moisture;
 pub mod neighbours;
 pub mod physics;
 pub mod plan;
-pub mod pores;
 pub mod provenance;
 pub mod scaling;
 pub mod settings;

@@ -1,6 +1,7 @@
 //! The model: particles, contact rows, materials, groups, walls, settings and the clock.
 //! Mutating calls validate their input and mark what a run must rebuild.
 
+use crate::effects::parallel_bond::lanes::ParallelBonds;
 use crate::error::{check_positive, Error, Result};
 use crate::materials::Material;
 use crate::physics::contact_law::{BreakKind, PairState};
@@ -9,7 +10,6 @@ use crate::physics::timestep::{critical_step, element_period, STANDARD_FRACTION}
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::state::groups::Groups;
-use crate::state::parallel_bonds::ParallelBonds;
 use crate::state::particles::{dof, Particles};
 use crate::walls::{Wall, MAX_WALLS};
 use serde::{Deserialize, Serialize};
@@ -43,22 +43,22 @@ pub struct Settings {
     /// Heat conduction and thermal expansion (the `conduction` stage; off by default). Saved
     /// after the model in a checkpoint (format 4), so that older checkpoints still read.
     #[serde(skip)]
-    pub heat: crate::settings::conduction::HeatSettings,
+    pub heat: crate::effects::conduction::settings::HeatSettings,
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
-    pub water: crate::settings::water_table::WaterTable,
+    pub water: crate::effects::buoyancy::settings::WaterTable,
     /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
     /// stage; off by default). Saved in a checkpoint's sections (format 7) with the water lanes.
     #[serde(skip)]
-    pub moisture: crate::settings::moisture::MoistureSettings,
+    pub moisture: crate::effects::moisture::settings::MoistureSettings,
     /// Rolling resistance (the `rolling_resistance` stage; off by default). Saved in a
     /// checkpoint's sections (format 7), so that older checkpoints still read.
     #[serde(skip)]
-    pub rolling: Option<crate::physics::rolling_resistance::RollingResistance>,
+    pub rolling: Option<crate::effects::rolling_resistance::physics::RollingResistance>,
     /// Pore density flow (the `pore_flow` stage; off by default). Saved, with the network and
     /// its fluid, in a checkpoint's sections (format 7).
     #[serde(skip)]
-    pub pores: crate::pores::PoreSettings,
+    pub pores: crate::effects::pore_flow::PoreSettings,
 }
 
 impl Default for Settings {
@@ -75,11 +75,11 @@ impl Default for Settings {
             max_overlap_ratio: 0.5,
             guard: crate::settings::guard::GuardMode::Stop,
             heat_ledger: true,
-            heat: crate::settings::conduction::HeatSettings::default(),
-            water: crate::settings::water_table::WaterTable::default(),
-            moisture: crate::settings::moisture::MoistureSettings::default(),
+            heat: crate::effects::conduction::settings::HeatSettings::default(),
+            water: crate::effects::buoyancy::settings::WaterTable::default(),
+            moisture: crate::effects::moisture::settings::MoistureSettings::default(),
             rolling: None,
-            pores: crate::pores::PoreSettings::default(),
+            pores: crate::effects::pore_flow::PoreSettings::default(),
         }
     }
 }
@@ -127,7 +127,7 @@ pub struct Model {
     /// The `pore_flow` stage's network and fluid, when the scene enabled it
     /// ([`Model::enable_pore_flow`]). Saved in a checkpoint's sections (format 7).
     #[serde(skip)]
-    pub pores: Option<Box<crate::pores::PoreFlow>>,
+    pub pores: Option<Box<crate::effects::pore_flow::PoreFlow>>,
     /// The work done by changing gravity or the water table between runs, for the energy
     /// account (`body_potential`). Saved after a checkpoint's sections (format 8).
     #[serde(skip)]

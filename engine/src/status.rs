@@ -2,10 +2,10 @@
 //! porosity. These run on demand or on sampling steps, never inside the force loops.
 
 use crate::body_potential::BodyFields;
+use crate::effects::parallel_bond::physics as parallel_bond;
 use crate::geometry::sphere_box::{sphere_box_volume, sphere_cylinder_volume, sphere_sphere_volume};
 use crate::model::Model;
 use crate::physics::contact_law::{normal_energy, shear_energy, NormalLaw, TangentialLaw};
-use crate::physics::parallel_bond;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::state::particles::dof;
@@ -35,7 +35,7 @@ pub struct Energies {
     pub body_work: f64,
     /// Work done on the model by the applied forces and torques (`d.apply_force`,
     /// `d.apply_torque`): Σ F·Δx + T·Δθ over each load's constant stretches
-    /// (state/applied_loads.rs).
+    /// (effects/applied_loads/lanes.rs).
     #[serde(default)]
     pub applied_work: f64,
 }

@@ -9,7 +9,7 @@
 
 use crate::common::material;
 use matdem_engine::backend::RunControl;
-use matdem_engine::physics::buoyancy::submerged_volume;
+use matdem_engine::effects::buoyancy::physics::submerged_volume;
 use matdem_engine::plan::Stage;
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Model, Simulation, Vec3, Wall};
@@ -89,7 +89,8 @@ fn stokes_drag_gives_the_terminal_speed() {
     let k = m.add_material(material("sand", RHO, 1e5, 1e7, 0.3)).unwrap();
     m.add_particle(Vec3::zeros(), R, k).unwrap();
     m.settings.gravity = Vec3::new(0.0, 0.0, -G);
-    m.settings.water = matdem_engine::fields::WaterTable { level: Some(1.0), density: RHO_F, viscosity: 1.0 };
+    m.settings.water =
+        matdem_engine::effects::buoyancy::WaterTable { level: Some(1.0), density: RHO_F, viscosity: 1.0 };
     m.set_dt(1e-5).unwrap();
     let mut sim = Simulation::new(m);
     sim.run(20_000, &RunControl::default(), &mut |_| {}).unwrap();
@@ -107,7 +108,8 @@ fn dropped(alpha: f64, level: f64, gap: f64) -> Model {
     m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1e-6).unwrap()).unwrap();
     m.settings.gravity = Vec3::new(0.0, 0.0, -G);
     m.settings.local_damping = alpha;
-    m.settings.water = matdem_engine::fields::WaterTable { level: Some(level), density: RHO_F, viscosity: 0.0 };
+    m.settings.water =
+        matdem_engine::effects::buoyancy::WaterTable { level: Some(level), density: RHO_F, viscosity: 0.0 };
     m.set_standard_dt().unwrap();
     m
 }
@@ -189,7 +191,8 @@ fn a_floating_element_with_local_damping_settles_at_the_flotation_depth_and_its_
     m.add_particle(Vec3::new(0.0, 0.0, level + 0.4 * r), r, k).unwrap();
     m.settings.gravity = Vec3::new(0.0, 0.0, -G);
     m.settings.local_damping = 0.5;
-    m.settings.water = matdem_engine::fields::WaterTable { level: Some(level), density: RHO_F, viscosity: 0.0 };
+    m.settings.water =
+        matdem_engine::effects::buoyancy::WaterTable { level: Some(level), density: RHO_F, viscosity: 0.0 };
     m.set_dt(1e-4).unwrap();
     let mass = m.particles.mass[0];
     let potential = |z: f64| {

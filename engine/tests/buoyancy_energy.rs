@@ -32,7 +32,8 @@ fn drop_scene(mu: f64, alpha: f64, floor: bool) -> Model {
     m.add_particle(Vec3::new(0.0, 0.0, LEVEL + R + 0.005), R, k).unwrap();
     m.settings.gravity = Vec3::new(0.0, 0.0, -G);
     m.settings.local_damping = alpha;
-    m.settings.water = matdem_engine::fields::WaterTable { level: Some(LEVEL), density: RHO_F, viscosity: mu };
+    m.settings.water =
+        matdem_engine::effects::buoyancy::WaterTable { level: Some(LEVEL), density: RHO_F, viscosity: mu };
     if floor {
         m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1e-6).unwrap()).unwrap();
         m.set_standard_dt().unwrap();

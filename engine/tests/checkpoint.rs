@@ -200,7 +200,7 @@ fn an_observer_sees_every_nth_step_and_changes_no_result() {
 
 /// A loaded sample whose bonds are parallel bonds (rotation on, bonds loaded by gravity).
 fn parallel_bonded_sample() -> Simulation {
-    use matdem_engine::physics::parallel_bond::ParallelBondParams;
+    use matdem_engine::effects::parallel_bond::physics::ParallelBondParams;
     let mut sim = loaded_sample();
     let p = ParallelBondParams { lambda: 0.8, e_star: 1e6, k_ratio: 2.6, sigma_c: 2e3, cohesion: 2e3, phi: 0.4 };
     sim.model.bond_parallel(p).unwrap();
@@ -313,7 +313,7 @@ fn format_5_and_6_checkpoints_still_load() {
 // sections: saved mid-run, loaded and continued, the model ends bit for bit as the straight run.
 #[test]
 fn a_model_with_epsd_rolling_resistance_continues_bitwise_after_a_checkpoint() {
-    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
     let mut straight = loaded_sample();
     straight.model.settings.rolling = Some(RollingResistance::new(RollingModel::Epsd, 0.2, 0.3).unwrap());
     run(&mut straight, 300);
@@ -334,7 +334,7 @@ fn a_model_with_epsd_rolling_resistance_continues_bitwise_after_a_checkpoint() {
 /// The loaded sample with pore flow on: a soft fluid (so a few sub-steps a step suffice), a
 /// reservoir at 2 kPa in the pores of the bottom layer and the top platen pressing down.
 fn pore_flow_sample() -> Simulation {
-    use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
+    use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreRegion};
     let mut sim = loaded_sample();
     let m = &mut sim.model;
     m.settings.pores.fluid = Fluid { bulk_modulus: 1e6, viscosity: 1e-2, max_substeps: 5000, ..Fluid::default() };
@@ -387,8 +387,8 @@ fn a_pore_network_that_does_not_fit_the_elements_is_refused() {
 // for bit as the straight run.
 #[test]
 fn a_model_with_pore_heat_continues_bitwise_after_a_checkpoint() {
-    use matdem_engine::fields::ThermalProps;
-    use matdem_engine::pores::{BoundaryKind, FluidHeat, PoreRegion};
+    use matdem_engine::effects::conduction::ThermalProps;
+    use matdem_engine::effects::pore_flow::{BoundaryKind, FluidHeat, PoreRegion};
     let mut sim = pore_flow_sample();
     let m = &mut sim.model;
     m.enable_heat();

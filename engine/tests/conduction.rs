@@ -6,8 +6,8 @@
 
 use crate::common::material;
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::{ThermalMode, ThermalProps};
-use matdem_engine::physics::conduction::pair_conductance;
+use matdem_engine::effects::conduction::physics::pair_conductance;
+use matdem_engine::effects::conduction::{ThermalMode, ThermalProps};
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Error, Model, NormalKind, Simulation, Vec3, Wall};
 use std::f64::consts::PI;

@@ -7,7 +7,7 @@
 
 use crate::common::{gpu, material};
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::{ThermalMode, ThermalProps};
+use matdem_engine::effects::conduction::{ThermalMode, ThermalProps};
 use matdem_engine::plan::Stage;
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Model, Simulation, Vec3, Wall};
@@ -175,7 +175,8 @@ fn free_elements() -> Model {
     }
     m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
     m.settings.local_damping = 0.3;
-    m.settings.water = matdem_engine::fields::WaterTable { level: Some(0.0), density: 1000.0, viscosity: 1.0 };
+    m.settings.water =
+        matdem_engine::effects::buoyancy::WaterTable { level: Some(0.0), density: 1000.0, viscosity: 1.0 };
     m.set_dt(1e-4).unwrap();
     m
 }

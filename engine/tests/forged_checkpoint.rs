@@ -11,10 +11,10 @@
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
 use matdem_engine::checkpoint::{decode, encode, CheckpointError};
-use matdem_engine::fields::ThermalProps;
-use matdem_engine::physics::parallel_bond::ParallelBondParams;
-use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
-use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
+use matdem_engine::effects::conduction::ThermalProps;
+use matdem_engine::effects::parallel_bond::physics::ParallelBondParams;
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreRegion};
+use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
 use matdem_engine::{Material, Model, Simulation, Vec3, Wall, WallMotion};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -286,12 +286,12 @@ const LANES: &[(&str, LaneFn)] = &[
     }),
 ];
 
-fn pores(m: &mut Model, f: impl FnOnce(&mut matdem_engine::pores::PoreFlow) -> bool) -> bool {
+fn pores(m: &mut Model, f: impl FnOnce(&mut matdem_engine::effects::pore_flow::PoreFlow) -> bool) -> bool {
     m.pores.as_deref_mut().is_some_and(f)
 }
 
 /// Sets corner (or neighbour) `e % 4` of tetrahedron `e / 4`, or drops the last one.
-fn edit_tet(f: &mut matdem_engine::pores::PoreFlow, e: usize, v: Option<u32>, neighbour: bool) -> bool {
+fn edit_tet(f: &mut matdem_engine::effects::pore_flow::PoreFlow, e: usize, v: Option<u32>, neighbour: bool) -> bool {
     let tets = &mut f.network.tri.tets;
     let Some(x) = v else { return set(tets, 0, None) };
     let k = (e / 4) % tets.len();
@@ -304,7 +304,7 @@ fn edit_tet(f: &mut matdem_engine::pores::PoreFlow, e: usize, v: Option<u32>, ne
 }
 
 /// Sets one field of throat `e` (`a`, `b`, `tet`, `face`), or drops the last throat.
-fn edit_throat(f: &mut matdem_engine::pores::PoreFlow, e: usize, v: Option<u32>, field: usize) -> bool {
+fn edit_throat(f: &mut matdem_engine::effects::pore_flow::PoreFlow, e: usize, v: Option<u32>, field: usize) -> bool {
     let throats = &mut f.network.throats;
     let Some(x) = v else { return set(throats, 0, None) };
     let k = e % throats.len();
@@ -424,11 +424,11 @@ fn message(p: &(dyn std::any::Any + Send)) -> String {
 // ends at 29`, `range end index 76 out of range for slice of length 53`, a start wrapped to
 // 2⁶⁴ − 13: contact_forces.rs:192, 193 and 331, the pair and gather passes), a wall mask naming
 // a wall the model lacks (`the len is 6 but the index is 6`, wall_forces.rs:148), a pore without
-// a tetrahedron (`the len is 0 but the index is 0`, pores/network.rs:311) and `f64::clamp` given
+// a tetrahedron (`the len is 0 but the index is 0`, effects/pore_flow/network.rs:311) and `f64::clamp` given
 // a bound it panics on; a heat sub-step count forged to ~4·10⁹ hung the conduction stage (hence
 // the cap in `load_and_step`). With the checks, the water table added to the bonded box found
 // 2 more in 30,000: forged thermal lanes expanded a radius below zero, and the submerged cap's
-// `clamp(0, 2r)` panicked (physics/buoyancy.rs, now min/max). 10,000 cases (some 8,800 forged
+// `clamp(0, 2r)` panicked (effects/buoyancy/physics.rs, now min/max). 10,000 cases (some 8,800 forged
 // files; a lane edit that does not apply is skipped) take about 2 s alone in release mode.
 #[test]
 fn a_checkpoint_with_flipped_bits_loads_or_is_refused_never_panics() {

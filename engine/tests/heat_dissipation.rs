@@ -7,7 +7,7 @@
 
 use crate::common::material;
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::{ThermalMode, ThermalProps};
+use matdem_engine::effects::conduction::{ThermalMode, ThermalProps};
 use matdem_engine::{Model, Simulation, Vec3};
 
 const N: usize = 6;

@@ -1,10 +1,13 @@
 //! The engine's dependency directions, read from its source files:
 //!
-//! - only the CPU backend names the CPU backend: no file outside `src/backend/cpu/` mentions
-//!   `backend::cpu` (the model, the neighbour rows, the run loop and the GPU backend depend
-//!   on the engine's modules, not on one backend; `backend/mod.rs` names its two backends as
-//!   `cpu::…` and `gpu::…`);
-//! - the GPU backend never reaches into the CPU backend, nor the CPU backend into the GPU's;
+//! - only the CPU backend names the CPU backend: no file outside `src/backend/cpu/` and the
+//!   effects' CPU passes (`effects/<name>/cpu.rs` or `cpu/`) mentions `backend::cpu` (the
+//!   model, the neighbour rows, the run loop and the GPU backend depend on the engine's
+//!   modules, not on one backend; `backend/mod.rs` names its two backends as `cpu::…` and
+//!   `gpu::…`);
+//! - the GPU side (the GPU backend and the effects' GPU kernels) never reaches into the CPU
+//!   side, nor the CPU side into the GPU's;
+//! - every stage of the registry has its files, its parity test and its checkpoint section;
 //! - the engine never imports the host: no `rhai`, `plotters`, `clap` or `matdem_rs` path in
 //!   its source and none of them among its Cargo dependencies;
 //! - no modules name each other in a circle, at any folder's level (`engine_graph`).
@@ -14,6 +17,9 @@
 use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
+
+use matdem_engine::plan::registry::{Entry, REGISTRY};
+use matdem_engine::plan::{Role, Stage};
 
 use crate::module_graph::{self, a_circle_through, circles, describe_circle, module_path, references, Graph};
 
@@ -35,23 +41,42 @@ fn mentions(select: impl Fn(&str) -> bool, needle: &str) -> Vec<String> {
     out
 }
 
+/// Whether the source file at `path` (relative to `src/`) is on the `side` ("cpu" or "gpu"):
+/// in the backend's folder, or an effect's pass for it (`effects/<name>/<side>.rs` or a file
+/// of `effects/<name>/<side>/`).
+fn on_side(path: &str, side: &str) -> bool {
+    if path.starts_with(&format!("backend/{side}/")) {
+        return true;
+    }
+    let parts: Vec<&str> = path.split('/').collect();
+    parts.len() >= 3 && parts[0] == "effects" && (parts[2] == format!("{side}.rs") || parts[2] == side)
+}
+
 #[test]
-fn only_the_cpu_backend_names_the_cpu_backend() {
-    let found = mentions(|p| !p.starts_with("backend/cpu/"), "backend::cpu");
+fn only_the_cpu_side_names_the_cpu_backend() {
+    let found = mentions(|p| !on_side(p, "cpu"), "backend::cpu");
     assert!(
         found.is_empty(),
-        "outside backend/cpu/, use the engine's modules (neighbours, plan, status, simulation) or the \
-         Backend trait, not the CPU backend:\n{}",
+        "outside backend/cpu/ and the effects' CPU passes, use the engine's modules (neighbours, plan, \
+         status, simulation) or the Backend trait, not the CPU backend:\n{}",
         found.join("\n")
     );
 }
 
 #[test]
-fn the_backends_do_not_reach_into_each_other() {
-    let gpu = mentions(|p| p.starts_with("backend/gpu/"), "cpu::");
-    assert!(gpu.is_empty(), "the GPU backend names the CPU backend:\n{}", gpu.join("\n"));
-    let cpu = mentions(|p| p.starts_with("backend/cpu/"), "gpu::");
-    assert!(cpu.is_empty(), "the CPU backend names the GPU backend:\n{}", cpu.join("\n"));
+fn the_cpu_and_gpu_sides_do_not_reach_into_each_other() {
+    let gpu = mentions(|p| on_side(p, "gpu"), "cpu::");
+    assert!(gpu.is_empty(), "the GPU side names the CPU side:\n{}", gpu.join("\n"));
+    let cpu = mentions(|p| on_side(p, "cpu"), "gpu::");
+    assert!(cpu.is_empty(), "the CPU side names the GPU side:\n{}", cpu.join("\n"));
+}
+
+#[test]
+fn an_effects_cpu_and_gpu_passes_are_told_apart() {
+    assert!(on_side("effects/moisture/cpu.rs", "cpu") && on_side("effects/pore_flow/cpu/heat.rs", "cpu"));
+    assert!(on_side("effects/moisture/gpu.rs", "gpu") && !on_side("effects/moisture/gpu.rs", "cpu"));
+    assert!(!on_side("effects/moisture/mod.rs", "cpu") && !on_side("effects/moisture/lanes.rs", "gpu"));
+    assert!(on_side("backend/cpu/fused.rs", "cpu") && !on_side("plan/registry.rs", "cpu"));
 }
 
 /// The host's crates, as paths in Rust source and as Cargo dependency names.
@@ -93,34 +118,83 @@ fn the_engine_never_imports_the_host() {
     }
 }
 
-/// Where a stage's CPU twin may live: the CPU backend's file, or the engine-level module both
-/// backends share.
-fn cpu_twin(src: &Path, name: &str) -> Option<PathBuf> {
-    [format!("backend/cpu/{name}.rs"), format!("{name}.rs"), format!("{name}/mod.rs")]
-        .into_iter()
-        .map(|p| src.join(p))
-        .find(|p| p.is_file())
+/// The first of `candidates` (paths relative to `src/`) that is a file.
+fn first_file(src: &Path, candidates: &[String]) -> Option<PathBuf> {
+    candidates.iter().map(|p| src.join(p)).find(|p| p.is_file())
+}
+
+/// Where a stage's CPU pass and GPU kernel may live: an effect's in its folder
+/// (`effects/<name>/cpu.rs` or `cpu/mod.rs`, likewise `gpu`); a core stage's in the backends,
+/// the CPU's as `backend/cpu/<name>.rs` or the engine-level `<name>.rs` or `<name>/mod.rs`
+/// both backends share (walls, neighbours, guard).
+fn pass_candidates(entry: &Entry, side: &str) -> Vec<String> {
+    let name = entry.name;
+    if entry.effect {
+        return vec![format!("effects/{name}/{side}.rs"), format!("effects/{name}/{side}/mod.rs")];
+    }
+    let mut out = vec![format!("backend/{side}/{name}.rs")];
+    if side == "cpu" {
+        out.extend([format!("{name}.rs"), format!("{name}/mod.rs")]);
+    }
+    out
 }
 
 #[test]
-fn every_stage_has_a_wgsl_file_a_gpu_kernel_file_and_a_cpu_twin_of_its_name() {
+fn every_registered_stage_has_a_wgsl_file_a_gpu_kernel_and_a_cpu_pass_of_its_name() {
     let engine = Path::new(env!("CARGO_MANIFEST_DIR"));
     let src = engine.join("src");
     let mut missing = Vec::new();
-    for stage in matdem_engine::plan::Stage::ALL {
-        let name = stage.name();
-        let wgsl = engine.join(format!("../shaders/{name}.wgsl"));
-        let kernel = src.join(format!("backend/gpu/{name}.rs"));
-        for p in [wgsl, kernel] {
-            if !p.is_file() {
-                missing.push(format!("{name}: {}", p.display()));
+    for entry in &REGISTRY {
+        let name = entry.name;
+        if !engine.join(format!("../shaders/{name}.wgsl")).is_file() {
+            missing.push(format!("{name}: no shaders/{name}.wgsl"));
+        }
+        for side in ["cpu", "gpu"] {
+            let candidates = pass_candidates(entry, side);
+            if first_file(&src, &candidates).is_none() {
+                missing.push(format!("{name}: no {side} pass: none of src/{}", candidates.join(", src/")));
             }
         }
-        if cpu_twin(&src, name).is_none() {
-            missing.push(format!("{name}: no backend/cpu/{name}.rs, src/{name}.rs or src/{name}/mod.rs"));
+        if entry.effect && !src.join(format!("effects/{name}/mod.rs")).is_file() {
+            missing.push(format!("{name}: an effect without its folder src/effects/{name}/mod.rs"));
         }
     }
     assert!(missing.is_empty(), "stages without their files:\n{}", missing.join("\n"));
+}
+
+/// The registry's rows name their stages, in `Stage::ALL`'s order, and only an optional
+/// stage is an effect with a script switch.
+#[test]
+fn the_registry_is_the_step_order_and_names_its_effects() {
+    let names: Vec<&str> = Stage::ALL.iter().map(|s| s.name()).collect();
+    assert_eq!(names, REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>());
+    for e in &REGISTRY {
+        let optional = !matches!(e.role, Role::Core | Role::Guard);
+        assert_eq!(e.effect, optional, "{}: an optional stage, and only one, is an effect", e.name);
+        assert_eq!(e.script.is_empty(), !optional, "{}: an effect, and only one, has a script switch", e.name);
+    }
+}
+
+/// A row's checkpoint section exists: `Section::<Variant>` a variant of checkpoint.rs's
+/// `Section`, `record.<field>` a field of its record.
+#[test]
+fn every_registered_checkpoint_section_is_in_the_checkpoint() {
+    let text = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/checkpoint.rs")).unwrap();
+    let section = &text[text.find("enum Section {").expect("checkpoint.rs has `enum Section`")..];
+    let section = &section[..section.find("\n}").unwrap()];
+    let mut missing = Vec::new();
+    for e in REGISTRY.iter().filter(|e| !e.checkpoint.is_empty()) {
+        let found = match e.checkpoint.split_once(['.', ':']) {
+            Some(("Section", v)) => section.contains(&format!("    {} {{", v.trim_start_matches(':'))),
+            Some(("record", field)) => text.contains(&format!("    {field}: ")),
+            _ => false,
+        };
+        if !found {
+            missing.push(format!("{}: {}", e.name, e.checkpoint));
+        }
+    }
+    assert!(missing.is_empty(), "registered checkpoint sections not in checkpoint.rs:\n{}", missing.join("\n"));
+    assert!(REGISTRY.iter().filter(|e| e.effect).all(|e| !e.checkpoint.is_empty()), "every effect names its section");
 }
 
 /// The test files that hold the GPU parity tests of stages tested together; any other stage's
@@ -141,7 +215,7 @@ const PARITY_FILES: [(&str, &str); 9] = [
 fn every_stage_has_a_test_that_runs_it_on_the_gpu() {
     let tests = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
     let mut missing = Vec::new();
-    for stage in matdem_engine::plan::Stage::ALL {
+    for stage in Stage::ALL {
         let name = stage.name();
         let listed = PARITY_FILES.iter().find(|(s, _)| *s == name).map(|(_, f)| vec![f.to_string()]);
         let files = listed.unwrap_or_else(|| vec![name.to_string(), format!("{name}_parity")]);

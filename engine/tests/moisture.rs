@@ -7,8 +7,8 @@
 
 use crate::common::material;
 use matdem_engine::backend::RunControl;
-use matdem_engine::moisture::WaterMode;
-use matdem_engine::physics::moisture::{evaporation_conductance, pair_moisture_conductance};
+use matdem_engine::effects::moisture::physics::{evaporation_conductance, pair_moisture_conductance};
+use matdem_engine::effects::moisture::WaterMode;
 use matdem_engine::plan::{Stage, StepPlan};
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Error, Model, Simulation, Vec3};
@@ -339,7 +339,8 @@ fn a_free_element_with_expansion_and_shrinkage_changes_radius_by_the_product() {
     m.settings.heat.reference = 20.0;
     m.settings.heat.every = 3;
     m.enable_heat();
-    let props = matdem_engine::fields::ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 1e-5 };
+    let props =
+        matdem_engine::effects::conduction::ThermalProps { conductivity: 1.0, specific_heat: 800.0, expansion: 1e-5 };
     m.set_thermal_material("soil", props).unwrap();
     m.set_temperatures(&[120.0]).unwrap();
     let mass = m.particles.mass[0];
@@ -390,7 +391,11 @@ fn a_bonded_bars_length_changes_by_the_product_of_both_factors() {
     m.set_radius_table(Some(vec![(0.0, 0.98), (0.3, 1.0)])).unwrap();
     m.settings.heat.reference = 20.0;
     m.enable_heat();
-    let props = matdem_engine::fields::ThermalProps { conductivity: 50.0, specific_heat: 500.0, expansion: 1.2e-5 };
+    let props = matdem_engine::effects::conduction::ThermalProps {
+        conductivity: 50.0,
+        specific_heat: 500.0,
+        expansion: 1.2e-5,
+    };
     m.set_thermal_material("steel", props).unwrap();
     m.set_temperatures(&vec![120.0; n]).unwrap();
     m.settings.damping = 0.3;
@@ -433,7 +438,11 @@ mod gpu {
             let mut m = scene(3, 1);
             m.settings.heat.every = 2;
             m.enable_heat();
-            let props = matdem_engine::fields::ThermalProps { conductivity: 0.5, specific_heat: 1.0, expansion: 1e-3 };
+            let props = matdem_engine::effects::conduction::ThermalProps {
+                conductivity: 0.5,
+                specific_heat: 1.0,
+                expansion: 1e-3,
+            };
             m.set_thermal_material("soil", props).unwrap();
             let t0 = m.settings.heat.reference;
             let t: Vec<f64> = (0..=N).map(|i| t0 + 10.0 * i as f64).collect();

@@ -12,8 +12,8 @@
 use crate::common::{material, rel};
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::simple_cubic;
+use matdem_engine::effects::parallel_bond::physics::{BondState, ParallelBondParams};
 use matdem_engine::physics::contact_law::BreakKind;
-use matdem_engine::physics::parallel_bond::{BondState, ParallelBondParams};
 use matdem_engine::{Model, NormalKind, Simulation, Vec3};
 use std::f64::consts::PI;
 

@@ -6,10 +6,10 @@
 use crate::common::pore_column;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::{BoxSpec, Container, SizeClass};
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreRegion};
 use matdem_engine::error::Side;
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::{Stage, StepPlan};
-use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
 use matdem_engine::{Error, Material, Model, Simulation, WallMotion};
 use std::f64::consts::PI;
 

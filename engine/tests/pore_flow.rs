@@ -4,8 +4,8 @@
 //! pressure difference (constant flux, linear pressure, the permeability of the network's
 //! own conductances), plus the stability guard of the explicit update.
 
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreBoundary, PoreFlow};
 use matdem_engine::physics::Vec3;
-use matdem_engine::pores::{BoundaryKind, Fluid, PoreBoundary, PoreFlow};
 use matdem_engine::{Error, Material, Model};
 
 const A: f64 = 1e-3;
@@ -181,7 +181,7 @@ fn flow_beyond_its_stable_step_is_stopped_by_the_guard_naming_the_pore() {
     // Under the limit, the step is split into sub-steps and runs.
     let mut f = PoreFlow::new(&m, Fluid { max_substeps: 2000, ..f.fluid.clone() }).unwrap();
     f.advance(&m, 1e3 * crit).unwrap();
-    assert_eq!(f.substeps, (1e3 / matdem_engine::pores::flow::FLOW_SAFETY).ceil() as u32);
+    assert_eq!(f.substeps, (1e3 / matdem_engine::effects::pore_flow::flow::FLOW_SAFETY).ceil() as u32);
 }
 
 /// A per-material permeability factor scales the throats its elements bound: every element of
@@ -224,7 +224,7 @@ fn a_materials_permeability_factor_scales_the_conductance_of_its_throats() {
 
 #[test]
 fn a_borehole_region_holds_exactly_the_pores_whose_centres_lie_within_its_radius_of_its_axis() {
-    use matdem_engine::pores::PoreRegion;
+    use matdem_engine::effects::pore_flow::PoreRegion;
     let m = column(6, 6, 6);
     let mut f = PoreFlow::new(&m, fluid()).unwrap();
     // A borehole along a slanted axis through the column's middle.
@@ -262,7 +262,7 @@ fn a_borehole_region_holds_exactly_the_pores_whose_centres_lie_within_its_radius
 /// elements within 1.1a of the axis: a plus-shaped shaft open at both faces), its borehole
 /// region held at p, every other pore at rest at gauge 0: (element, offset from the axis).
 fn drilled_block(p: f64) -> (Model, Vec<Vec3>) {
-    use matdem_engine::pores::PoreRegion;
+    use matdem_engine::effects::pore_flow::PoreRegion;
     let mut m = Model::new();
     let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4 * A).unwrap()).unwrap();
     let (center, axis) = (Vec3::new(3.0, 2.0, 3.0) * A, Vec3::y());
@@ -288,7 +288,7 @@ fn drilled_block(p: f64) -> (Model, Vec<Vec3>) {
 
 #[test]
 fn a_pressurised_borehole_open_at_the_faces_pushes_its_wall_into_the_rock() {
-    use matdem_engine::pores::pressure_forces::pressure_force;
+    use matdem_engine::effects::pore_flow::pressure_forces::pressure_force;
     let p = 1e4;
     let (m, offsets) = drilled_block(p);
     let f = m.pores.as_ref().unwrap();

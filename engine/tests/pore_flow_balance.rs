@@ -10,10 +10,10 @@
 #![cfg(feature = "gpu")]
 
 use crate::common::{gpu, pore_column};
-use matdem_engine::backend::gpu::pore_flow::PoreFlowKernel;
 use matdem_engine::backend::RunControl;
+use matdem_engine::effects::pore_flow::gpu::PoreFlowKernel;
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreBoundary, PoreFlow, PoreRegion};
 use matdem_engine::physics::Vec3;
-use matdem_engine::pores::{BoundaryKind, Fluid, PoreBoundary, PoreFlow, PoreRegion};
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Material, Model, Simulation};
 

@@ -6,10 +6,10 @@
 
 use crate::common::confine_column;
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::{ThermalMode, ThermalProps};
+use matdem_engine::effects::conduction::{ThermalMode, ThermalProps};
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, FluidHeat, PoreBoundary, PoreFlow, PoreRegion};
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::StepPlan;
-use matdem_engine::pores::{BoundaryKind, Fluid, FluidHeat, PoreBoundary, PoreFlow, PoreRegion};
 use matdem_engine::state::particles::dof;
 use matdem_engine::{Material, Model, Simulation, WallMotion};
 

@@ -10,10 +10,10 @@
 use crate::common::gpu;
 use crate::pore_heat::{bonded_column, rigid_block, thermal_energy, warm_fluid, A, T0};
 use matdem_engine::backend::RunControl;
-use matdem_engine::fields::{ThermalMode, ThermalProps};
+use matdem_engine::effects::conduction::{ThermalMode, ThermalProps};
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, FluidHeat, PoreRegion};
 use matdem_engine::physics::Vec3;
 use matdem_engine::plan::Stage;
-use matdem_engine::pores::{BoundaryKind, Fluid, FluidHeat, PoreRegion};
 use matdem_engine::{Model, Simulation, WallMotion};
 
 fn run(sim: &mut Simulation, steps: u64) {

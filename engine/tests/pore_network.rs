@@ -3,10 +3,10 @@
 //! volumes against the known porosity of regular packings, and the pore-pressure forces
 //! (zero on an interior element under uniform pressure, p × the face's area on a hull face).
 
+use matdem_engine::effects::pore_flow::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
+use matdem_engine::effects::pore_flow::pressure_forces::add_pressure_forces;
+use matdem_engine::effects::pore_flow::{Fluid, PoreFlow, PoreNetwork};
 use matdem_engine::physics::Vec3;
-use matdem_engine::pores::delaunay::{tetrahedralise, Tetrahedralisation, HULL};
-use matdem_engine::pores::pressure_forces::add_pressure_forces;
-use matdem_engine::pores::{Fluid, PoreFlow, PoreNetwork};
 use matdem_engine::{Material, Model};
 use std::f64::consts::PI;
 
@@ -246,8 +246,8 @@ fn the_hulls_bridge_over_a_dip_is_not_a_pore() {
 // neighbour that could itself be small, and a hull sliver's sector lay outside the packing).
 #[test]
 fn no_pore_of_a_random_packing_has_a_vanishing_volume() {
-    use matdem_engine::pores::geometry::pore_volume;
-    use matdem_engine::pores::network::SMALL_PORE_FRACTION;
+    use matdem_engine::effects::pore_flow::geometry::pore_volume;
+    use matdem_engine::effects::pore_flow::network::SMALL_PORE_FRACTION;
     // Spheres of radius 0.06 at random points of the unit cube, kept where they overlap no
     // other by more than a tenth of a radius (a dense, irregular packing with a rough hull).
     let r = 0.06;

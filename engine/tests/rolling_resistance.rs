@@ -1,4 +1,4 @@
-//! Rolling resistance (the `rolling_resistance` stage, physics/rolling_resistance.rs) against
+//! Rolling resistance (the `rolling_resistance` stage, effects/rolling_resistance/physics.rs) against
 //! closed-form answers, on a solid sphere (r = 1 cm, 2650 kg/m³, linear springs kn = 1e5 N/m,
 //! ks = 5e4 N/m, μ = 0.5, e = 1) on a rigid plane wall, which the engine supports directly
 //! (R_eff = r, I_eff = I = 2/5·m·r²):
@@ -15,7 +15,7 @@
 
 use crate::common::{material, rel};
 use matdem_engine::backend::RunControl;
-use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
 use matdem_engine::plan::Stage;
 use matdem_engine::{Model, NormalKind, Simulation, Vec3, Wall};
 

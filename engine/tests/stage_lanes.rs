@@ -8,7 +8,7 @@
 use crate::common::material;
 use matdem_engine::backend::RunControl;
 use matdem_engine::builder::simple_cubic;
-use matdem_engine::physics::parallel_bond::ParallelBondParams;
+use matdem_engine::effects::parallel_bond::physics::ParallelBondParams;
 use matdem_engine::plan::Stage;
 use matdem_engine::{Material, Model, NormalKind, Simulation, Vec3, Wall};
 
@@ -233,7 +233,7 @@ fn each_plan_allocates_the_lanes_of_its_stages_only_on_the_gpu() {
 // lane (it reads the core's).
 #[test]
 fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them() {
-    use matdem_engine::fields::ThermalProps;
+    use matdem_engine::effects::conduction::ThermalProps;
     let on = Effects { ledger: false, ..Default::default() };
     let (sets, planned, held, mut sim) = cpu_lanes(on);
     assert_eq!((sets, planned, held), (vec!["core"], CORE, CORE));
@@ -271,7 +271,7 @@ fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them() {
 fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them_on_the_gpu() {
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
-    use matdem_engine::fields::ThermalProps;
+    use matdem_engine::effects::conduction::ThermalProps;
     let Some(ctx) = crate::common::gpu("field_lanes_gpu") else { return };
     let device_bytes = |heat: bool, water: bool| {
         let mut m = block(Effects::default());
@@ -299,7 +299,7 @@ fn the_field_stages_allocate_their_lanes_only_when_the_scene_enables_them_on_the
 // one without the setting.
 #[test]
 fn rolling_resistance_allocates_lanes_only_for_epsd() {
-    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
     let base = Effects { friction: true, ..Default::default() };
     let with = |model: RollingModel, mu_r: f64| {
         let mut m = block(base);
@@ -344,7 +344,7 @@ fn rolling_resistance_allocates_lanes_only_for_epsd() {
 fn gpu_rolling_resistance_lanes() {
     use matdem_engine::backend::gpu::GpuBackend;
     use matdem_engine::backend::Backend;
-    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+    use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
     let Some(ctx) = crate::common::gpu("rolling_lanes_gpu") else { return };
     let device_bytes = |rolling: Option<RollingModel>| {
         let mut m = block(Effects { friction: true, rotation: true, ..Default::default() });

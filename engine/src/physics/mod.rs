@@ -1,14 +1,9 @@
 //! Pure physics: contact laws, dashpots from restitution and time-step estimates. These
 //! functions are the specification; backends call them (CPU) or mirror them (WGSL).
 
-pub mod buoyancy;
-pub mod conduction;
 pub mod contact_law;
 pub mod law_kinds;
-pub mod moisture;
-pub mod parallel_bond;
 pub mod restitution;
-pub mod rolling_resistance;
 pub mod timestep;
 
 /// Vector type of the CPU reference backend (f64).

@@ -1,13 +1,9 @@
 //! The model's state: particles (struct of arrays), contact rows with per-pair state, groups.
 
-pub mod applied_loads;
 pub mod body_work;
 pub mod contacts;
 pub mod groups;
-pub mod moisture;
-pub mod parallel_bonds;
 pub mod particles;
-pub mod thermal;
 
 /// Checks CSR row starts as a loaded checkpoint must have them before anything indexes with
 /// them: `rows + 1` starts, the first 0, none before the one above it, the last `items`.

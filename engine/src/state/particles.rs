@@ -1,10 +1,10 @@
 //! Per-particle state as a struct of arrays: one lane per quantity, indexed by particle id
 //! (0-based), so a stage touches only the lanes it needs and a GPU upload is a lane copy.
 
+use crate::effects::applied_loads::lanes::AppliedLoads;
+use crate::effects::conduction::lanes::ThermalLanes;
+use crate::effects::moisture::lanes::MoistureLanes;
 use crate::physics::Vec3;
-use crate::state::applied_loads::AppliedLoads;
-use crate::state::moisture::MoistureLanes;
-use crate::state::thermal::ThermalLanes;
 use serde::{Deserialize, Serialize};
 
 /// Blocked translational degrees of freedom, as bits.
@@ -192,7 +192,7 @@ impl Particles {
     }
 
     /// The work the applied loads have done on the model (J): Σ W_i over the elements
-    /// (`state::applied_loads`), plus what released lanes booked.
+    /// (`effects::applied_loads::lanes`), plus what released lanes booked.
     pub fn applied_work(&self) -> f64 {
         let a = &self.applied;
         let lanes: f64 = if a.allocated(self.len()) {

@@ -6,7 +6,7 @@
 //! scripting/api/docs.rs.
 
 use super::*;
-use matdem_engine::fields::{ThermalMode, ThermalUpdate};
+use matdem_engine::effects::conduction::{ThermalMode, ThermalUpdate};
 
 /// The thermal properties a map names (conductivity, specific_heat, expansion).
 fn thermal_update(props: &Map, call: &str) -> RhaiResult<ThermalUpdate> {

@@ -120,7 +120,7 @@ const PARALLEL_BOND_KEYS: [&str; 6] = ["lambda", "e_star", "k_ratio", "sigma_c",
 
 /// `d.bond_parallel`'s map as the engine's parameters (phi from degrees), refusing unknown or
 /// missing keys and values that are not numbers; the engine checks the ranges.
-fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::physics::parallel_bond::ParallelBondParams> {
+fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::effects::parallel_bond::physics::ParallelBondParams> {
     let what = "bond_parallel";
     for k in map.keys() {
         if !PARALLEL_BOND_KEYS.contains(&k.as_str()) {
@@ -134,7 +134,7 @@ fn parallel_bond_params(map: &Map) -> RhaiResult<matdem_engine::physics::paralle
             .ok_or_else(|| err(format!("{what}: missing `{key}` (give all of {})", PARALLEL_BOND_KEYS.join(", "))))?;
         number(v).ok_or_else(|| err(format!("{what}: `{key}` must be a number, got {}", v.type_name())))
     };
-    Ok(matdem_engine::physics::parallel_bond::ParallelBondParams {
+    Ok(matdem_engine::effects::parallel_bond::physics::ParallelBondParams {
         lambda: get("lambda")?,
         e_star: get("e_star")?,
         k_ratio: get("k_ratio")?,

@@ -7,7 +7,7 @@
 //! scripting/api/docs.rs; the physics in docs/fields.md.
 
 use super::*;
-use matdem_engine::moisture::WaterMode;
+use matdem_engine::effects::moisture::WaterMode;
 
 /// A count ≥ 1 from a script integer.
 fn count(name: &str, v: INT) -> RhaiResult<u32> {
@@ -34,7 +34,7 @@ fn table(v: &Dynamic, what: &str) -> RhaiResult<Option<Vec<(f64, f64)>>> {
         .map(Some)
 }
 
-fn table_value(t: &Option<matdem_engine::physics::moisture::Table>) -> Dynamic {
+fn table_value(t: &Option<matdem_engine::effects::moisture::physics::Table>) -> Dynamic {
     match t {
         Some(t) => Dynamic::from_array(
             t.points

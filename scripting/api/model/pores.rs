@@ -12,7 +12,7 @@
 //! Each name is documented in scripting/api/docs.rs; the physics in docs/pore-flow.md.
 
 use super::*;
-use matdem_engine::pores::{BoundaryKind, Fluid, PoreRegion};
+use matdem_engine::effects::pore_flow::{BoundaryKind, Fluid, PoreRegion};
 
 const FLUID_KEYS: &[&str] = &[
     "bulk_modulus",

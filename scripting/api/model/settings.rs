@@ -135,8 +135,8 @@ const ROLLING_KEYS: [&str; 3] = ["model", "mu_r", "damping"];
 
 /// `d.rolling_resistance`'s map as the engine's setting, refusing unknown keys, a missing model
 /// or mu_r, and values that are not what they should be (the engine checks the ranges).
-fn rolling_resistance(map: &Map) -> RhaiResult<matdem_engine::physics::rolling_resistance::RollingResistance> {
-    use matdem_engine::physics::rolling_resistance::{RollingModel, RollingResistance};
+fn rolling_resistance(map: &Map) -> RhaiResult<matdem_engine::effects::rolling_resistance::physics::RollingResistance> {
+    use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
     let what = "rolling_resistance";
     for k in map.keys() {
         if !ROLLING_KEYS.contains(&k.as_str()) {

@@ -12,8 +12,8 @@
 //! the cost of the contact law. The loops are monomorphised for the plan's laws.
 
 use super::blocks::{for_blocks, Rows};
-use super::heat_ledger::HeatLanes;
 use super::pair_records::{BlockPairs, PairInputs, PairOut, PairRows};
+use crate::effects::heat_ledger::cpu::HeatLanes;
 use crate::model::Model;
 use crate::physics::contact_law::{NormalLaw, PairState, TangentialLaw};
 use crate::physics::Vec3;

@@ -12,10 +12,10 @@
 
 use super::blocks::{for_blocks, Rows, Strided};
 use super::contact_forces::{gather_row, pair_pass, Breaks, PairScratch};
-use super::heat_ledger::HeatLanes;
 use super::integrate::{advance, spin, Motion, Observed, Translation};
 use super::prefetch::prefetch;
 use super::wall_forces::{particle_walls, store_loads, Body, ParticleOut, WallLoads};
+use crate::effects::heat_ledger::cpu::HeatLanes;
 use crate::model::Model;
 use crate::physics::contact_law::{NormalLaw, TangentialLaw};
 use crate::plan::StepPlan;

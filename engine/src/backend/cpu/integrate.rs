@@ -6,7 +6,7 @@
 //! makes the heat it books, c·|v̄|²·dt, exactly the work it removes.
 
 use super::blocks::{for_blocks, Reduce, Rows};
-use super::heat_ledger::{book, HeatLanes};
+use crate::effects::heat_ledger::cpu::{book, HeatLanes};
 use crate::model::Model;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;

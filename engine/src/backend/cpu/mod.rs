@@ -3,24 +3,25 @@
 //! steps on are the engine's ([`crate::neighbours`]); the run loop around its chunks is the
 //! simulation's ([`crate::simulation`]).
 
-pub mod applied_loads;
 pub mod blocks;
-pub mod buoyancy;
-pub mod conduction;
 pub mod contact_forces;
 pub mod fused;
-pub mod heat_ledger;
 pub mod integrate;
 mod lanes;
-pub mod moisture;
 mod pair_batch;
 mod pair_records;
-pub mod parallel_bond;
-pub mod pore_flow;
-pub mod pore_heat;
 mod prefetch;
-pub mod rolling_resistance;
 pub mod wall_forces;
+
+// The effects' passes, each in its folder (`effects/<name>/`).
+use crate::effects::applied_loads::cpu as applied_loads;
+use crate::effects::buoyancy::cpu as buoyancy;
+use crate::effects::conduction::cpu as conduction;
+use crate::effects::heat_ledger::cpu as heat_ledger;
+use crate::effects::moisture::cpu as moisture;
+use crate::effects::parallel_bond::cpu as parallel_bond;
+use crate::effects::pore_flow::cpu as pore_flow;
+use crate::effects::rolling_resistance::cpu as rolling_resistance;
 
 use super::{Backend, Sampling};
 use crate::error::Result;

@@ -5,7 +5,7 @@
 //! block in a fixed tree order (deterministic).
 
 use super::blocks::{for_blocks, Reduce, Rows};
-use super::heat_ledger::{book, HeatLanes, WallHeat};
+use crate::effects::heat_ledger::cpu::{book, HeatLanes, WallHeat};
 use crate::model::Model;
 use crate::physics::contact_law::{
     contact, contact_opened, ContactGeometry, NormalLaw, PairParams, PairState, TangentialLaw,

@@ -1,6 +1,7 @@
-//! Every lane a shader binds, declared once: its WGSL name and type here, and each WGSL file's
-//! bindings as an ordered list of lanes and access ([`Bindings`], written next to the file in
-//! `shaders.rs`). The `@group(0) @binding(N) var…` lines are generated from the list and put
+//! Every lane a shader binds, declared once: its WGSL name and type — the core's here, an
+//! effect's in its `gpu.rs` (`mod wgsl`, home [`Home::Effect`]) — and each WGSL file's bindings
+//! as an ordered list of lanes and access ([`Bindings`], written next to the file: the core's
+//! in `shaders.rs`, an effect's as its `gpu.rs`'s `SHADER`). The `@group(0) @binding(N) var…` lines are generated from the list and put
 //! before the file's source, and kernels bind their buffers by the same list, so a binding's
 //! number comes from one place: its position.
 //!
@@ -26,16 +27,11 @@ pub enum Home {
     Core,
     Slab,
     ScanLevel,
-    Buoyancy,
-    ParallelBond,
-    AppliedLoads,
-    Conduction,
-    Moisture,
-    PoreFlow,
-    PoreHeat,
+    /// An optional effect's own lanes, by the effect's name (declared in its `gpu.rs`).
+    Effect(&'static str),
 }
 
-const fn lane(home: Home, name: &'static str, ty: &'static str) -> Lane {
+pub const fn lane(home: Home, name: &'static str, ty: &'static str) -> Lane {
     Lane { home, name, ty }
 }
 
@@ -198,132 +194,20 @@ pub const WALL_ROLLING: Lane = lane(Home::Slab, "wall_rolling", "array<vec4<f32>
 /// One level of the cell list's prefix scan (`ScanLevel` in scan.wgsl).
 pub const SCAN_LEVEL: Lane = lane(Home::ScanLevel, "level", "ScanLevel");
 
-pub mod buoyancy {
-    use super::{lane, Home, Lane};
-    /// Level, fluid density, 6π·μ (`Water` in buoyancy.wgsl).
-    pub const WATER: Lane = lane(Home::Buoyancy, "water", "Water");
-}
-
-pub mod parallel_bond {
-    use super::{lane, Home, Lane};
-    pub const PARAMS: Lane = lane(Home::ParallelBond, "bp", "BondParams");
-    /// The bond rows (CSR) and their ends' states.
-    pub const ROW_START: Lane = lane(Home::ParallelBond, "row_start", "array<u32>");
-    pub const OTHER: Lane = lane(Home::ParallelBond, "other", "array<u32>");
-    pub const BONDS: Lane = lane(Home::ParallelBond, "bonds", "array<Bond>");
-}
-
-pub mod applied_loads {
-    use super::{lane, Home, Lane};
-    pub const FORCE: Lane = lane(Home::AppliedLoads, "applied_force", "array<vec4<f32>>");
-    /// A placeholder when no element carries a torque.
-    pub const TORQUE: Lane = lane(Home::AppliedLoads, "applied_torque", "array<vec4<f32>>");
-}
-
-pub mod conduction {
-    use super::{lane, Home, Lane};
-    pub const FIELD: Lane = lane(Home::Conduction, "field", "Conduction");
-    /// x temperature, y capacity C = m·c, z conductivity k, w source (W).
-    pub const THERMAL: Lane = lane(Home::Conduction, "thermal", "array<vec4<f32>>");
-    pub const NEXT: Lane = lane(Home::Conduction, "next", "array<f32>");
-    pub const CONDUCTANCE: Lane = lane(Home::Conduction, "conductance", "array<f32>");
-    pub const MODE: Lane = lane(Home::Conduction, "mode", "array<u32>");
-    /// [`MODE`]'s buffer as pore_heat.wgsl names it.
-    pub const THERMAL_MODE: Lane = lane(Home::Conduction, "thermal_mode", "array<u32>");
-    /// x expansion coefficient α, y radius r0 at T0.
-    pub const EXPANSION: Lane = lane(Home::Conduction, "expansion", "array<vec2<f32>>");
-    /// Per element, the ledger's booked heat (a compensated pair) at the last field step that
-    /// fed it, less what the host had booked at the upload (its own part of the sum starts at
-    /// zero).
-    pub const FED: Lane = lane(Home::Conduction, "fed", "array<vec2<f32>>");
-}
-
-pub mod moisture {
-    use super::{lane, Home, Lane};
-    pub const FIELD: Lane = lane(Home::Moisture, "field", "Moisture");
-    /// x water content ω, y capacity (the element's mass), z diffusivity α_w, w evaporation χ.
-    pub const WATER: Lane = lane(Home::Moisture, "water", "array<vec4<f32>>");
-    pub const NEXT: Lane = lane(Home::Moisture, "next", "array<f32>");
-    pub const CONDUCTANCE: Lane = lane(Home::Moisture, "conductance", "array<f32>");
-    pub const MODE: Lane = lane(Home::Moisture, "mode", "array<u32>");
-    /// The ambient water content each element dries towards.
-    pub const AMBIENT: Lane = lane(Home::Moisture, "ambient", "array<f32>");
-    /// The radius r0 where the radius table's factor is 1.
-    pub const RADIUS0: Lane = lane(Home::Moisture, "radius0", "array<f32>");
-    /// (ω, value) points: the radius table's, then the strength table's.
-    pub const TABLES: Lane = lane(Home::Moisture, "tables", "array<vec2<f32>>");
-}
-
-pub mod pore_flow {
-    use super::{lane, Home, Lane};
-    pub const PARAMS: Lane = lane(Home::PoreFlow, "pp", "PoreParams");
-    /// The four corners of each tetrahedron, its pore, and its orientation at the build (±1).
-    pub const TETS: Lane = lane(Home::PoreFlow, "tets", "array<vec4<u32>>");
-    pub const TET_PORE: Lane = lane(Home::PoreFlow, "tet_pore", "array<u32>");
-    pub const TET_SIGN: Lane = lane(Home::PoreFlow, "tet_sign", "array<f32>");
-    /// Tetrahedra of each pore (CSR).
-    pub const PORE_TET_START: Lane = lane(Home::PoreFlow, "pore_tet_start", "array<u32>");
-    pub const PORE_TETS: Lane = lane(Home::PoreFlow, "pore_tets", "array<u32>");
-    pub const VOLUME: Lane = lane(Home::PoreFlow, "volume", "array<f32>");
-    /// The volume at the upload, as pore_geometry measured it.
-    pub const VOLUME0: Lane = lane(Home::PoreFlow, "volume0", "array<f32>");
-    pub const CENTRE: Lane = lane(Home::PoreFlow, "centre", "array<vec4<f32>>");
-    pub const EXCESS: Lane = lane(Home::PoreFlow, "excess", "array<f32>");
-    pub const PRESSURE: Lane = lane(Home::PoreFlow, "pressure", "array<f32>");
-    /// Per pore: (fixed pressure, volumetric source, 1 when held at the pressure else 0, 0).
-    pub const BOUNDARY: Lane = lane(Home::PoreFlow, "boundary", "array<vec4<f32>>");
-    /// Per pore: the mass its boundary region supplied since the upload (compensated sum).
-    pub const SUPPLIED: Lane = lane(Home::PoreFlow, "supplied", "array<vec2<f32>>");
-    /// Throats of each pore (CSR rows, each throat in both of its pores' rows).
-    pub const ROW_START: Lane = lane(Home::PoreFlow, "row_start", "array<u32>");
-    pub const ROW: Lane = lane(Home::PoreFlow, "row", "array<u32>");
-    pub const THROATS: Lane = lane(Home::PoreFlow, "throats", "array<Throat>");
-    pub const CONDUCTANCE: Lane = lane(Home::PoreFlow, "conductance", "array<f32>");
-    /// The bonds across throats' faces at the build, (i, j), and whether each still holds.
-    pub const BOND_EDGES: Lane = lane(Home::PoreFlow, "bond_edges", "array<vec2<u32>>");
-    pub const BOND_ALIVE: Lane = lane(Home::PoreFlow, "bond_alive", "array<u32>");
-    /// Each element's corners of tetrahedra (CSR), each 4·tet + corner, in tetrahedron order.
-    pub const ELEM_START: Lane = lane(Home::PoreFlow, "elem_start", "array<u32>");
-    pub const ELEM_CORNERS: Lane = lane(Home::PoreFlow, "elem_corners", "array<u32>");
-    /// Each element's position at the network's build, less its origin.
-    pub const PORE_BUILT: Lane = lane(Home::PoreFlow, "pore_built", "array<vec4<f32>>");
-    /// Per pore: what its excess mass updates rounded away (kg).
-    pub const EXCESS_CARRY: Lane = lane(Home::PoreFlow, "excess_carry", "array<f32>");
-    /// Per pore: the host's (f64) volume at the upload, rounded to f32.
-    pub const VOLUME_HOST: Lane = lane(Home::PoreFlow, "volume_host", "array<f32>");
-}
-
-pub mod pore_heat {
-    use super::{lane, Home, Lane};
-    pub const PARAMS: Lane = lane(Home::PoreHeat, "ph", "PoreHeat");
-    /// Per pore: x the excess temperature its region supplies (K), y 1 when its flux region
-    /// injects at it, z 1 when its fixed-pressure region holds it there, w its mass less its
-    /// excess mass (kg; the mass is w + excess).
-    pub const FLUID_BC: Lane = lane(Home::PoreHeat, "fluid_bc", "array<vec4<f32>>");
-    pub const WARMTH: Lane = lane(Home::PoreHeat, "warmth", "array<f32>");
-    pub const WARMTH_NEXT: Lane = lane(Home::PoreHeat, "warmth_next", "array<f32>");
-    /// Per pore: Σ Δm·w its region supplied since the upload (kg·K, compensated), × c_f on
-    /// download.
-    pub const HEAT_SUPPLIED: Lane = lane(Home::PoreHeat, "heat_supplied", "array<vec2<f32>>");
-    /// Per tetrahedron: the exchange conductance of each corner (W/K).
-    pub const CORNER_G: Lane = lane(Home::PoreHeat, "corner_g", "array<vec4<f32>>");
-    /// Per element: what its exchange updates rounded away (K).
-    pub const CARRY: Lane = lane(Home::PoreHeat, "carry", "array<f32>");
-    /// Per pore: what its temperature updates rounded away (K), paired with `warmth_next`.
-    pub const WARMTH_CARRY: Lane = lane(Home::PoreHeat, "warmth_carry", "array<f32>");
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// An effect's lane, and one of the same name and type in another effect.
+    const THERMAL: Lane = lane(Home::Effect("conduction"), "thermal", "array<vec4<f32>>");
+    const NEXT: Lane = lane(Home::Effect("moisture"), "next", "array<f32>");
     const FIRST: &[Binding] = &[uniform(PARAMS), read(ORIGIN)];
-    const SECOND: &[Binding] = &[read_write(conduction::THERMAL)];
+    const SECOND: &[Binding] = &[read_write(THERMAL)];
     const BOTH: Bindings = Bindings(&[FIRST, SECOND]);
 
     #[test]
     fn bindings_are_numbered_in_order_across_files_and_declared_as_wgsl() {
-        assert_eq!(BOTH.number(conduction::THERMAL), Ok(2));
+        assert_eq!(BOTH.number(THERMAL), Ok(2));
         assert_eq!(
             BOTH.wgsl(),
             "@group(0) @binding(0) var<uniform> params: Params;\n\
@@ -334,9 +218,9 @@ mod tests {
 
     #[test]
     fn a_lane_the_shader_does_not_declare_is_an_error_not_a_panic() {
-        // Same name and type as the conduction stage's, another home: another lane.
-        let e = BOTH.number(moisture::NEXT).unwrap_err().to_string();
-        assert!(e.contains("declares no lane `next` (Moisture)") && e.contains("bug"), "{e}");
+        // Same name and type as a lane of the conduction stage's, another home: another lane.
+        let e = BOTH.number(NEXT).unwrap_err().to_string();
+        assert!(e.contains("declares no lane `next` (Effect(\"moisture\"))") && e.contains("bug"), "{e}");
         let e = BOTH.entries(Some(&[ORIGIN]), &[]).unwrap_err().to_string();
         assert!(e.contains("no buffer given for lane `origin`"), "{e}");
     }

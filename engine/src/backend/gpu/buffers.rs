@@ -10,10 +10,10 @@ use super::bindings::{self as b, Holder, Lane};
 use super::device::GpuContext;
 use super::memory::{self, MemoryPlan};
 use super::row_slots;
+use crate::effects::rolling_resistance::physics::RollingModel;
 use crate::error::{GpuError, Result};
 use crate::model::Model;
 use crate::physics::contact_law::{PairParams, PairState};
-use crate::physics::rolling_resistance::RollingModel;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::walls::{WallMotion, WallShape};
@@ -130,7 +130,7 @@ pub struct HostLanes {
     /// without epsd).
     pub rolling: Vec<[f32; 4]>,
     pub wall_rolling: Vec<[f32; 4]>,
-    /// Heat ledger slots per particle ([`super::heat_ledger::Layout`]).
+    /// Heat ledger slots per particle ([`crate::effects::heat_ledger::gpu::Layout`]).
     pub heat_lanes: usize,
 }
 
@@ -263,7 +263,7 @@ pub struct SlabLanes {
 /// Creates a storage buffer named `lane` holding `data`, adding its size to `bytes`. A binding
 /// may not be empty, so an empty lane gets `placeholder` zero bytes (at least the largest
 /// element a shader reads from it); a lane over `limit` bytes is refused.
-pub(super) fn storage_lane(
+pub(crate) fn storage_lane(
     ctx: &GpuContext,
     lane: &'static str,
     data: &[u8],
@@ -340,7 +340,7 @@ pub struct DeviceLanes {
     pub folded: wgpu::Buffer,
     pub counters: wgpu::Buffer,
     pub events: wgpu::Buffer,
-    /// The heat ledger ([`super::heat`]), zero at upload.
+    /// The heat ledger ([`crate::effects::heat_ledger`]), zero at upload.
     pub heat: wgpu::Buffer,
     /// Bytes of all device buffers.
     pub bytes: u64,

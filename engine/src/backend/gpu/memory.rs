@@ -55,7 +55,7 @@ pub struct Scene {
     pub bonds: usize,
     /// Whether pairs carry a dashpot force (4 bytes a row entry).
     pub dashpot: bool,
-    /// Heat ledger slots a particle ([`super::heat_ledger::Layout::lanes`], 8 bytes each).
+    /// Heat ledger slots a particle ([`crate::effects::heat_ledger::gpu::Layout::lanes`], 8 bytes each).
     pub heat_lanes: usize,
     /// Whether contacts carry an epsd rolling spring (16 bytes a row entry and a wall).
     pub rolling: bool,

@@ -22,7 +22,7 @@
 //!
 //! Heat is booked on the device by cause, as the CPU books it (each row half of every pair's
 //! heat), into compensated f32 sums that each download adds to the model's f64 ledger
-//! ([`heat`]).
+//! ([`heat_ledger`]).
 //!
 //! Not done on the device (the host keeps them): the first rows of a run (built at upload,
 //! when the model is on the host anyway), a row build whose rows outgrow their slots or carry
@@ -30,38 +30,38 @@
 //! slots out wider; [`RowStats`] counts them), and energy samples (the state comes back to
 //! the host for each sample).
 
-pub mod applied_loads;
 pub mod bindings;
 pub mod buffers;
-pub mod buoyancy;
-pub mod conduction;
 pub mod contact_forces;
 pub mod device;
 pub mod guard;
-pub mod heat_ledger;
 pub mod integrate;
 pub mod memory;
-pub mod moisture;
 pub mod neighbours;
-pub mod parallel_bond;
-pub mod pore_flow;
-pub mod pore_heat;
-pub mod pore_lanes;
 pub mod profile;
-pub mod rolling_resistance;
 pub mod row_slots;
 pub mod rows;
 pub mod shaders;
 pub mod wall_forces;
 pub mod walls;
 
+// The effects' passes, each in its folder (`effects/<name>/`).
+use crate::effects::applied_loads::gpu as applied_loads;
+use crate::effects::buoyancy::gpu as buoyancy;
+use crate::effects::conduction::gpu as conduction;
+use crate::effects::heat_ledger::gpu as heat_ledger;
+use crate::effects::moisture::gpu as moisture;
+use crate::effects::parallel_bond::gpu as parallel_bond;
+use crate::effects::pore_flow::gpu as pore_flow;
+use crate::effects::rolling_resistance::gpu as rolling_resistance;
+
 use super::{Backend, Sampling};
+use crate::effects::rolling_resistance::physics::RollingModel;
 use crate::error::{Error, GpuError, Result};
 use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
-use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
@@ -73,6 +73,29 @@ use shaders::{Kernel, Pipeline};
 use std::sync::{Arc, Mutex};
 
 pub use device::{select, BackendChoice, Compute};
+
+/// Every WGSL stage, the core's and the effects', for validation without a device
+/// (`shaders.rs`'s tests).
+pub const SHADERS: [&shaders::Shader; 18] = [
+    &shaders::NEIGHBOURS,
+    &shaders::CELL_LIST,
+    &shaders::SCAN,
+    &shaders::ROWS,
+    &shaders::CONTACT_FORCES,
+    &shaders::WALL_FORCES,
+    &shaders::WALLS,
+    &parallel_bond::SHADER,
+    &rolling_resistance::SHADER,
+    &shaders::INTEGRATE,
+    &shaders::WALL_FORCES_INTEGRATE,
+    &shaders::GUARD,
+    &applied_loads::SHADER,
+    &buoyancy::SHADER,
+    &conduction::SHADER,
+    &moisture::SHADER,
+    &pore_flow::SHADER,
+    &pore_flow::heat::SHADER,
+];
 
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
@@ -840,14 +863,14 @@ impl Backend for GpuBackend {
                     u32::MAX => f64::INFINITY,
                     bits => f64::from(f32::from_bits(bits)),
                 };
-                let need = crate::pores::flow::substeps_for(m.clock.dt, crit);
+                let need = crate::effects::pore_flow::flow::substeps_for(m.clock.dt, crit);
                 // The fluid–grain heat exchange, likewise (its stable step C/ΣG of either side).
                 let exchange = f.exchange_substeps().map(|now| {
                     let crit = match counters[C_PORE_EXCHANGE] {
                         u32::MAX => f64::INFINITY,
                         bits => f64::from(f32::from_bits(bits)),
                     };
-                    (now, crate::pores::flow::substeps_for(m.clock.dt, crit))
+                    (now, crate::effects::pore_flow::flow::substeps_for(m.clock.dt, crit))
                 });
                 let exchange_over = exchange.is_some_and(|(_, x)| x > f64::from(f.max_substeps));
                 let pore_drift = f64::from(f32::from_bits(counters[C_PORE_DRIFT])).sqrt();

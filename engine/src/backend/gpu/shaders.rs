@@ -1,15 +1,12 @@
-//! The WGSL sources (the only file that names shader paths), each with its bindings, and the
+//! The core's WGSL sources, each with its bindings (an effect's are in its `gpu.rs`), and the
 //! one way a stage becomes a pipeline: `common.wgsl` and `heat_ledger.wgsl`, then the stage's binding
 //! declarations (generated from its [`Bindings`]), then the stage's file; the plan's choices
 //! passed as pipeline-overridable constants, so a switched-off effect is compiled out.
 
-use super::bindings::{
-    self as b, applied_loads as al, buoyancy as by, conduction as co, moisture as mo, parallel_bond as pb,
-    pore_flow as pf, pore_heat as ph, *,
-};
+use super::bindings::{self as b, *};
 use super::device::{GpuContext, PipelineKey};
+use crate::effects::rolling_resistance::physics::RollingModel;
 use crate::error::Result;
-use crate::physics::rolling_resistance::RollingModel;
 use crate::plan::StepPlan;
 
 pub const COMMON: &str = include_str!("../../../../shaders/common.wgsl");
@@ -140,50 +137,6 @@ pub const WALLS: Shader = Shader {
     bindings: Bindings(&[&[uniform(PARAMS), read_write(b::WALLS), read(PARTIALS), read_write(FOLDED)]]),
 };
 
-pub const PARALLEL_BOND: Shader = Shader {
-    name: "parallel_bond",
-    source: include_str!("../../../../shaders/parallel_bond.wgsl"),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        uniform(pb::PARAMS),
-        read(ORIGIN),
-        read(DISP),
-        read(VEL),
-        read(ANG_VEL),
-        read(pb::ROW_START),
-        read(pb::OTHER),
-        read_write(pb::BONDS),
-        read_write(FORCE),
-        read_write(TORQUE),
-        read_write(COUNTERS),
-        read_write(EVENTS),
-        read_write(HEAT),
-    ]]),
-};
-
-pub const ROLLING_RESISTANCE: Shader = Shader {
-    name: "rolling_resistance",
-    source: include_str!("../../../../shaders/rolling_resistance.wgsl"),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read(ORIGIN),
-        read(DISP),
-        read(BODY),
-        read(KIND),
-        read(ROW_LEN),
-        read(OTHER),
-        read(PAIRS),
-        read(ANG_VEL),
-        read_write(TORQUE),
-        uniform(SLAB),
-        read(b::WALLS),
-        read(WALL_PAIRS),
-        read_write(ROLLING),
-        read_write(WALL_ROLLING),
-        read_write(HEAT),
-    ]]),
-};
-
 pub const INTEGRATE: Shader = Shader {
     name: "integrate",
     source: include_str!("../../../../shaders/integrate.wgsl"),
@@ -224,186 +177,6 @@ pub const GUARD: Shader = Shader {
         read(STATE),
     ]]),
 };
-
-pub const APPLIED_LOADS: Shader = Shader {
-    name: "applied_loads",
-    source: include_str!("../../../../shaders/applied_loads.wgsl"),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read(KIND),
-        read(al::FORCE),
-        read(al::TORQUE),
-        read_write(FORCE),
-        read_write(TORQUE),
-    ]]),
-};
-
-pub const BUOYANCY: Shader = Shader {
-    name: "buoyancy",
-    source: include_str!("../../../../shaders/buoyancy.wgsl"),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read(ORIGIN),
-        read(DISP),
-        read(BODY),
-        read(VEL),
-        read_write(FORCE),
-        uniform(by::WATER),
-        read(KIND),
-        read_write(HEAT),
-    ]]),
-};
-
-/// The conduction stage: the diffusion core it shares with moisture (diffusion.wgsl, no
-/// bindings of its own), then its own file.
-pub const CONDUCTION: Shader = Shader {
-    name: "conduction",
-    source: concat!(
-        include_str!("../../../../shaders/diffusion.wgsl"),
-        "\n",
-        include_str!("../../../../shaders/conduction.wgsl")
-    ),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read_write(ORIGIN),
-        read(DISP),
-        read(ROW_LEN),
-        read(OTHER),
-        read(STATE),
-        uniform(SLAB),
-        uniform(co::FIELD),
-        read_write(co::THERMAL),
-        read_write(co::NEXT),
-        read_write(co::CONDUCTANCE),
-        read(co::MODE),
-        read(co::EXPANSION),
-        // Read by `feed`.
-        read(HEAT),
-        read_write(co::FED),
-    ]]),
-};
-
-/// The moisture stage: the diffusion core it shares (diffusion.wgsl), then its own file.
-pub const MOISTURE: Shader = Shader {
-    name: "moisture",
-    source: concat!(
-        include_str!("../../../../shaders/diffusion.wgsl"),
-        "\n",
-        include_str!("../../../../shaders/moisture.wgsl")
-    ),
-    bindings: Bindings(&[&[
-        uniform(PARAMS),
-        read_write(ORIGIN),
-        read(DISP),
-        read(ROW_LEN),
-        read(OTHER),
-        read_write(STATE),
-        uniform(SLAB),
-        uniform(mo::FIELD),
-        read_write(mo::WATER),
-        read_write(mo::NEXT),
-        read_write(mo::CONDUCTANCE),
-        read(mo::MODE),
-        read(mo::AMBIENT),
-        read(mo::RADIUS0),
-        read(mo::TABLES),
-        // With thermal expansion too (`shrink_expand` only): the conduction stage's
-        // temperatures, and its (α, r0) whose r0 this stage keeps at r0·f(ω).
-        read(co::THERMAL),
-        read_write(co::EXPANSION),
-    ]]),
-};
-
-/// pore_flow.wgsl's bindings, the first of the thermal stage's too.
-const PORE_FLOW_BINDINGS: &[Binding] = &[
-    uniform(PARAMS),
-    uniform(pf::PARAMS),
-    read(ORIGIN),
-    read(DISP),
-    read(pf::TETS),
-    read(pf::TET_PORE),
-    read(pf::TET_SIGN),
-    read(pf::PORE_TET_START),
-    read(pf::PORE_TETS),
-    read_write(pf::VOLUME),
-    read_write(pf::VOLUME0),
-    read_write(pf::CENTRE),
-    read_write(pf::EXCESS),
-    read_write(pf::PRESSURE),
-    read(pf::BOUNDARY),
-    read_write(pf::SUPPLIED),
-    read(pf::ROW_START),
-    read(pf::ROW),
-    read(pf::THROATS),
-    read_write(pf::CONDUCTANCE),
-    read(pf::BOND_EDGES),
-    read_write(pf::BOND_ALIVE),
-    read(pf::ELEM_START),
-    read(pf::ELEM_CORNERS),
-    read_write(FORCE),
-    read_write(COUNTERS),
-    read(pf::PORE_BUILT),
-    uniform(SLAB),
-    read(ROW_LEN),
-    read(OTHER),
-    read(STATE),
-    read_write(pf::EXCESS_CARRY),
-    read(pf::VOLUME_HOST),
-];
-
-pub const PORE_FLOW: Shader = Shader {
-    name: "pore_flow",
-    source: include_str!("../../../../shaders/pore_flow.wgsl"),
-    bindings: Bindings(&[PORE_FLOW_BINDINGS]),
-};
-
-/// The pore fluid's temperature: pore_flow.wgsl (its bindings and helpers), then its own file.
-pub const PORE_HEAT: Shader = Shader {
-    name: "pore_heat",
-    source: concat!(
-        include_str!("../../../../shaders/pore_flow.wgsl"),
-        "\n",
-        include_str!("../../../../shaders/pore_heat.wgsl")
-    ),
-    bindings: Bindings(&[
-        PORE_FLOW_BINDINGS,
-        &[
-            uniform(ph::PARAMS),
-            read(ph::FLUID_BC),
-            read_write(ph::WARMTH),
-            read_write(ph::WARMTH_NEXT),
-            read_write(ph::HEAT_SUPPLIED),
-            read_write(ph::CORNER_G),
-            // The conduction stage's lanes: (T, C, k, P) and the mode of each element.
-            read_write(co::THERMAL),
-            read(co::THERMAL_MODE),
-            read_write(ph::CARRY),
-            read_write(ph::WARMTH_CARRY),
-        ],
-    ]),
-};
-
-/// Every stage, for validation without a device.
-pub const STAGES: [&Shader; 18] = [
-    &NEIGHBOURS,
-    &CELL_LIST,
-    &SCAN,
-    &ROWS,
-    &CONTACT_FORCES,
-    &WALL_FORCES,
-    &WALLS,
-    &PARALLEL_BOND,
-    &ROLLING_RESISTANCE,
-    &INTEGRATE,
-    &WALL_FORCES_INTEGRATE,
-    &GUARD,
-    &APPLIED_LOADS,
-    &BUOYANCY,
-    &CONDUCTION,
-    &MOISTURE,
-    &PORE_FLOW,
-    &PORE_HEAT,
-];
 
 /// A stage's full source: the shared prelude (common.wgsl, then the heat ledger's slots and
 /// sum, which the dissipating stages book into), the stage's binding declarations, and the
@@ -586,14 +359,14 @@ mod tests {
 
     #[test]
     fn every_stage_parses_and_validates() {
-        for stage in STAGES {
+        for stage in super::super::SHADERS {
             naga_parse(&source(stage)).unwrap_or_else(|e| panic!("{}: {e}", stage.name));
         }
     }
 
     #[test]
     fn bindings_are_declared_only_by_the_lists() {
-        for stage in STAGES {
+        for stage in super::super::SHADERS {
             assert!(!stage.source.contains("@binding"), "{}: declare a binding in its list instead", stage.name);
         }
         assert!(!COMMON.contains("@binding") && !HEAT_LEDGER.contains("@binding"));

@@ -1,0 +1,576 @@
+//! The step plan: which stages and effects this scene needs, decided once before a run.
+//! An effect that is off has no lane, no loop and no branch in a hot loop: the CPU backend
+//! picks a loop monomorphised for the plan's laws.
+
+use crate::effects::applied_loads::AppliedLoadsPlan;
+use crate::effects::buoyancy::BuoyancyPlan;
+use crate::effects::conduction::ConductionPlan;
+use crate::effects::moisture::MoisturePlan;
+use crate::effects::parallel_bond::physics::ParallelBondParams;
+use crate::effects::pore_flow::PoreFlowPlan;
+use crate::effects::rolling_resistance::physics::RollingResistance;
+use crate::materials::Material;
+use crate::model::{Model, NormalKind, TangentialKind};
+use crate::physics::contact_law::PairParams;
+use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
+use crate::physics::Vec3;
+use crate::state::particles::HeatCauses;
+use crate::walls::WallMotion;
+use std::fmt;
+
+pub mod registry;
+
+/// The named stages of one time step, in the order they run ([`registry::REGISTRY`] holds a
+/// row per stage, in this order). A stage's name is its files': `shaders/<name>.wgsl` and,
+/// for an optional effect, the folder `effects/<name>/` (CPU pass `cpu.rs`, GPU kernel
+/// `gpu.rs`, where its name also labels the pipeline); a core stage's kernel is
+/// `backend/gpu/<name>.rs` and its CPU twin `backend/cpu/<name>.rs` (which the CPU runs as one
+/// fused pass on unobserved steps) or the engine-level `<name>.rs` or `<name>/` that both
+/// backends share (walls, neighbours, guard).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Walls move: prescribed velocity, or servo control on the last step's load.
+    Walls,
+    /// Neighbour rows, rebuilt when the drift since the last build exceeds half the skin.
+    Neighbours,
+    /// Particle–particle contact forces (and torques), bonds and their breakage.
+    ContactForces,
+    /// Particle–wall contact forces and the loads the walls carry.
+    WallForces,
+    /// Optional: parallel bonds (Potyondy & Cundall 2004) in parallel with the linear
+    /// contacts: their forces and moments, added to the contact sums, and their breakage. Its
+    /// lanes (the bonds' rows and states) exist only in scenes that made such bonds.
+    ParallelBond,
+    /// Optional: rolling resistance (effects/rolling_resistance/physics.rs), a torque against the
+    /// relative rolling of each contact, added to the contact and wall stages' torques from each
+    /// particle's own row. Only the epsd model has lanes (a rolling spring per row entry and
+    /// per wall contact).
+    RollingResistance,
+    /// Optional: pore density flow (paper 003 §3.3): the pore network follows the elements,
+    /// the fluid flows between pores in sub-steps under its stable step, and each pore's
+    /// pressure pushes the elements at its corners (effects/pore_flow/coupling.rs). A force stage.
+    PoreFlow,
+    /// Optional: applied loads, the external force and torque a script put on each element
+    /// (`d.apply_force`, `d.apply_torque`), constant until changed, added to the force and torque
+    /// lanes before integration (and before the buoyancy's drag, which reads their sum). Its lanes
+    /// (effects/applied_loads/lanes.rs) exist only while some element carries a load.
+    AppliedLoads,
+    /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
+    /// below the level (effects/buoyancy/), a force stage: added to the force lane before integration,
+    /// so local damping sees it.
+    Buoyancy,
+    /// Body forces, damping and leapfrog integration (rotation when on).
+    Integrate,
+    /// Optional: the energy ledger, the heat each particle releases by cause and the work
+    /// walls do. Its lanes exist only in plans that keep it; the core stages book into them
+    /// as they dissipate, because each cause is a by-product of a core law (see
+    /// docs/adding-an-effect.md).
+    HeatLedger,
+    /// Optional: heat conduction between elements in contact or bonded, sources, fixed and
+    /// insulated groups, thermal expansion of radii, every field step (effects/conduction/).
+    Conduction,
+    /// Optional: moisture diffusion between elements in contact or bonded (the diffusion core
+    /// heat uses, its own conductances), evaporation, fixed and sealed groups, and the water
+    /// content's coupling to radii and bond strengths, every field step (effects/moisture/).
+    Moisture,
+    /// The stability guard's checks, every `guard_every` steps.
+    Guard,
+}
+
+/// Where a stage sits in a step, which decides how the backends run it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The core (walls, rows, contact and wall forces, integration): every plan runs it, fused
+    /// on the CPU's unobserved steps.
+    Core,
+    /// An optional force stage: adds its loads after the core's forces and before the move,
+    /// so a plan with one runs the core's passes apart.
+    Force,
+    /// An optional field stage: a field step after the move.
+    Field,
+    /// Booked inside the stages that dissipate (the heat ledger), no pass of its own.
+    Ledger,
+    /// The stability guard, every `guard_every` steps.
+    Guard,
+}
+
+/// A set of stages, walked in step order ([`StepPlan::runs`]): bit k is `Stage::ALL[k]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stages(u32);
+
+impl Iterator for Stages {
+    type Item = Stage;
+    fn next(&mut self) -> Option<Stage> {
+        if self.0 == 0 {
+            return None;
+        }
+        let k = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(Stage::ALL[k])
+    }
+}
+
+impl fmt::Display for Stage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct StepPlan {
+    pub normal: NormalKind,
+    pub tangential: TangentialKind,
+    /// Any material asks for a contact dashpot (restitution < 1).
+    pub dashpot: bool,
+    pub rotation: bool,
+    pub gravity: bool,
+    /// Global viscous damping ratio (0 = off).
+    pub damping: f64,
+    /// Local (Cundall) damping coefficient (0 = off).
+    pub local_damping: f64,
+    /// Bonded pairs exist.
+    pub bonds: bool,
+    pub walls: usize,
+    pub moving_walls: usize,
+    pub servo_walls: usize,
+    pub materials: usize,
+    /// Pair constants per (material, material): `pair[a * materials + b]`.
+    pub pair: Vec<PairParams>,
+    /// Constants of a particle of each material against each wall: `wall[w * materials + a]`.
+    pub wall: Vec<PairParams>,
+    /// The heat ledger's causes this plan books (all off without the ledger).
+    pub heat: HeatCauses,
+    /// The parallel bonds' parameters when the scene has them (the `parallel_bond` stage).
+    pub parallel_bond: Option<ParallelBondParams>,
+    /// Parallel-bond row entries (two per bond), for the lanes' account.
+    pub parallel_bond_entries: usize,
+    /// Heat conduction (the scene enables heat).
+    pub conduction: Option<ConductionPlan>,
+    /// Moisture diffusion (the scene enables moisture).
+    pub moisture: Option<MoisturePlan>,
+    /// The water table's buoyancy (the scene sets a level).
+    pub buoyancy: Option<BuoyancyPlan>,
+    /// Rolling resistance (the scene sets one with μ_r > 0).
+    pub rolling: Option<RollingResistance>,
+    /// Pore density flow (the scene enables it).
+    pub pore_flow: Option<PoreFlowPlan>,
+    /// Applied loads (some element carries an applied force or torque).
+    pub applied_loads: Option<AppliedLoadsPlan>,
+}
+
+/// One stage's per-particle lanes in a plan, on the CPU backend (f64).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LaneSet {
+    pub stage: &'static str,
+    pub lanes: Vec<&'static str>,
+    pub bytes_per_particle: usize,
+    /// Bytes per row entry of a stage with per-pair lanes (0 for the others): the
+    /// `parallel_bond` stage's bonds, two entries each.
+    pub bytes_per_entry: usize,
+    /// Bytes per neighbour-row entry (0 for the others): the epsd rolling springs, aligned
+    /// with the contact rows.
+    pub bytes_per_row_entry: usize,
+}
+
+impl StepPlan {
+    pub fn build(m: &Model) -> Self {
+        let nm = m.materials.len();
+        let mut pair = Vec::with_capacity(nm * nm);
+        for a in &m.materials {
+            for b in &m.materials {
+                pair.push(pair_params(a, b));
+            }
+        }
+        let mut wall = Vec::with_capacity(m.walls.len() * nm);
+        for w in &m.walls {
+            for a in &m.materials {
+                let mut p = rigid_wall_params(a);
+                if let Some(mu) = w.friction {
+                    p.mu = mu;
+                }
+                wall.push(p);
+            }
+        }
+        let s = &m.settings;
+        let shear_springs = s.tangential.is_mindlin() || pair.iter().chain(&wall).any(|p| p.ks > 0.0);
+        let moving_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count();
+        let servo_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count();
+        let bonds = m.contacts.state.iter().any(|p| p.bonded);
+        let pb = &m.parallel_bonds;
+        let parallel_bond = pb.params.filter(|_| pb.intact() > 0);
+        let dashpot = m.materials.iter().any(|a| a.restitution < 1.0);
+        // μ_r = 0 resists nothing: no stage.
+        let rolling = s.rolling.filter(|r| r.mu_r > 0.0);
+        let heat = if s.heat_ledger {
+            HeatCauses {
+                // The water's drag is a damping too (the buoyancy stage books its heat here).
+                damping: s.damping > 0.0
+                    || s.local_damping > 0.0
+                    || (s.water.level.is_some() && s.water.viscosity > 0.0),
+                contact_damping: dashpot,
+                // Rolling resistance is friction too (its stage books its torques' work here).
+                friction: shear_springs || rolling.is_some(),
+                breakage: bonds || parallel_bond.is_some(),
+                // A fixed wall does no work.
+                wall_work: moving_walls + servo_walls > 0,
+            }
+        } else {
+            HeatCauses::default()
+        };
+        let applied_loads = AppliedLoadsPlan::of(m);
+        StepPlan {
+            normal: s.normal,
+            tangential: s.tangential,
+            dashpot,
+            // Parallel bonds carry moments, rolling resistance and an applied torque are torques:
+            // they need the particles to turn.
+            rotation: s.rotation
+                || parallel_bond.is_some()
+                || rolling.is_some()
+                || applied_loads.is_some_and(|a| a.torques),
+            gravity: s.gravity.norm() > 0.0,
+            damping: s.damping,
+            local_damping: s.local_damping,
+            bonds,
+            walls: m.walls.len(),
+            moving_walls,
+            servo_walls,
+            materials: nm,
+            pair,
+            wall,
+            heat,
+            parallel_bond,
+            parallel_bond_entries: if parallel_bond.is_some() { pb.other.len() } else { 0 },
+            conduction: ConductionPlan::of(m),
+            moisture: MoisturePlan::of(m),
+            buoyancy: BuoyancyPlan::of(m),
+            rolling,
+            pore_flow: PoreFlowPlan::of(m),
+            applied_loads,
+        }
+    }
+
+    /// The stages a step of this plan runs, in order: the wall stages only with walls, each
+    /// optional stage only when the plan has it.
+    pub fn stages(&self) -> Vec<Stage> {
+        Stage::ALL.into_iter().filter(|s| self.has(*s)).collect()
+    }
+
+    /// Whether a step of this plan runs `stage`.
+    pub fn has(&self, stage: Stage) -> bool {
+        (stage.entry().runs)(self)
+    }
+
+    /// The per-particle lanes this plan allocates on the CPU, by stage: the core's, then each
+    /// optional lane set the plan has (rotation, heat). The GPU allocates the same sets, in
+    /// f32 (`backend::gpu::memory`).
+    pub fn lane_sets(&self) -> Vec<LaneSet> {
+        use std::mem::size_of;
+        let (v, f, u) = (size_of::<Vec3>(), size_of::<f64>(), size_of::<u32>());
+        let mut sets = vec![LaneSet {
+            stage: "core",
+            lanes: vec!["pos", "vel", "force", "origin", "radius", "mass", "material", "fixed"],
+            bytes_per_particle: 4 * v + 2 * f + u + 1,
+            bytes_per_entry: 0,
+            bytes_per_row_entry: 0,
+        }];
+        if self.rotation {
+            sets.push(LaneSet {
+                stage: "rotation",
+                lanes: vec!["ang_vel", "torque", "angle"],
+                bytes_per_particle: 3 * v,
+                bytes_per_entry: 0,
+                bytes_per_row_entry: 0,
+            });
+        }
+        sets.extend(registry::REGISTRY.iter().filter_map(|e| (e.lanes)(self)));
+        sets
+    }
+
+    /// Bytes per particle of the plan's lanes on the CPU ([`lane_sets`](Self::lane_sets)).
+    pub fn bytes_per_particle(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_particle).sum()
+    }
+
+    /// Bytes of the plan's per-pair lanes on the CPU (the parallel bonds' row entries).
+    pub fn pair_bytes(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_entry).sum::<usize>() * self.parallel_bond_entries
+    }
+
+    /// Bytes of the plan's lanes per neighbour-row entry on the CPU, beyond the rows' own (the
+    /// epsd rolling springs).
+    pub fn row_entry_bytes(&self) -> usize {
+        self.lane_sets().iter().map(|s| s.bytes_per_row_entry).sum()
+    }
+
+    /// Whether a force stage runs between the core's forces and the move (parallel bonds,
+    /// rolling resistance, pore flow, applied loads, buoyancy): the CPU then runs the core's
+    /// passes apart instead of fused.
+    pub fn has_force_stage(&self) -> bool {
+        self.runs(Role::Force).next().is_some()
+    }
+
+    /// The stages of `role` this plan runs, in step order. A set apart from the plan, so a
+    /// backend may walk it while it borrows itself mutably, and allocates nothing.
+    pub fn runs(&self, role: Role) -> Stages {
+        let bits = Stage::ALL.iter().enumerate().filter(|(_, s)| s.role() == role && self.has(**s));
+        Stages(bits.fold(0, |set, (k, _)| set | 1 << k))
+    }
+
+    /// Each particle's coefficient of MatDEM's global viscous damping, c_i = 2·ζ·√(m_i·k_i)
+    /// (N·s/m) with k_i the element's stiffness; empty when the plan has no viscous damping.
+    /// Both backends take theirs from here (the GPU as c_i/m_i).
+    pub fn damping_coefficients(&self, m: &Model) -> Vec<f64> {
+        if self.damping > 0.0 {
+            (0..m.len()).map(|i| 2.0 * self.damping * (m.particles.mass[i] * m.element_stiffness(i)).sqrt()).collect()
+        } else {
+            Vec::new()
+        }
+    }
+
+    #[inline(always)]
+    pub fn pair(&self, a: u32, b: u32) -> &PairParams {
+        &self.pair[a as usize * self.materials + b as usize]
+    }
+
+    /// Constants of a particle of `material` against wall `w`.
+    #[inline(always)]
+    pub fn wall_pair(&self, w: usize, material: u32) -> &PairParams {
+        &self.wall[w * self.materials + material as usize]
+    }
+}
+
+/// Two elements in contact: springs in series, the smaller strength, the smaller restitution.
+pub fn pair_params(a: &Material, b: &Material) -> PairParams {
+    let series = |x: f64, y: f64| if x + y > 0.0 { x * y / (x + y) } else { 0.0 };
+    // Each element carries twice the lattice spring, so identical elements give back kn.
+    let kn = series(2.0 * a.kn, 2.0 * b.kn);
+    let ks = series(2.0 * a.ks, 2.0 * b.ks);
+    let e_star = 1.0 / ((1.0 - a.poisson.powi(2)) / a.young + (1.0 - b.poisson.powi(2)) / b.young);
+    let ga = a.young / (2.0 * (1.0 + a.poisson));
+    let gb = b.young / (2.0 * (1.0 + b.poisson));
+    let g_star = 1.0 / ((2.0 - a.poisson) / ga + (2.0 - b.poisson) / gb);
+    let e = a.restitution.min(b.restitution);
+    PairParams {
+        kn,
+        ks,
+        breaking_force: kn * a.xb.min(b.xb),
+        fs0: a.fs0.min(b.fs0),
+        mu: a.mu_p.min(b.mu_p),
+        e_star,
+        g_star,
+        zeta: linear_damping_ratio(e),
+        alpha: hertz_damping_alpha(e),
+    }
+}
+
+/// An element against a rigid wall: the element's own springs, E* = E/(1−ν²).
+pub fn rigid_wall_params(a: &Material) -> PairParams {
+    let g = a.young / (2.0 * (1.0 + a.poisson));
+    PairParams {
+        kn: 2.0 * a.kn,
+        ks: 2.0 * a.ks,
+        breaking_force: 0.0,
+        fs0: 0.0,
+        mu: a.mu_p,
+        e_star: a.young / (1.0 - a.poisson * a.poisson),
+        g_star: g / (2.0 - a.poisson),
+        zeta: linear_damping_ratio(a.restitution),
+        alpha: hertz_damping_alpha(a.restitution),
+    }
+}
+
+/// A plan in words for one backend ([`StepPlan::on`]): the bytes the pore network takes are the
+/// backend's (the CPU's f64 lanes or the GPU's f32 buffers).
+pub struct PlanText<'a> {
+    plan: &'a StepPlan,
+    gpu: bool,
+}
+
+impl StepPlan {
+    /// The plan in words as the GPU backend (`gpu`) or the CPU backend runs it; `Display` is
+    /// the CPU's.
+    pub fn on(&self, gpu: bool) -> PlanText<'_> {
+        PlanText { plan: self, gpu }
+    }
+}
+
+impl fmt::Display for StepPlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.on(false).fmt(f)
+    }
+}
+
+impl fmt::Display for PlanText<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.plan.write_text(f, self.gpu)
+    }
+}
+
+impl StepPlan {
+    /// The words of the stages of `role` this plan runs, in step order (each effect's own,
+    /// from its registry row).
+    fn words_of(&self, role: Role) -> impl Iterator<Item = String> + '_ {
+        self.runs(role).filter_map(|s| (s.entry().words)(self))
+    }
+
+    fn write_text(&self, f: &mut fmt::Formatter<'_>, gpu: bool) -> fmt::Result {
+        let mut stages = Vec::new();
+        if self.walls > 0 {
+            stages.push(format!(
+                "walls({} fixed, {} moving, {} servo)",
+                self.walls - self.moving_walls - self.servo_walls,
+                self.moving_walls,
+                self.servo_walls
+            ));
+        }
+        stages.push("neighbours(cell list, skin rebuild)".to_string());
+        let (normal, tangential) = (self.normal.name(), self.tangential.description());
+        // With no material below e = 1 the tangential dashpot's coefficient is zero: the plan
+        // says so.
+        let idle = if self.tangential.damped() && !self.dashpot { " (0: every e = 1)" } else { "" };
+        let mut c = format!("contacts({normal} + {tangential}{idle} + coulomb");
+        if self.bonds {
+            c.push_str(", bonds");
+        }
+        if self.dashpot {
+            c.push_str(", normal dashpot");
+        }
+        if self.rotation {
+            c.push_str(", torques");
+        }
+        c.push(')');
+        stages.push(c);
+        // The force stages, in step order, before the body forces and the move.
+        stages.extend(self.words_of(Role::Force));
+        let mut body = Vec::new();
+        if self.gravity {
+            body.push("gravity".to_string());
+        }
+        if self.damping > 0.0 {
+            body.push(format!("viscous damping {:.3} of critical", self.damping));
+        }
+        if self.local_damping > 0.0 {
+            body.push(format!("local damping α = {:.2}", self.local_damping));
+        }
+        if !body.is_empty() {
+            stages.push(body.join(" + "));
+        }
+        stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
+        stages.extend(self.words_of(Role::Field));
+        writeln!(f, "step plan: {}", stages.join(" → "))?;
+        let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
+        writeln!(f, "stages: {}", names.join(" → "))?;
+        let sets: Vec<String> = self
+            .lane_sets()
+            .iter()
+            .map(|s| match (s.bytes_per_entry, s.bytes_per_row_entry) {
+                (0, 0) => format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
+                (0, r) => {
+                    format!("{} {} B + {r} B per row entry ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
+                }
+                (e, _) => {
+                    format!("{} {} B + {e} B per bond end ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
+                }
+            })
+            .collect();
+        writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
+        if let Some(p) = &self.pore_flow {
+            if gpu {
+                writeln!(f, "pore network (gpu, f32): about {} B ({})", p.device_bytes(), p.device_lanes().join("; "))?;
+            } else {
+                writeln!(f, "pore network (cpu, f64): about {} B ({})", p.bytes(), p.lanes().join("; "))?;
+            }
+        }
+        let mut off = Vec::new();
+        if !self.rotation {
+            off.push("rotation");
+        }
+        if !self.bonds {
+            off.push("bonds");
+        }
+        if !self.has(Stage::ParallelBond) {
+            off.push("parallel bonds");
+        }
+        if !self.dashpot {
+            off.push("contact dashpot");
+        }
+        if !self.gravity {
+            off.push("gravity");
+        }
+        if self.damping == 0.0 {
+            off.push("viscous damping");
+        }
+        if self.local_damping == 0.0 {
+            off.push("local damping");
+        }
+        if self.walls == 0 {
+            off.push("walls");
+        }
+        if !self.has(Stage::HeatLedger) {
+            off.push("heat ledger");
+        }
+        if self.conduction.is_none() {
+            off.push("heat conduction");
+        }
+        if self.buoyancy.is_none() {
+            off.push("buoyancy");
+        }
+        if self.applied_loads.is_none() {
+            off.push("applied loads");
+        }
+        if self.moisture.is_none() {
+            off.push("moisture");
+        }
+        if self.pore_flow.is_none() {
+            off.push("fluid flow");
+        }
+        if self.rolling.is_none() {
+            off.push("rolling resistance");
+        }
+        write!(f, "not simulated: {}", off.join(", "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::walls::Wall;
+    use crate::Vec3;
+
+    #[test]
+    fn a_plan_runs_the_wall_stages_only_with_walls() {
+        let mut m = Model::new();
+        let k = m.add_material(Material::from_micro("m", 2650.0, 1e6, 1e5, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
+        m.add_particle(Vec3::zeros(), 1e-3, k).unwrap();
+        // The optional stages are another test's (stage_lanes.rs): the core's here.
+        m.settings.heat_ledger = false;
+        let names = |m: &Model| StepPlan::build(m).stages().iter().map(|s| s.name()).collect::<Vec<_>>().join(" ");
+        assert_eq!(names(&m), "neighbours contact_forces integrate guard");
+        m.add_wall(Wall::plane("floor", Vec3::new(0.0, 0.0, -1e-3), Vec3::z(), 1e-4).unwrap()).unwrap();
+        assert_eq!(names(&m), "walls neighbours contact_forces wall_forces integrate guard");
+        assert_eq!(
+            StepPlan::build(&m).runs(Role::Core).collect::<Vec<_>>(),
+            [Stage::Walls, Stage::Neighbours, Stage::ContactForces, Stage::WallForces, Stage::Integrate]
+        );
+        assert_eq!(StepPlan::build(&m).runs(Role::Force).next(), None);
+    }
+
+    /// The backends walk the stages by role in `Stage::ALL`'s order, so the roles must follow
+    /// the step: the contact and wall forces, then every force stage, the move, then every
+    /// field stage.
+    #[test]
+    fn the_roles_follow_the_step_order() {
+        let at = |s: Stage| Stage::ALL.iter().position(|x| *x == s).unwrap();
+        for s in Stage::ALL {
+            match s.role() {
+                Role::Force => assert!(at(Stage::WallForces) < at(s) && at(s) < at(Stage::Integrate), "{s}"),
+                Role::Field => assert!(at(Stage::Integrate) < at(s) && at(s) < at(Stage::Guard), "{s}"),
+                Role::Core | Role::Ledger | Role::Guard => {}
+            }
+        }
+        // A set walks in that order whatever order its bits were set in.
+        let set = Stages(1 << at(Stage::Moisture) | 1 << at(Stage::Walls) | 1 << at(Stage::Buoyancy));
+        assert_eq!(set.collect::<Vec<_>>(), [Stage::Walls, Stage::Buoyancy, Stage::Moisture]);
+    }
+}
