@@ -36,6 +36,7 @@ use crate::effects::applied_loads::lanes::AppliedLoads;
 use crate::effects::buoyancy::WaterTable;
 use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::effects::conduction::HeatSettings;
+use crate::effects::confining_pressure::{Confinement, MAX_CELLS};
 use crate::effects::moisture::lanes::MoistureLanes;
 use crate::effects::moisture::physics::Table;
 use crate::effects::moisture::MoistureSettings;
@@ -159,6 +160,9 @@ enum Section {
     /// The rotation lanes' accumulated angles (with rotation on). A file without it loads with
     /// every angle at zero.
     RotationAngle { angle: Vec<Vec3> },
+    /// The confining pressure on a cylindrical sample (its pressure, axis, platens and cells).
+    /// A file without it loads unconfined.
+    Confinement { settings: Confinement },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -230,6 +234,9 @@ impl Section {
         if let Some(r) = &m.particles.rotation {
             out.push(Section::RotationAngle { angle: r.angle.clone() });
         }
+        if let Some(c) = &m.settings.confinement {
+            out.push(Section::Confinement { settings: c.clone() });
+        }
         out
     }
 
@@ -279,6 +286,17 @@ impl Section {
                     return Err("applied loads do not match the particles, or are not finite".into());
                 }
                 m.particles.applied = lanes;
+            }
+            Section::Confinement { settings: c } => {
+                let cells = c.bands as usize * c.sectors as usize;
+                let sound = c.pressure.is_finite() && c.pressure > 0.0 && c.axis.iter().all(|v| v.is_finite());
+                if !sound || cells == 0 || cells > MAX_CELLS {
+                    return Err("the confining pressure is not a finite pressure > 0 on 1 to 2^20 cells".into());
+                }
+                if m.wall_index(&c.bottom).is_err() || m.wall_index(&c.top).is_err() {
+                    return Err("the confining pressure names a platen the model does not have".into());
+                }
+                m.settings.confinement = Some(c);
             }
             Section::RotationAngle { angle } => {
                 let n = m.len();

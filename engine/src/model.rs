@@ -59,6 +59,10 @@ pub struct Settings {
     /// its fluid, in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub pores: crate::effects::pore_flow::PoreSettings,
+    /// A confining pressure on a cylindrical sample (the `confining_pressure` stage; off by
+    /// default). Saved in a checkpoint's sections, so that older checkpoints still read.
+    #[serde(skip)]
+    pub confinement: Option<crate::effects::confining_pressure::settings::Confinement>,
 }
 
 impl Default for Settings {
@@ -80,6 +84,7 @@ impl Default for Settings {
             moisture: crate::effects::moisture::settings::MoistureSettings::default(),
             rolling: None,
             pores: crate::effects::pore_flow::PoreSettings::default(),
+            confinement: None,
         }
     }
 }
@@ -405,6 +410,40 @@ impl Model {
         self.walls.push(wall);
         self.touch();
         Ok(self.walls.len() - 1)
+    }
+
+    /// Removes the wall `name` (MatDEM's deleting a boundary: a triaxial sample's packing ring
+    /// once the membrane holds it). Its contacts go with it; the work it did stays in the
+    /// account. A platen the confining pressure spans is refused until the sample is unconfined.
+    pub fn remove_wall(&mut self, name: &str) -> Result<()> {
+        let k = self.wall_index(name)?;
+        if let Some(c) = &self.settings.confinement {
+            if c.bottom == name || c.top == name {
+                return Err(Error::InvalidScene(format!(
+                    "wall `{name}` is a platen of the confining pressure: d.unconfine() first"
+                )));
+            }
+        }
+        let nw = self.walls.len();
+        let keep = |j: usize| j % nw != k;
+        let mut j = 0;
+        self.wall_contacts.retain(|_| {
+            j += 1;
+            keep(j - 1)
+        });
+        if !self.wall_rolling.is_empty() {
+            let mut j = 0;
+            self.wall_rolling.retain(|_| {
+                j += 1;
+                keep(j - 1)
+            });
+        }
+        self.walls.remove(k);
+        // The wall masks' bits are wall indices, and those past `k` moved down one: the rows
+        // are built again before the next step.
+        self.contacts.stale = true;
+        self.touch();
+        Ok(())
     }
 
     pub fn wall_index(&self, name: &str) -> Result<usize> {

@@ -24,6 +24,11 @@ pub struct Energies {
     /// `body_potential`): ρ_f·|g|·V times the depth of a submerged element's centre.
     #[serde(default)]
     pub buoyancy: f64,
+    /// The confining fluid's potential σ3·V, V the volume the membrane encloses over the grains
+    /// it touches (0 without confinement; effects/confining_pressure/physics.rs): the
+    /// membrane's loads are its gradient while no grain changes cell and the platens stand.
+    #[serde(default)]
+    pub confining: f64,
     pub heat_damping: f64,
     pub heat_contact_damping: f64,
     pub heat_friction: f64,
@@ -50,7 +55,7 @@ pub struct EnergySample {
 
 impl Energies {
     pub fn mechanical(&self) -> f64 {
-        self.kinetic + self.normal_elastic + self.shear_elastic + self.gravity + self.buoyancy
+        self.kinetic + self.normal_elastic + self.shear_elastic + self.gravity + self.buoyancy + self.confining
     }
 
     pub fn heat(&self) -> f64 {
@@ -78,6 +83,7 @@ pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
     let body = BodyFields::of(m);
     e.gravity = body.gravity_potential(m);
     e.buoyancy = body.buoyant_potential(m);
+    e.confining = m.confining_potential();
     e.body_work = m.body_work();
     e.applied_work = m.particles.applied_work();
     let h = &m.particles.heat;

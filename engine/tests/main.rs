@@ -11,6 +11,7 @@ mod buoyancy;
 mod buoyancy_energy;
 mod checkpoint;
 mod conduction;
+mod confining_pressure;
 mod cone;
 mod contact_analysis;
 mod contact_laws;

@@ -7,6 +7,7 @@
 pub mod applied_loads;
 pub mod buoyancy;
 pub mod conduction;
+pub mod confining_pressure;
 pub mod heat_ledger;
 pub mod moisture;
 pub mod parallel_bond;

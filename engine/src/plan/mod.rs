@@ -5,6 +5,7 @@
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::effects::buoyancy::BuoyancyPlan;
 use crate::effects::conduction::ConductionPlan;
+use crate::effects::confining_pressure::ConfiningPlan;
 use crate::effects::moisture::MoisturePlan;
 use crate::effects::parallel_bond::physics::ParallelBondParams;
 use crate::effects::pore_flow::PoreFlowPlan;
@@ -55,6 +56,11 @@ pub enum Stage {
     /// lanes before integration (and before the buoyancy's drag, which reads their sum). Its lanes
     /// (effects/applied_loads/lanes.rs) exist only while some element carries a load.
     AppliedLoads,
+    /// Optional: a confining pressure on the side of a cylindrical sample between two platens
+    /// (a triaxial cell's membrane, effects/confining_pressure/): each step the grains the
+    /// membrane touches are pushed towards the axis with the pressure times their patch. A force
+    /// stage.
+    ConfiningPressure,
     /// Optional: the water table's buoyancy −ρ_f·V_sub·g (and Stokes drag) on the elements
     /// below the level (effects/buoyancy/), a force stage: added to the force lane before integration,
     /// so local damping sees it.
@@ -156,6 +162,8 @@ pub struct StepPlan {
     pub pore_flow: Option<PoreFlowPlan>,
     /// Applied loads (some element carries an applied force or torque).
     pub applied_loads: Option<AppliedLoadsPlan>,
+    /// A confining pressure on a cylindrical sample (the scene confines one).
+    pub confining: Option<ConfiningPlan>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -247,6 +255,7 @@ impl StepPlan {
             rolling,
             pore_flow: PoreFlowPlan::of(m),
             applied_loads,
+            confining: ConfiningPlan::of(m),
         }
     }
 
@@ -518,6 +527,9 @@ impl StepPlan {
         }
         if self.applied_loads.is_none() {
             off.push("applied loads");
+        }
+        if self.confining.is_none() {
+            off.push("confining pressure");
         }
         if self.moisture.is_none() {
             off.push("moisture");

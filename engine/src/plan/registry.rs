@@ -15,6 +15,7 @@ use super::{LaneSet, Role, Stage, StepPlan};
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::effects::buoyancy::BuoyancyPlan;
 use crate::effects::conduction::ConductionPlan;
+use crate::effects::confining_pressure::ConfiningPlan;
 use crate::effects::moisture::MoisturePlan;
 use crate::effects::parallel_bond;
 use crate::effects::pore_flow::PoreFlowPlan;
@@ -57,7 +58,7 @@ fn per_particle(stage: Stage, lanes: Vec<&'static str>, bytes: usize) -> LaneSet
 }
 
 /// Every stage, in step order.
-pub const REGISTRY: [Entry; 14] = [
+pub const REGISTRY: [Entry; 15] = [
     core(Stage::Walls, "walls", |p| p.walls > 0),
     core(Stage::Neighbours, "neighbours", |_| true),
     core(Stage::ContactForces, "contact_forces", |_| true),
@@ -132,6 +133,18 @@ pub const REGISTRY: [Entry; 14] = [
         checkpoint: "Section::AppliedLoads",
         script: "d.apply_force",
         words: |p| p.applied_loads.as_ref().map(AppliedLoadsPlan::words),
+    },
+    Entry {
+        stage: Stage::ConfiningPressure,
+        name: "confining_pressure",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.confining.is_some(),
+        // It reads the core's lanes and keeps none per particle (the GPU a word pair per cell).
+        lanes: |_| None,
+        checkpoint: "Section::Confinement",
+        script: "d.confine",
+        words: |p| p.confining.as_ref().map(ConfiningPlan::words),
     },
     Entry {
         stage: Stage::Buoyancy,

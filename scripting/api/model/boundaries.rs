@@ -26,6 +26,9 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             }
             Ok(())
         })
+        .register_fn("remove_boundary", |d: &mut ModelHandle, name: &str| -> RhaiResult<()> {
+            d.model().remove_wall(name).map_err(raise)
+        })
         .register_fn("stop_boundary", |d: &mut ModelHandle, name: &str| -> RhaiResult<()> {
             d.model().wall_mut(name).map_err(raise)?.motion = WallMotion::Fixed;
             Ok(())

@@ -7,7 +7,8 @@
 //! energies, porosity), `elements` (MatDEM's model surgery: delete, add, move, freeze) and
 //! `regions` (masks from geometry, layers), `fields` (temperature, heat conduction, the
 //! water table), `moisture` (water content, evaporation, drying shrinkage), `pores`
-//! (pore density flow) and `loads` (applied forces and torques, rotation angles).
+//! (pore density flow), `loads` (applied forces and torques, rotation angles) and `confinement`
+//! (a triaxial cell's confining pressure).
 
 /// A query of the model's evolving state, journaled (see `Host::observe`): a resumed run
 /// replays the script with these answers. `$body` may use `?`.
@@ -21,6 +22,7 @@ macro_rules! observed {
 }
 
 mod boundaries;
+mod confinement;
 pub mod contacts;
 pub mod cutting;
 mod elements;
@@ -194,6 +196,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     settings::register(engine, &host);
     groups::register(engine, &host);
     boundaries::register(engine, &host);
+    confinement::register(engine, &host);
     running::register(engine, &host);
     observation::register(engine, &host);
     elements::register(engine, &host);

@@ -29,6 +29,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                     ("shear_elastic", e.shear_elastic),
                     ("gravity", e.gravity),
                     ("buoyancy", e.buoyancy),
+                    ("confining", e.confining),
                     ("heat_damping", e.heat_damping),
                     ("heat_contact_damping", e.heat_contact_damping),
                     ("heat_friction", e.heat_friction),

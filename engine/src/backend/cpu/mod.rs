@@ -16,6 +16,7 @@ pub mod wall_forces;
 // The effects' passes, each in its folder (`effects/<name>/`).
 use crate::effects::applied_loads::cpu as applied_loads;
 use crate::effects::buoyancy::cpu as buoyancy;
+use crate::effects::confining_pressure::cpu as confining_pressure;
 use crate::effects::conduction::cpu as conduction;
 use crate::effects::heat_ledger::cpu as heat_ledger;
 use crate::effects::moisture::cpu as moisture;
@@ -239,6 +240,10 @@ impl CpuBackend {
             (Stage::RollingResistance, ..) => rolling_resistance::rolling_resistance(m, plan),
             (Stage::PoreFlow, ..) => self.pore_flow(m),
             (Stage::AppliedLoads, Some(a), _) => applied_loads::applied_loads(m, a),
+            (Stage::ConfiningPressure, ..) => {
+                let c = plan.confining.as_ref().expect("the plan has the confining_pressure stage");
+                confining_pressure::confining_pressure(m, c)
+            }
             (Stage::Buoyancy, _, Some(b)) => return buoyancy::buoyancy(m, b, &plan.heat).0,
             _ => unreachable!("{stage} is not a force stage of this plan"),
         }

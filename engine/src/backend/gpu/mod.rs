@@ -49,6 +49,7 @@ pub mod walls;
 use crate::effects::applied_loads::gpu as applied_loads;
 use crate::effects::buoyancy::gpu as buoyancy;
 use crate::effects::conduction::gpu as conduction;
+use crate::effects::confining_pressure::gpu as confining_pressure;
 use crate::effects::heat_ledger::gpu as heat_ledger;
 use crate::effects::moisture::gpu as moisture;
 use crate::effects::parallel_bond::gpu as parallel_bond;
@@ -76,7 +77,7 @@ pub use device::{select, BackendChoice, Compute};
 
 /// Every WGSL stage, the core's and the effects', for validation without a device
 /// (`shaders.rs`'s tests).
-pub const SHADERS: [&shaders::Shader; 18] = [
+pub const SHADERS: [&shaders::Shader; 19] = [
     &shaders::NEIGHBOURS,
     &shaders::CELL_LIST,
     &shaders::SCAN,
@@ -90,6 +91,7 @@ pub const SHADERS: [&shaders::Shader; 18] = [
     &shaders::WALL_FORCES_INTEGRATE,
     &shaders::GUARD,
     &applied_loads::SHADER,
+    &confining_pressure::SHADER,
     &buoyancy::SHADER,
     &conduction::SHADER,
     &moisture::SHADER,
@@ -128,6 +130,7 @@ struct Pipelines {
     /// The optional applied loads and buoyancy (force stages) and field stages, only when the
     /// plan has them.
     applied_loads: Option<Pipeline>,
+    confining: Option<confining_pressure::Pipelines>,
     buoyancy: Option<Pipeline>,
     conduction: Option<conduction::Pipelines>,
     moisture: Option<moisture::Pipelines>,
@@ -159,6 +162,7 @@ struct Kernels {
     integrate: Kernel,
     guard: Vec<Kernel>,
     applied_loads: Option<Kernel>,
+    confining: Option<confining_pressure::Kernels>,
     buoyancy: Option<Kernel>,
     conduction: Option<conduction::Kernels>,
     moisture: Option<moisture::Kernels>,
@@ -319,6 +323,7 @@ impl GpuBackend {
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
             applied_loads: plan.applied_loads.as_ref().map(|a| applied_loads::pipeline(device, &constants, a)),
+            confining: plan.confining.is_some().then(|| confining_pressure::pipelines(device, &constants)),
             buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
             conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
             moisture: plan.moisture.as_ref().map(|w| moisture::pipelines(device, &constants, w)),
@@ -491,6 +496,7 @@ impl GpuBackend {
             Some(a) => Some(applied_loads::Lanes::upload(&self.ctx, m, a, limit)?),
             None => None,
         };
+        let membrane = self.plan.confining.as_ref().map(|c| confining_pressure::Lanes::upload(&self.ctx, c));
         let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let pores = match &p.pore_flow {
             Some(pipelines) => {
@@ -528,6 +534,12 @@ impl GpuBackend {
                 .zip(applied.as_ref())
                 .map(|(a, loads)| applied_loads::kernel(device, a, &lanes, loads))
                 .transpose()?,
+            confining: p
+                .confining
+                .as_ref()
+                .zip(membrane.as_ref())
+                .map(|(c, f)| confining_pressure::kernels(device, c, &lanes, f))
+                .transpose()?,
             buoyancy: p
                 .buoyancy
                 .as_ref()
@@ -554,7 +566,8 @@ impl GpuBackend {
             + thermal.as_ref().map_or(0, |t| t.bytes)
             + moist.as_ref().map_or(0, |w| w.bytes)
             + pores.as_ref().map_or(0, |f| f.bytes)
-            + applied.as_ref().map_or(0, |a| a.bytes);
+            + applied.as_ref().map_or(0, |a| a.bytes)
+            + membrane.as_ref().map_or(0, |c| c.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
@@ -628,6 +641,7 @@ impl GpuBackend {
                 Stage::RollingResistance => StageWork::Kernels(kr.rolling_resistance.iter().collect()),
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
                 Stage::AppliedLoads => StageWork::Kernels(vec![kr.applied_loads.as_ref()?]),
+                Stage::ConfiningPressure => StageWork::Kernels(kr.confining.as_ref()?.list()),
                 Stage::Buoyancy => StageWork::Kernels(vec![kr.buoyancy.as_ref()?]),
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),

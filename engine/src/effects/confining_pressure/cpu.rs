@@ -1,0 +1,24 @@
+//! The `confining_pressure` stage on the CPU, a force stage after `applied_loads` and before
+//! `buoyancy` (whose drag reads the others' sum) and `integrate`: the membrane's cells placed
+//! between the platens where they stand this step, each cell's outermost grain found (serially, in
+//! id order: deterministic), and each such grain pushed towards the axis with the pressure times
+//! its patch (`physics.rs`). A grain is in one cell, so each grain's force lane is written once.
+//! Killed elements feel nothing. CPU twin of `gpu.rs`.
+
+use crate::effects::confining_pressure::physics::{outermost, NONE};
+use crate::effects::confining_pressure::ConfiningPlan;
+use crate::model::Model;
+use crate::state::particles::dof;
+
+/// Adds the membrane's load to the force lane of each grain it touches.
+pub fn confining_pressure(m: &mut Model, plan: &ConfiningPlan) {
+    let cells = plan.cells(&m.walls);
+    let p = &mut m.particles;
+    let fixed = &p.fixed;
+    let best = outermost(&cells, &p.pos, &p.radius, |i| fixed[i] & dof::KILLED != 0);
+    for &(i, _) in best.iter().filter(|b| b.0 != NONE) {
+        let i = i as usize;
+        let place = cells.place(&p.pos[i], p.radius[i]);
+        p.force[i] += cells.load(plan.pressure, &place);
+    }
+}

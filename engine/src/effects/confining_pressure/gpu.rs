@@ -1,0 +1,154 @@
+//! The `confining_pressure` stage on the GPU (shaders/confining_pressure.wgsl): the membrane's
+//! cells as word pairs (the largest reach's bits, the lowest id at it), cleared, marked, picked
+//! and applied each step in four dispatches, after the other force stages but buoyancy and before
+//! `integrate`. Built only when the plan has the stage; its uniform and cells are made at upload
+//! and bring nothing back (the pressure is the scene's, the platens are the core's walls). CPU
+//! twin: `effects/confining_pressure/cpu.rs`.
+
+use crate::backend::gpu::bindings::{Holder, Lane, DISP, KIND, ORIGIN, PARAMS, WALLS};
+use crate::backend::gpu::buffers::DeviceLanes;
+use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
+use crate::effects::confining_pressure::ConfiningPlan;
+use crate::error::Result;
+use crate::plan::Stage;
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use wgsl as cp;
+
+/// The stage's own lanes, as its WGSL names them.
+pub mod wgsl {
+    use crate::backend::gpu::bindings::{lane, Home, Lane};
+
+    const HOME: Home = Home::Effect("confining_pressure");
+
+    /// The pressure, the axis, the cells and the platens' wall indices (`Confine`).
+    pub const CONFINE: Lane = lane(HOME, "confine", "Confine");
+    /// Per cell: the largest reach's f32 bits, then the lowest id at that reach.
+    pub const CELLS: Lane = lane(HOME, "cells", "array<atomic<u32>>");
+}
+
+/// The stage's WGSL and its bindings in order, from which its `@binding` lines are generated.
+pub use shader::SHADER;
+
+mod shader {
+    use super::wgsl as cp;
+    use crate::backend::gpu::bindings::*;
+    use crate::backend::gpu::shaders::Shader;
+
+    pub const SHADER: Shader = Shader {
+        name: "confining_pressure",
+        source: include_str!("../../../../shaders/confining_pressure.wgsl"),
+        bindings: Bindings(&[&[
+            uniform(PARAMS),
+            read(ORIGIN),
+            read(DISP),
+            read(KIND),
+            read(WALLS),
+            read_write(FORCE),
+            uniform(cp::CONFINE),
+            read_write(cp::CELLS),
+        ]]),
+    };
+}
+
+/// `Confine` in confining_pressure.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Confine {
+    pressure: f32,
+    cx: f32,
+    cy: f32,
+    bands: u32,
+    sectors: u32,
+    bottom: u32,
+    top: u32,
+    cells: u32,
+}
+
+/// The stage's pipelines, one per entry point.
+pub struct Pipelines {
+    clear: Pipeline,
+    mark: Pipeline,
+    pick: Pipeline,
+    apply: Pipeline,
+}
+
+pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
+    let make = |entry| shaders::pipeline(device, Stage::ConfiningPressure.name(), &SHADER, entry, constants);
+    Pipelines {
+        clear: make("confine_clear"),
+        mark: make("confine_mark"),
+        pick: make("confine_pick"),
+        apply: make("confine_apply"),
+    }
+}
+
+/// The stage's uniform and cells on the device.
+pub struct Lanes {
+    confine: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    pub bytes: u64,
+}
+
+impl Lanes {
+    pub fn upload(ctx: &GpuContext, plan: &ConfiningPlan) -> Self {
+        let cells = plan.bands * plan.sectors;
+        let words = Confine {
+            pressure: plan.pressure as f32,
+            cx: plan.axis[0] as f32,
+            cy: plan.axis[1] as f32,
+            bands: plan.bands,
+            sectors: plan.sectors,
+            bottom: plan.bottom as u32,
+            top: plan.top as u32,
+            cells,
+        };
+        let confine = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("confine"),
+            contents: bytemuck::bytes_of(&words),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let size = 8 * u64::from(cells);
+        let cells = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("membrane cells"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        Lanes { confine, cells, bytes: size + std::mem::size_of::<Confine>() as u64 }
+    }
+}
+
+impl Holder for Lanes {
+    fn buffer(&self, lane: Lane) -> Option<&wgpu::Buffer> {
+        match lane {
+            cp::CONFINE => Some(&self.confine),
+            cp::CELLS => Some(&self.cells),
+            _ => None,
+        }
+    }
+}
+
+/// The pipelines bound to one upload, in the order a step dispatches them.
+pub struct Kernels([Kernel; 4]);
+
+pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
+    let place = [PARAMS, ORIGIN, DISP, KIND, WALLS, cp::CONFINE, cp::CELLS];
+    let bind = |pipeline, lanes: &[Lane], groups| Kernel::bind_lanes(device, pipeline, lanes, &[d, f], groups);
+    let cells = (f.cells.size() / 8) as usize;
+    Ok(Kernels([
+        bind(&p.clear, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
+        bind(&p.mark, &place, groups_for(d.n))?,
+        bind(&p.pick, &place, groups_for(d.n))?,
+        bind(&p.apply, &[&place[..], &[crate::backend::gpu::bindings::FORCE]].concat(), groups_for(d.n))?,
+    ]))
+}
+
+impl Kernels {
+    /// The step's four dispatches, in order.
+    pub fn list(&self) -> Vec<&Kernel> {
+        self.0.iter().collect()
+    }
+}

@@ -1,0 +1,155 @@
+//! The membrane's geometry and load, shared by the CPU pass, the report and (in f32) the WGSL.
+//!
+//! The side of the sample is cut into cells: `bands` equal bands of the height between the two
+//! platens, each cut into `sectors` equal sectors around the axis. In each cell the grain that
+//! reaches farthest from the axis (largest ρ + r, ρ its centre's distance from the axis; the
+//! lowest id of equals) is the one the membrane touches, and the pressure σ over the cell's
+//! patch of membrane, (ρ + r)·Δθ·Δz, pushes it towards the axis:
+//!
+//! ```text
+//! F = −σ·(ρ + r)·Δθ·Δz·e_ρ.
+//! ```
+//!
+//! That force is −∇(σ·V) for the grain, V = Σ ½·(ρ + r)²·Δθ·Δz over the occupied cells being the
+//! volume the membrane encloses: while no grain changes cell and the platens stand still, the
+//! confining fluid is a potential σ·V (`status::Energies::confining`), and the sum of the loads
+//! is σ times the membrane's area.
+
+use crate::physics::Vec3;
+
+/// The membrane's cells at one instant (the platens where they are now).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cells {
+    pub bands: u32,
+    pub sectors: u32,
+    pub axis: [f64; 2],
+    /// The bottom platen's height and a band's height (m).
+    pub z0: f64,
+    pub dz: f64,
+    /// A sector's angle (rad).
+    pub dtheta: f64,
+}
+
+/// Where a grain sits against the membrane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Place {
+    pub cell: usize,
+    /// ρ + r: how far the grain reaches from the axis (m).
+    pub reach: f64,
+    /// The unit vector from the axis to the centre, across the axis (zero on the axis).
+    pub out: [f64; 2],
+}
+
+impl Cells {
+    /// The cells between platens at heights `z0` < `z1`.
+    pub fn new(bands: u32, sectors: u32, axis: [f64; 2], z0: f64, z1: f64) -> Self {
+        Cells {
+            bands,
+            sectors,
+            axis,
+            z0,
+            dz: (z1 - z0) / f64::from(bands),
+            dtheta: std::f64::consts::TAU / f64::from(sectors),
+        }
+    }
+
+    pub fn count(&self) -> usize {
+        self.bands as usize * self.sectors as usize
+    }
+
+    /// The cell of a grain at `pos` with radius `r`: grains beyond a platen count in the band
+    /// next to it.
+    pub fn place(&self, pos: &Vec3, r: f64) -> Place {
+        let (dx, dy) = (pos.x - self.axis[0], pos.y - self.axis[1]);
+        let rho = dx.hypot(dy);
+        let band = (((pos.z - self.z0) / self.dz).floor().max(0.0) as u32).min(self.bands - 1);
+        let theta = dy.atan2(dx) + std::f64::consts::PI;
+        let sector = ((theta / self.dtheta).floor().max(0.0) as u32).min(self.sectors - 1);
+        let out = if rho > 0.0 { [dx / rho, dy / rho] } else { [0.0, 0.0] };
+        Place { cell: (band * self.sectors + sector) as usize, reach: rho + r, out }
+    }
+
+    /// The membrane's patch over a grain that reaches `reach` from the axis (m²).
+    pub fn patch(&self, reach: f64) -> f64 {
+        reach * self.dtheta * self.dz
+    }
+
+    /// The membrane's load on the grain at `place` under pressure `pressure` (N).
+    pub fn load(&self, pressure: f64, place: &Place) -> Vec3 {
+        let f = -pressure * self.patch(place.reach);
+        Vec3::new(f * place.out[0], f * place.out[1], 0.0)
+    }
+
+    /// The volume a cell's patch encloses over a grain reaching `reach` (m³).
+    pub fn volume(&self, reach: f64) -> f64 {
+        0.5 * reach * reach * self.dtheta * self.dz
+    }
+}
+
+/// A grain the membrane touches: its cell and id.
+pub const NONE: u32 = u32::MAX;
+
+/// Each cell's outermost grain (`NONE` for an empty cell) and its reach, for grains at `pos` with
+/// radii `radius`, `skip(i)` true for grains out of the model. Serial, in id order: a tie goes to
+/// the lowest id, whatever the thread count.
+pub fn outermost(cells: &Cells, pos: &[Vec3], radius: &[f64], skip: impl Fn(usize) -> bool) -> Vec<(u32, f64)> {
+    let mut best = vec![(NONE, 0.0); cells.count()];
+    for i in 0..pos.len() {
+        if skip(i) {
+            continue;
+        }
+        let p = cells.place(&pos[i], radius[i]);
+        let b = &mut best[p.cell];
+        if b.0 == NONE || p.reach > b.1 {
+            *b = (i as u32, p.reach);
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_grain_is_placed_in_its_band_and_sector_and_pushed_towards_the_axis() {
+        let c = Cells::new(4, 8, [1.0, 2.0], 0.0, 0.4);
+        // 0.3 m from the axis along +y, at z = 0.25: band 2; θ = π/2 + π = 3π/2, sector 6.
+        let p = c.place(&Vec3::new(1.0, 2.3, 0.25), 0.05);
+        assert_eq!(p.cell, 2 * 8 + 6);
+        assert!((p.reach - 0.35).abs() < 1e-15);
+        let f = c.load(1e5, &p);
+        let expect = 1e5 * 0.35 * (std::f64::consts::TAU / 8.0) * 0.1;
+        assert!(f.x.abs() < 1e-9 && (f.y + expect).abs() < 1e-9 * expect && f.z == 0.0, "{f:?}");
+        // Beyond the platens: the end bands.
+        assert_eq!(c.place(&Vec3::new(1.3, 2.0, -0.1), 0.01).cell / 8, 0);
+        assert_eq!(c.place(&Vec3::new(1.3, 2.0, 0.9), 0.01).cell / 8, 3);
+    }
+
+    #[test]
+    fn the_load_is_minus_the_gradient_of_pressure_times_volume() {
+        let c = Cells::new(3, 12, [0.0, 0.0], 0.0, 0.3);
+        let (x, r, s) = (Vec3::new(0.2, 0.07, 0.15), 0.02, 2e5);
+        let p = c.place(&x, r);
+        let h = 1e-7;
+        for k in 0..2 {
+            let mut xp = x;
+            xp[k] += h;
+            let mut xm = x;
+            xm[k] -= h;
+            let grad = s * (c.volume(c.place(&xp, r).reach) - c.volume(c.place(&xm, r).reach)) / (2.0 * h);
+            let f = c.load(s, &p)[k];
+            assert!((f + grad).abs() < 1e-6 * f.abs().max(1.0), "component {k}: {f} vs −{grad}");
+        }
+    }
+
+    #[test]
+    fn each_cell_takes_its_outermost_grain_and_the_lowest_id_of_equals() {
+        let c = Cells::new(1, 4, [0.0, 0.0], 0.0, 1.0);
+        let pos = [Vec3::new(0.5, 0.1, 0.5), Vec3::new(0.8, 0.1, 0.5), Vec3::new(0.8, 0.1, 0.5), Vec3::zeros()];
+        let best = outermost(&c, &pos, &[0.1, 0.1, 0.1, 0.1], |i| i == 3);
+        let cell = c.place(&pos[0], 0.1).cell;
+        assert_eq!(best[cell].0, 1);
+        assert_eq!(best.iter().filter(|b| b.0 != NONE).count(), 1);
+    }
+}

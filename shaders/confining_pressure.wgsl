@@ -1,0 +1,99 @@
+// The `confining_pressure` stage on the GPU, a force stage after `applied_loads` and before
+// `buoyancy` and `integrate`: a triaxial cell's membrane. The side of the sample between the two
+// platens is cut into bands × sectors cells (effects/confining_pressure/physics.rs); each step
+// `confine_clear` empties the cells, `confine_mark` raises each cell's reach ρ + r to its grains'
+// largest (an integer atomic max on the f32's bits, which order as the values do for values ≥ 0),
+// `confine_pick` lowers the cell's id to the lowest grain at that reach, and `confine_apply`
+// pushes each picked grain towards the axis with σ·(ρ + r)·Δθ·Δz. Integer atomics only: the
+// picks, and so the forces, are the same whatever order the invocations run in. Killed
+// elements are in no cell. CPU twin: effects/confining_pressure/cpu.rs.
+
+struct Confine {
+    pressure: f32,
+    cx: f32,
+    cy: f32,
+    bands: u32,
+    sectors: u32,
+    bottom: u32,
+    top: u32,
+    cells: u32,
+}
+
+const TAU: f32 = 6.28318530717959;
+const HALF_TURN: f32 = 3.14159265358979;
+const NO_GRAIN: u32 = 0xffffffffu;
+
+// Bindings: generated from this stage's list in effects/confining_pressure/gpu.rs.
+
+struct Place {
+    cell: u32,
+    reach: f32,
+    out: vec2<f32>,
+    // The cell's patch of membrane per unit reach, Δθ·Δz.
+    area: f32,
+}
+
+// Where grain `i` sits against the membrane, with the platens where they stand this step.
+fn membrane_place(i: u32) -> Place {
+    let z0 = walls[confine.bottom].point.z + walls[confine.bottom].moved.z;
+    let z1 = walls[confine.top].point.z + walls[confine.top].moved.z;
+    let dz = (z1 - z0) / f32(confine.bands);
+    let dtheta = TAU / f32(confine.sectors);
+    let o = origin[i];
+    let p = o.xyz + disp[i].xyz;
+    let d = vec2<f32>(p.x - confine.cx, p.y - confine.cy);
+    let rho = length(d);
+    let band = min(u32(max(floor((p.z - z0) / dz), 0.0)), confine.bands - 1u);
+    let sector = min(u32(max(floor((atan2(d.y, d.x) + HALF_TURN) / dtheta), 0.0)), confine.sectors - 1u);
+    var out = vec2<f32>(0.0, 0.0);
+    if rho > 0.0 {
+        out = d / rho;
+    }
+    return Place(band * confine.sectors + sector, rho + o.w, out, dtheta * dz);
+}
+
+@compute @workgroup_size(64)
+fn confine_clear(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(gid, groups);
+    if c >= confine.cells {
+        return;
+    }
+    atomicStore(&cells[2u * c], 0u);
+    atomicStore(&cells[2u * c + 1u], NO_GRAIN);
+}
+
+@compute @workgroup_size(64)
+fn confine_mark(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n || (kind[i] & KILLED) != 0u {
+        return;
+    }
+    let p = membrane_place(i);
+    atomicMax(&cells[2u * p.cell], bitcast<u32>(p.reach));
+}
+
+@compute @workgroup_size(64)
+fn confine_pick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n || (kind[i] & KILLED) != 0u {
+        return;
+    }
+    let p = membrane_place(i);
+    if bitcast<u32>(p.reach) == atomicLoad(&cells[2u * p.cell]) {
+        atomicMin(&cells[2u * p.cell + 1u], i);
+    }
+}
+
+@compute @workgroup_size(64)
+fn confine_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = invocation(gid, groups);
+    if i >= params.n || (kind[i] & KILLED) != 0u {
+        return;
+    }
+    let p = membrane_place(i);
+    if atomicLoad(&cells[2u * p.cell + 1u]) != i {
+        return;
+    }
+    let f = -confine.pressure * p.reach * p.area;
+    force[i] = vec4<f32>(force[i].xy + p.out * f, force[i].z, force[i].w);
+}
