@@ -13,6 +13,7 @@ pub const SCRIPTS: &[(&str, &str)] = &[
     ("std/oedometer", include_str!("../stdlib_scripts/oedometer.rhai")),
     ("std/material_tests", include_str!("../stdlib_scripts/material_tests.rhai")),
     ("std/direct_shear", include_str!("../stdlib_scripts/direct_shear.rhai")),
+    ("std/triaxial", include_str!("../stdlib_scripts/triaxial.rhai")),
 ];
 
 /// Compiles the stdlib into modules and registers them as global functions; returns the

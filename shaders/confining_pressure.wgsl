@@ -3,10 +3,13 @@
 // platens is cut into bands × sectors cells (effects/confining_pressure/physics.rs); each step
 // `confine_clear` empties the cells, `confine_mark` raises each cell's reach ρ + r to its grains'
 // largest (an integer atomic max on the f32's bits, which order as the values do for values ≥ 0),
-// `confine_pick` lowers the cell's id to the lowest grain at that reach, and `confine_apply`
-// pushes each picked grain towards the axis with σ·(ρ + r)·Δθ·Δz. Integer atomics only: the
-// picks, and so the forces, are the same whatever order the invocations run in. Killed
-// elements are in no cell. CPU twin: effects/confining_pressure/cpu.rs.
+// `confine_pick` lowers the cell's id to the lowest grain at that reach, `confine_share` gives
+// each empty cell's patch to the touched cell beside it whose grain reaches farthest (a count
+// per cell), and `confine_apply` pushes each picked grain towards the axis with
+// σ·(ρ + r)·Δθ·Δz times its cell's patches. A cell is three words: the reach's bits, the id, the
+// shares. Integer atomics only: the picks and shares, and so the forces, are the same whatever
+// order the invocations run in. Killed elements are in no cell.
+// CPU twin: effects/confining_pressure/cpu.rs.
 
 struct Confine {
     pressure: f32,
@@ -58,8 +61,9 @@ fn confine_clear(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     if c >= confine.cells {
         return;
     }
-    atomicStore(&cells[2u * c], 0u);
-    atomicStore(&cells[2u * c + 1u], NO_GRAIN);
+    atomicStore(&cells[3u * c], 0u);
+    atomicStore(&cells[3u * c + 1u], NO_GRAIN);
+    atomicStore(&cells[3u * c + 2u], 0u);
 }
 
 @compute @workgroup_size(64)
@@ -69,7 +73,7 @@ fn confine_mark(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let p = membrane_place(i);
-    atomicMax(&cells[2u * p.cell], bitcast<u32>(p.reach));
+    atomicMax(&cells[3u * p.cell], bitcast<u32>(p.reach));
 }
 
 @compute @workgroup_size(64)
@@ -79,8 +83,51 @@ fn confine_pick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let p = membrane_place(i);
-    if bitcast<u32>(p.reach) == atomicLoad(&cells[2u * p.cell]) {
-        atomicMin(&cells[2u * p.cell + 1u], i);
+    if bitcast<u32>(p.reach) == atomicLoad(&cells[3u * p.cell]) {
+        atomicMin(&cells[3u * p.cell + 1u], i);
+    }
+}
+
+// An empty cell's patch goes to the touched cell beside it whose grain reaches farthest: the
+// sectors before and after it in its band, then the bands below and above (the first of
+// equals; `Cells::beside` and `shares` in physics.rs).
+@compute @workgroup_size(64)
+fn confine_share(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = invocation(gid, groups);
+    if c >= confine.cells || atomicLoad(&cells[3u * c + 1u]) != NO_GRAIN {
+        return;
+    }
+    let s = confine.sectors;
+    let band = c / s;
+    let sector = c % s;
+    var beside = array<u32, 4>(NO_GRAIN, NO_GRAIN, NO_GRAIN, NO_GRAIN);
+    if s > 1u {
+        beside[0] = band * s + (sector + s - 1u) % s;
+    }
+    if s > 2u {
+        beside[1] = band * s + (sector + 1u) % s;
+    }
+    if band > 0u {
+        beside[2] = c - s;
+    }
+    if band + 1u < confine.bands {
+        beside[3] = c + s;
+    }
+    var to = NO_GRAIN;
+    var reach = 0u;
+    for (var k = 0u; k < 4u; k++) {
+        let n = beside[k];
+        if n == NO_GRAIN || atomicLoad(&cells[3u * n + 1u]) == NO_GRAIN {
+            continue;
+        }
+        let r = atomicLoad(&cells[3u * n]);
+        if to == NO_GRAIN || r > reach {
+            to = n;
+            reach = r;
+        }
+    }
+    if to != NO_GRAIN {
+        atomicAdd(&cells[3u * to + 2u], 1u);
     }
 }
 
@@ -91,9 +138,10 @@ fn confine_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         return;
     }
     let p = membrane_place(i);
-    if atomicLoad(&cells[2u * p.cell + 1u]) != i {
+    if atomicLoad(&cells[3u * p.cell + 1u]) != i {
         return;
     }
-    let f = -confine.pressure * p.reach * p.area;
+    let patches = f32(1u + atomicLoad(&cells[3u * p.cell + 2u]));
+    let f = -confine.pressure * p.reach * p.area * patches;
     force[i] = vec4<f32>(force[i].xy + p.out * f, force[i].z, force[i].w);
 }

@@ -58,5 +58,6 @@ mod study_cli;
 mod sweep_cli;
 mod sweep_slurm;
 mod training_cli;
+mod triaxial_cli;
 mod tunnel_cli;
 mod zones_script;

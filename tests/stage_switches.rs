@@ -10,7 +10,7 @@ use std::rc::Rc;
 
 /// Per effect: what turns it off first (the heat ledger is on by default) and the script that
 /// switches it on, which uses the registry row's switch.
-const SWITCHES: [(&str, &str, &str); 8] = [
+const SWITCHES: [(&str, &str, &str); 9] = [
     (
         "parallel_bond",
         "",
@@ -20,6 +20,12 @@ const SWITCHES: [(&str, &str, &str); 8] = [
     ("rolling_resistance", "", r#"d.rolling_resistance = #{ model: "cdt", mu_r: 0.1 };"#),
     ("pore_flow", "", r#"d.fluid = #{ bulk_modulus: 1e5, viscosity: 1.0 }; d.enable("pore_flow");"#),
     ("applied_loads", "", "d.apply_force([0], [1e-4, 0.0, 0.0]);"),
+    (
+        "confining_pressure",
+        "",
+        r#"d.place_boundary("top_platen", [0.0, 0.0, (d.z + d.r).max()]);
+        d.confine(#{ pressure: 1e4, axis: [0.002, 0.002] });"#,
+    ),
     ("buoyancy", "", "d.water_level = 0.002;"),
     ("heat_ledger", "d.heat_ledger = false;", "d.heat_ledger = true;"),
     ("conduction", "", r#"d.enable("heat");"#),

@@ -36,14 +36,7 @@ fn platens(m: &mut Model, z0: f64, z1: f64) {
 }
 
 fn request(pressure: f64, bands: Option<u32>, sectors: Option<u32>) -> ConfineRequest {
-    ConfineRequest {
-        pressure,
-        bottom: "bottom".into(),
-        top: "top_platen".into(),
-        axis: [0.0, 0.0],
-        bands,
-        sectors,
-    }
+    ConfineRequest { pressure, bottom: "bottom".into(), top: "top_platen".into(), axis: [0.0, 0.0], bands, sectors }
 }
 
 /// A fixed core on the axis and two grains in a line from it along +x (touching, no overlap),
@@ -65,9 +58,11 @@ fn chain(damping: f64) -> Model {
 }
 
 /// The chain's rest: both contacts carry the membrane's load on the outer grain, kn·δ =
-/// σ·(ρ + r)·A′ with ρ = 4r − 2δ, A′ = Δθ·Δz: δ = 5r·σA′ / (kn + 2σA′).
+/// 3·σ·(ρ + r)·A′ with ρ = 4r − 2δ, A′ = Δθ·Δz (its cell's patch and those of the two empty
+/// sectors either side, which it covers; the four beyond have no touched neighbour and push
+/// nothing): δ = 5r·3σA′ / (kn + 2·3σA′).
 fn chain_rest_overlap() -> f64 {
-    let a = SIGMA * TAU / f64::from(SECTORS) * HEIGHT;
+    let a = 3.0 * SIGMA * TAU / f64::from(SECTORS) * HEIGHT;
     5.0 * R * a / (KN + 2.0 * a)
 }
 
@@ -83,7 +78,7 @@ fn check_chain_rest(sim: &mut Simulation, tol: f64) {
 
 // At rest the two contacts' overlaps equal the closed form to 1e-6 (f64; the local damping
 // settles the chain within 20,000 steps): the membrane pushes the outer grain alone, with σ times
-// its patch at its reach.
+// its patch and its empty neighbours' at its reach.
 #[test]
 fn a_chain_against_a_fixed_core_rests_where_the_membrane_load_meets_the_springs() {
     check_chain_rest(&mut Simulation::new(chain(0.7)), 1e-6);
@@ -134,9 +129,11 @@ fn column_of(varied: bool) -> Model {
         let share = if varied { 0.9 + 0.1 * (i as f64 * 0.618_033_988_75).fract() } else { 1.0 };
         m.add_particle(*x, r * share, k).unwrap();
     }
-    let (lo, hi) = g.pos().iter().zip(g.radius()).fold((f64::MAX, f64::MIN), |(lo, hi), (x, r)| {
-        (lo.min(x.z - r), hi.max(x.z + r))
-    });
+    let (lo, hi) = g
+        .pos()
+        .iter()
+        .zip(g.radius())
+        .fold((f64::MAX, f64::MIN), |(lo, hi), (x, r)| (lo.min(x.z - r), hi.max(x.z + r)));
     platens(&mut m, lo, hi);
     m.settings.local_damping = 0.7;
     m.set_standard_dt().unwrap();
@@ -199,7 +196,11 @@ fn a_scene_without_confinement_has_no_stage_and_with_it_the_plan_says_so() {
     let mut m = chain(0.7);
     let on = StepPlan::build(&m);
     assert!(on.has(Stage::ConfiningPressure));
-    assert!(on.to_string().contains("confining pressure(σ3 = 2.5000e4 Pa on the grains the membrane touches, 1 bands × 7 sectors)"), "{on}");
+    assert!(
+        on.to_string()
+            .contains("confining pressure(σ3 = 2.5000e4 Pa on the grains the membrane touches, 1 bands × 7 sectors)"),
+        "{on}"
+    );
     m.unconfine();
     let off = StepPlan::build(&m);
     assert!(!off.has(Stage::ConfiningPressure));
@@ -262,5 +263,3 @@ fn removing_a_wall_keeps_the_others_contacts() {
     run(&mut sim, 10);
     assert!(sim.model.remove_wall("ring").unwrap_err().to_string().contains("ring"));
 }
-
-

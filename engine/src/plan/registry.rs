@@ -140,7 +140,7 @@ pub const REGISTRY: [Entry; 15] = [
         role: Role::Force,
         effect: true,
         runs: |p| p.confining.is_some(),
-        // It reads the core's lanes and keeps none per particle (the GPU a word pair per cell).
+        // It reads the core's lanes and keeps none per particle (the GPU three words per cell).
         lanes: |_| None,
         checkpoint: "Section::Confinement",
         script: "d.confine",

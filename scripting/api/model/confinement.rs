@@ -33,7 +33,8 @@ fn confine(d: &mut ModelHandle, opts: Map) -> RhaiResult<()> {
             "bottom" => req.bottom = v.to_string(),
             "top" => req.top = v.to_string(),
             "axis" => {
-                let xy: Vec<f64> = v.clone().into_array().ok().map(|a| a.iter().filter_map(number).collect()).unwrap_or_default();
+                let xy: Vec<f64> =
+                    v.clone().into_array().ok().map(|a| a.iter().filter_map(number).collect()).unwrap_or_default();
                 let [x, y] = xy[..] else {
                     return Err(err(format!("{what}: `axis` is [x, y] (m), the sample's vertical axis")));
                 };
@@ -66,6 +67,7 @@ fn membrane_map(m: Option<Membrane>) -> Dynamic {
     }
     map.insert("cells".into(), (m.cells as INT).into());
     map.insert("touched".into(), (m.touched as INT).into());
+    map.insert("covered".into(), (m.covered as INT).into());
     map.into()
 }
 

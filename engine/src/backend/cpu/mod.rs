@@ -16,8 +16,8 @@ pub mod wall_forces;
 // The effects' passes, each in its folder (`effects/<name>/`).
 use crate::effects::applied_loads::cpu as applied_loads;
 use crate::effects::buoyancy::cpu as buoyancy;
-use crate::effects::confining_pressure::cpu as confining_pressure;
 use crate::effects::conduction::cpu as conduction;
+use crate::effects::confining_pressure::cpu as confining_pressure;
 use crate::effects::heat_ledger::cpu as heat_ledger;
 use crate::effects::moisture::cpu as moisture;
 use crate::effects::parallel_bond::cpu as parallel_bond;

@@ -2,10 +2,10 @@
 //! `buoyancy` (whose drag reads the others' sum) and `integrate`: the membrane's cells placed
 //! between the platens where they stand this step, each cell's outermost grain found (serially, in
 //! id order: deterministic), and each such grain pushed towards the axis with the pressure times
-//! its patch (`physics.rs`). A grain is in one cell, so each grain's force lane is written once.
+//! its patch and the patches of the empty cells it covers (`physics.rs`). A grain is in one cell, so each grain's force lane is written once.
 //! Killed elements feel nothing. CPU twin of `gpu.rs`.
 
-use crate::effects::confining_pressure::physics::{outermost, NONE};
+use crate::effects::confining_pressure::physics::{outermost, shares, NONE};
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::model::Model;
 use crate::state::particles::dof;
@@ -16,9 +16,10 @@ pub fn confining_pressure(m: &mut Model, plan: &ConfiningPlan) {
     let p = &mut m.particles;
     let fixed = &p.fixed;
     let best = outermost(&cells, &p.pos, &p.radius, |i| fixed[i] & dof::KILLED != 0);
-    for &(i, _) in best.iter().filter(|b| b.0 != NONE) {
+    let shares = shares(&cells, &best);
+    for (&(i, _), &k) in best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE) {
         let i = i as usize;
         let place = cells.place(&p.pos[i], p.radius[i]);
-        p.force[i] += cells.load(plan.pressure, &place);
+        p.force[i] += cells.load(plan.pressure, &place, k);
     }
 }

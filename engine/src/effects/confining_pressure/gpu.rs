@@ -1,6 +1,6 @@
 //! The `confining_pressure` stage on the GPU (shaders/confining_pressure.wgsl): the membrane's
-//! cells as word pairs (the largest reach's bits, the lowest id at it), cleared, marked, picked
-//! and applied each step in four dispatches, after the other force stages but buoyancy and before
+//! cells as three words (the largest reach's bits, the lowest id at it, the empty neighbours'
+//! patches it carries), cleared, marked, picked, shared and applied each step in five dispatches, after the other force stages but buoyancy and before
 //! `integrate`. Built only when the plan has the stage; its uniform and cells are made at upload
 //! and bring nothing back (the pressure is the scene's, the platens are the core's walls). CPU
 //! twin: `effects/confining_pressure/cpu.rs`.
@@ -25,7 +25,8 @@ pub mod wgsl {
 
     /// The pressure, the axis, the cells and the platens' wall indices (`Confine`).
     pub const CONFINE: Lane = lane(HOME, "confine", "Confine");
-    /// Per cell: the largest reach's f32 bits, then the lowest id at that reach.
+    /// Per cell: the largest reach's f32 bits, the lowest id at that reach, the patches of empty
+    /// neighbours it carries.
     pub const CELLS: Lane = lane(HOME, "cells", "array<atomic<u32>>");
 }
 
@@ -72,6 +73,7 @@ pub struct Pipelines {
     clear: Pipeline,
     mark: Pipeline,
     pick: Pipeline,
+    share: Pipeline,
     apply: Pipeline,
 }
 
@@ -81,6 +83,7 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
         clear: make("confine_clear"),
         mark: make("confine_mark"),
         pick: make("confine_pick"),
+        share: make("confine_share"),
         apply: make("confine_apply"),
     }
 }
@@ -110,7 +113,7 @@ impl Lanes {
             contents: bytemuck::bytes_of(&words),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let size = 8 * u64::from(cells);
+        let size = 12 * u64::from(cells);
         let cells = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("membrane cells"),
             size,
@@ -132,22 +135,23 @@ impl Holder for Lanes {
 }
 
 /// The pipelines bound to one upload, in the order a step dispatches them.
-pub struct Kernels([Kernel; 4]);
+pub struct Kernels([Kernel; 5]);
 
 pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
     let place = [PARAMS, ORIGIN, DISP, KIND, WALLS, cp::CONFINE, cp::CELLS];
     let bind = |pipeline, lanes: &[Lane], groups| Kernel::bind_lanes(device, pipeline, lanes, &[d, f], groups);
-    let cells = (f.cells.size() / 8) as usize;
+    let cells = (f.cells.size() / 12) as usize;
     Ok(Kernels([
         bind(&p.clear, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
         bind(&p.mark, &place, groups_for(d.n))?,
         bind(&p.pick, &place, groups_for(d.n))?,
+        bind(&p.share, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
         bind(&p.apply, &[&place[..], &[crate::backend::gpu::bindings::FORCE]].concat(), groups_for(d.n))?,
     ]))
 }
 
 impl Kernels {
-    /// The step's four dispatches, in order.
+    /// The step's five dispatches, in order.
     pub fn list(&self) -> Vec<&Kernel> {
         self.0.iter().collect()
     }

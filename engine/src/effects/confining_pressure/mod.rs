@@ -3,7 +3,7 @@
 //! in each cell of its surface the one reaching farthest from the axis — and pushes each towards
 //! the axis with the pressure times its patch of membrane (`physics.rs`). An optional force stage:
 //! a scene that does not confine a sample has no pass and no pipeline for it; it keeps no
-//! per-particle lanes (the GPU keeps one pair of words per cell).
+//! per-particle lanes (the GPU keeps three words per cell).
 //!
 //! **Why a pressure boundary and not bonded membrane elements.** MatDEM's triaxial tester
 //! applies the confining water pressure to the sample's surface; a membrane of bonded elements
@@ -22,14 +22,14 @@ pub mod gpu;
 pub mod physics;
 pub mod settings;
 
-use crate::effects::confining_pressure::physics::{outermost, Cells, NONE};
+use crate::effects::confining_pressure::physics::{outermost, shares, Cells, NONE};
 pub use crate::effects::confining_pressure::settings::Confinement;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::state::particles::dof;
 use crate::walls::{Wall, WallShape};
 
-/// The most cells a membrane may have (each is a word pair on the device).
+/// The most cells a membrane may have (each is three words on the device).
 pub const MAX_CELLS: usize = 1 << 20;
 
 /// What a plan with the `confining_pressure` stage runs.
@@ -60,7 +60,13 @@ impl ConfiningPlan {
 
     /// The membrane's cells with the platens where `walls` has them now.
     pub fn cells(&self, walls: &[Wall]) -> Cells {
-        Cells::new(self.bands, self.sectors, self.axis, plane_height(&walls[self.bottom]), plane_height(&walls[self.top]))
+        Cells::new(
+            self.bands,
+            self.sectors,
+            self.axis,
+            plane_height(&walls[self.bottom]),
+            plane_height(&walls[self.top]),
+        )
     }
 
     /// The stage in the plan's words.
@@ -96,20 +102,24 @@ pub struct ConfineRequest {
 pub struct Membrane {
     pub pressure: f64,
     pub cells: usize,
-    /// Cells with a grain under them (an empty cell pushes nothing).
+    /// Cells with a grain under them, and empty cells whose patch a touched neighbour carries
+    /// (`physics::shares`); an empty cell with no touched neighbour pushes nothing.
     pub touched: usize,
+    pub covered: usize,
     /// Mean reach ρ + r of the touched grains: the membrane's radius (m).
     pub radius: f64,
     /// Height between the platens (m).
     pub height: f64,
-    /// The touched patches' area (m²) and the load on them, Σ|F| = σ·area (N).
+    /// The loaded patches' area, Σ (1 + shares)·(ρ + r)·Δθ·Δz (m²), and the load on them,
+    /// Σ|F| = σ·area (N).
     pub area: f64,
     pub load: f64,
     /// The lateral stress the membrane applies: the load over the side of a cylinder of the
-    /// membrane's radius and height, 2π·R·H (Pa): σ3 when every cell is touched.
+    /// membrane's radius and height, 2π·R·H (Pa): σ3 when every cell is touched or covered.
     pub stress: f64,
-    /// The volume inside the membrane, Σ ½·(ρ + r)²·Δθ·Δz over the cells, an empty cell counted
-    /// at the mean reach (m³): a triaxial test's volumetric strain.
+    /// The volume inside the membrane, Σ (1 + shares)·½·(ρ + r)²·Δθ·Δz over the touched cells,
+    /// an empty cell no neighbour covers counted at the mean reach (m³): a triaxial test's
+    /// volumetric strain.
     pub volume: f64,
 }
 
@@ -185,17 +195,23 @@ impl Model {
         let cells = plan.cells(&self.walls);
         let p = &self.particles;
         let best = outermost(&cells, &p.pos, &p.radius, |i| p.fixed[i] & dof::KILLED != 0);
-        let touched: Vec<f64> = best.iter().filter(|b| b.0 != NONE).map(|b| b.1).collect();
-        let radius = if touched.is_empty() { 0.0 } else { touched.iter().sum::<f64>() / touched.len() as f64 };
-        let area: f64 = touched.iter().map(|&r| cells.patch(r)).sum();
+        let shares = shares(&cells, &best);
+        // (reach, patches) of each touched cell.
+        let touched: Vec<(f64, f64)> =
+            best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE).map(|(b, &k)| (b.1, f64::from(1 + k))).collect();
+        let covered = shares.iter().sum::<u32>() as usize;
+        let radius =
+            if touched.is_empty() { 0.0 } else { touched.iter().map(|t| t.0).sum::<f64>() / touched.len() as f64 };
+        let area: f64 = touched.iter().map(|&(r, k)| k * cells.patch(r)).sum();
         let height = cells.dz * f64::from(cells.bands);
-        let empty = (best.len() - touched.len()) as f64;
-        let volume = touched.iter().map(|&r| cells.volume(r)).sum::<f64>() + empty * cells.volume(radius);
+        let lost = (best.len() - touched.len() - covered) as f64;
+        let volume = touched.iter().map(|&(r, k)| k * cells.volume(r)).sum::<f64>() + lost * cells.volume(radius);
         let side = std::f64::consts::TAU * radius * height;
         Some(Membrane {
             pressure: plan.pressure,
             cells: best.len(),
             touched: touched.len(),
+            covered,
             radius,
             height,
             area,
@@ -212,6 +228,9 @@ impl Model {
         let cells = plan.cells(&self.walls);
         let p = &self.particles;
         let best = outermost(&cells, &p.pos, &p.radius, |i| p.fixed[i] & dof::KILLED != 0);
-        plan.pressure * best.iter().filter(|b| b.0 != NONE).map(|b| cells.volume(b.1)).sum::<f64>()
+        let shares = shares(&cells, &best);
+        let volume =
+            best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE).map(|(b, &k)| f64::from(1 + k) * cells.volume(b.1));
+        plan.pressure * volume.sum::<f64>()
     }
 }
