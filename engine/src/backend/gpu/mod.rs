@@ -34,6 +34,7 @@ pub mod bindings;
 pub mod buffers;
 pub mod contact_forces;
 pub mod device;
+pub mod device_force;
 pub mod guard;
 pub mod integrate;
 pub mod memory;
@@ -63,7 +64,7 @@ use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
-use crate::plan::{Stage, StepPlan};
+use crate::plan::{Role, Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
@@ -99,6 +100,14 @@ pub const SHADERS: [&shaders::Shader; 19] = [
     &pore_flow::heat::SHADER,
 ];
 
+/// The force stages whose device work is one upload's kernels (`device_force`), in step order:
+/// a new such stage is a row here and its `gpu.rs`'s `upload`.
+const FORCE_STAGES: [(Stage, device_force::Upload); 3] = [
+    (Stage::AppliedLoads, applied_loads::upload),
+    (Stage::ConfiningPressure, confining_pressure::upload),
+    (Stage::Buoyancy, buoyancy::upload),
+];
+
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
 
@@ -127,11 +136,8 @@ struct Pipelines {
     pore_flow: Option<pore_flow::Pipelines>,
     integrate: Pipeline,
     guard: Pipeline,
-    /// The optional applied loads and buoyancy (force stages) and field stages, only when the
-    /// plan has them.
-    applied_loads: Option<Pipeline>,
-    confining: Option<confining_pressure::Pipelines>,
-    buoyancy: Option<Pipeline>,
+    /// The optional field stages, only when the plan has them (the force stages of
+    /// `FORCE_STAGES` build theirs at upload).
     conduction: Option<conduction::Pipelines>,
     moisture: Option<moisture::Pipelines>,
 }
@@ -161,9 +167,6 @@ struct Kernels {
     rolling_resistance: Vec<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
-    applied_loads: Option<Kernel>,
-    confining: Option<confining_pressure::Kernels>,
-    buoyancy: Option<Kernel>,
     conduction: Option<conduction::Kernels>,
     moisture: Option<moisture::Kernels>,
 }
@@ -201,6 +204,8 @@ struct Session {
     host: HostLanes,
     lanes: DeviceLanes,
     kernels: Kernels,
+    /// The force stages of `FORCE_STAGES` the plan runs, in step order.
+    forces: Vec<(Stage, Box<dyn device_force::DeviceForce>)>,
     /// The parallel bonds' buffers, when the plan has them.
     bonds: Option<parallel_bond::BondLanes>,
     /// Steps run since the upload.
@@ -260,6 +265,9 @@ pub struct GpuBackend {
     ctx: Arc<GpuContext>,
     pub plan: StepPlan,
     pipelines: Pipelines,
+    /// The plan's pipeline constants (the laws, the heat ledger's slots), for the stages built
+    /// at upload.
+    constants: Vec<(&'static str, f64)>,
     /// c_i/m_i of the viscous damping (empty when off).
     damping_rate: Vec<f64>,
     /// Bytes of the device buffers of the last run.
@@ -322,9 +330,6 @@ impl GpuBackend {
             pore_flow: plan.pore_flow.map(|f| pore_flow::pipelines(device, &constants, f.thermal)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
-            applied_loads: plan.applied_loads.as_ref().map(|a| applied_loads::pipeline(device, &constants, a)),
-            confining: plan.confining.is_some().then(|| confining_pressure::pipelines(device, &constants)),
-            buoyancy: plan.buoyancy.is_some().then(|| buoyancy::pipeline(device, &constants)),
             conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
             moisture: plan.moisture.as_ref().map(|w| moisture::pipelines(device, &constants, w)),
         };
@@ -334,6 +339,7 @@ impl GpuBackend {
             ctx,
             plan,
             pipelines,
+            constants,
             damping_rate,
             device_bytes: 0,
             errors,
@@ -491,12 +497,17 @@ impl GpuBackend {
         let device = &self.ctx.device;
         let p = &self.pipelines;
         let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
-        let water = self.plan.buoyancy.as_ref().map(|b| buoyancy::water(&self.ctx, b));
-        let applied = match &self.plan.applied_loads {
-            Some(a) => Some(applied_loads::Lanes::upload(&self.ctx, m, a, limit)?),
-            None => None,
-        };
-        let membrane = self.plan.confining.as_ref().map(|c| confining_pressure::Lanes::upload(&self.ctx, c));
+        let mut forces = Vec::new();
+        for (stage, upload) in FORCE_STAGES {
+            if let Some(f) = upload(&self.ctx, &self.constants, m, &self.plan, &lanes, limit)? {
+                forces.push((stage, f));
+            }
+        }
+        // A force stage the plan runs has its kernels here or among those held by name.
+        let held = [Stage::ParallelBond, Stage::RollingResistance, Stage::PoreFlow];
+        if let Some(s) = self.plan.runs(Role::Force).find(|s| !held.contains(s) && !forces.iter().any(|f| f.0 == *s)) {
+            return Err(GpuError::Device(format!("the force stage `{s}` has no GPU kernel (FORCE_STAGES)")).into());
+        }
         let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let pores = match &p.pore_flow {
             Some(pipelines) => {
@@ -528,24 +539,6 @@ impl GpuBackend {
             },
             integrate: integrate::kernel(device, &p.integrate, &lanes)?,
             guard: guard::kernels(device, &p.guard, &lanes)?,
-            applied_loads: p
-                .applied_loads
-                .as_ref()
-                .zip(applied.as_ref())
-                .map(|(a, loads)| applied_loads::kernel(device, a, &lanes, loads))
-                .transpose()?,
-            confining: p
-                .confining
-                .as_ref()
-                .zip(membrane.as_ref())
-                .map(|(c, f)| confining_pressure::kernels(device, c, &lanes, f))
-                .transpose()?,
-            buoyancy: p
-                .buoyancy
-                .as_ref()
-                .zip(water.as_ref())
-                .map(|(b, w)| buoyancy::kernel(device, b, &lanes, w))
-                .transpose()?,
             conduction: p
                 .conduction
                 .as_ref()
@@ -566,13 +559,11 @@ impl GpuBackend {
             + thermal.as_ref().map_or(0, |t| t.bytes)
             + moist.as_ref().map_or(0, |w| w.bytes)
             + pores.as_ref().map_or(0, |f| f.bytes)
-            + applied.as_ref().map_or(0, |a| a.bytes)
-            + membrane.as_ref().map_or(0, |c| c.bytes);
+            + forces.iter().map(|(_, f)| f.bytes()).sum::<u64>();
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        // The applied loads' lanes live in their kernel's bind group (read only: nothing to download).
-        Ok(Session { host, lanes, kernels, bonds, steps: 0, step0: m.clock.step, thermal, water: moist, pores })
+        Ok(Session { host, lanes, kernels, forces, bonds, steps: 0, step0: m.clock.step, thermal, water: moist, pores })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -640,9 +631,6 @@ impl GpuBackend {
                 Stage::ParallelBond => StageWork::Kernels(vec![kr.parallel_bond.as_ref()?]),
                 Stage::RollingResistance => StageWork::Kernels(kr.rolling_resistance.iter().collect()),
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
-                Stage::AppliedLoads => StageWork::Kernels(vec![kr.applied_loads.as_ref()?]),
-                Stage::ConfiningPressure => StageWork::Kernels(kr.confining.as_ref()?.list()),
-                Stage::Buoyancy => StageWork::Kernels(vec![kr.buoyancy.as_ref()?]),
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
                 Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
@@ -656,6 +644,9 @@ impl GpuBackend {
                 Stage::Conduction | Stage::Moisture | Stage::Neighbours | Stage::HeatLedger | Stage::Guard => {
                     return None
                 }
+                // A force stage of `FORCE_STAGES` (the upload refused a plan whose force stage
+                // has no kernels).
+                other => StageWork::Kernels(s.forces.iter().find(|(f, _)| *f == other)?.1.kernels()),
             })
         };
         self.plan.stages().into_iter().filter_map(|stage| Some((stage, work(stage)?))).collect()

@@ -9,11 +9,12 @@
 use crate::backend::gpu::bindings::{Holder, Lane};
 use crate::backend::gpu::buffers::{storage_lane, DeviceLanes};
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_force::DeviceForce;
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::error::Result;
 use crate::model::Model;
-use crate::plan::Stage;
+use crate::plan::{Stage, StepPlan};
 
 use wgsl as al;
 
@@ -83,6 +84,37 @@ impl Lanes {
 
 pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, loads: &Lanes) -> Result<Kernel> {
     Kernel::bind(device, p, &[d, loads], groups_for(d.n))
+}
+
+/// The stage for one upload, when the plan has it (`device_force::Upload`): the loads' lanes live
+/// in the kernel's bind group (read only: nothing to download).
+pub fn upload(
+    ctx: &GpuContext,
+    constants: &[(&str, f64)],
+    m: &Model,
+    plan: &StepPlan,
+    d: &DeviceLanes,
+    limit: u64,
+) -> Result<Option<Box<dyn DeviceForce>>> {
+    let Some(a) = &plan.applied_loads else { return Ok(None) };
+    let lanes = Lanes::upload(ctx, m, a, limit)?;
+    let kernel = kernel(&ctx.device, &pipeline(ctx, constants, a), d, &lanes)?;
+    Ok(Some(Box::new(Upload { kernel, bytes: lanes.bytes })))
+}
+
+struct Upload {
+    kernel: Kernel,
+    bytes: u64,
+}
+
+impl DeviceForce for Upload {
+    fn kernels(&self) -> Vec<&Kernel> {
+        vec![&self.kernel]
+    }
+
+    fn bytes(&self) -> u64 {
+        self.bytes
+    }
 }
 
 impl Holder for Lanes {

@@ -6,10 +6,12 @@
 
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_force::DeviceForce;
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::buoyancy::BuoyancyPlan;
 use crate::error::Result;
-use crate::plan::Stage;
+use crate::model::Model;
+use crate::plan::{Stage, StepPlan};
 use wgpu::util::DeviceExt;
 use wgsl::WATER;
 
@@ -64,4 +66,31 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
 
 pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Result<Kernel> {
     Kernel::bind(device, p, &[d, &(WATER, water)], groups_for(d.n))
+}
+
+/// The stage for one upload, when the plan has it (`device_force::Upload`): the water's uniform
+/// lives in the kernel's bind group; no lane of its own.
+pub fn upload(
+    ctx: &GpuContext,
+    constants: &[(&str, f64)],
+    _: &Model,
+    plan: &StepPlan,
+    d: &DeviceLanes,
+    _: u64,
+) -> Result<Option<Box<dyn DeviceForce>>> {
+    let Some(b) = &plan.buoyancy else { return Ok(None) };
+    let kernel = kernel(&ctx.device, &pipeline(ctx, constants), d, &water(ctx, b))?;
+    Ok(Some(Box::new(Upload(kernel))))
+}
+
+struct Upload(Kernel);
+
+impl DeviceForce for Upload {
+    fn kernels(&self) -> Vec<&Kernel> {
+        vec![&self.0]
+    }
+
+    fn bytes(&self) -> u64 {
+        0
+    }
 }

@@ -8,10 +8,12 @@
 use crate::backend::gpu::bindings::{Holder, Lane, DISP, KIND, ORIGIN, PARAMS, WALLS};
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_force::DeviceForce;
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::error::Result;
-use crate::plan::Stage;
+use crate::model::Model;
+use crate::plan::{Stage, StepPlan};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
@@ -150,9 +152,28 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes)
     ]))
 }
 
-impl Kernels {
+/// The stage for one upload, when the plan has it (`device_force::Upload`).
+pub fn upload(
+    ctx: &GpuContext,
+    constants: &[(&str, f64)],
+    _: &Model,
+    plan: &StepPlan,
+    d: &DeviceLanes,
+    _: u64,
+) -> Result<Option<Box<dyn DeviceForce>>> {
+    let Some(c) = &plan.confining else { return Ok(None) };
+    let lanes = Lanes::upload(ctx, c);
+    let kernels = kernels(&ctx.device, &pipelines(ctx, constants), d, &lanes)?;
+    Ok(Some(Box::new((kernels, lanes.bytes))))
+}
+
+impl DeviceForce for (Kernels, u64) {
     /// The step's five dispatches, in order.
-    pub fn list(&self) -> Vec<&Kernel> {
-        self.0.iter().collect()
+    fn kernels(&self) -> Vec<&Kernel> {
+        self.0 .0.iter().collect()
+    }
+
+    fn bytes(&self) -> u64 {
+        self.1
     }
 }
