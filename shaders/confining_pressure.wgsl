@@ -7,7 +7,7 @@
 // each empty cell's patch to the touched cell beside it whose grain reaches farthest (a count
 // per cell), and `confine_apply` pushes each picked grain towards the axis with
 // σ·(ρ + r)·Δθ·Δz times its cell's patches. A cell is three words: the reach's bits, the id, the
-// shares. Integer atomics only: the picks and shares, and so the forces, are the same whatever
+// shares; the apply pass runs over the cells, not the grains. Integer atomics only: the picks and shares, and so the forces, are the same whatever
 // order the invocations run in. Killed elements are in no cell.
 // CPU twin: effects/confining_pressure/cpu.rs.
 
@@ -131,17 +131,19 @@ fn confine_share(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     }
 }
 
+// One invocation a cell: its grain, if any, pushed (a grain is in one cell: one writer a lane).
 @compute @workgroup_size(64)
 fn confine_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = invocation(gid, groups);
-    if i >= params.n || (kind[i] & KILLED) != 0u {
+    let c = invocation(gid, groups);
+    if c >= confine.cells {
+        return;
+    }
+    let i = atomicLoad(&cells[3u * c + 1u]);
+    if i == NO_GRAIN {
         return;
     }
     let p = membrane_place(i);
-    if atomicLoad(&cells[3u * p.cell + 1u]) != i {
-        return;
-    }
-    let patches = f32(1u + atomicLoad(&cells[3u * p.cell + 2u]));
+    let patches = f32(1u + atomicLoad(&cells[3u * c + 2u]));
     let f = -confine.pressure * p.reach * p.area * patches;
     force[i] = vec4<f32>(force[i].xy + p.out * f, force[i].z, force[i].w);
 }

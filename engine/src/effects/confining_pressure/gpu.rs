@@ -5,7 +5,7 @@
 //! and bring nothing back (the pressure is the scene's, the platens are the core's walls). CPU
 //! twin: `effects/confining_pressure/cpu.rs`.
 
-use crate::backend::gpu::bindings::{Holder, Lane, DISP, KIND, ORIGIN, PARAMS, WALLS};
+use crate::backend::gpu::bindings::{Holder, Lane, DISP, FORCE, KIND, ORIGIN, PARAMS, WALLS};
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
 use crate::backend::gpu::device_force::DeviceForce;
@@ -140,6 +140,7 @@ impl Holder for Lanes {
 pub struct Kernels([Kernel; 5]);
 
 pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
+    // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
     let place = [PARAMS, ORIGIN, DISP, KIND, WALLS, cp::CONFINE, cp::CELLS];
     let bind = |pipeline, lanes: &[Lane], groups| Kernel::bind_lanes(device, pipeline, lanes, &[d, f], groups);
     let cells = (f.cells.size() / 12) as usize;
@@ -148,7 +149,7 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes)
         bind(&p.mark, &place, groups_for(d.n))?,
         bind(&p.pick, &place, groups_for(d.n))?,
         bind(&p.share, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
-        bind(&p.apply, &[&place[..], &[crate::backend::gpu::bindings::FORCE]].concat(), groups_for(d.n))?,
+        bind(&p.apply, &[ORIGIN, DISP, WALLS, cp::CONFINE, cp::CELLS, FORCE], groups_for(cells))?,
     ]))
 }
 
