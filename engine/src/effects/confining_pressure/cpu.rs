@@ -5,18 +5,15 @@
 //! its patch and the patches of the empty cells it covers (`physics.rs`). A grain is in one cell, so each grain's force lane is written once.
 //! Killed elements feel nothing. CPU twin of `gpu.rs`.
 
-use crate::effects::confining_pressure::physics::{outermost, shares, NONE};
+use crate::effects::confining_pressure::physics::{picks, NONE};
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::model::Model;
-use crate::state::particles::dof;
 
 /// Adds the membrane's load to the force lane of each grain it touches.
 pub fn confining_pressure(m: &mut Model, plan: &ConfiningPlan) {
     let cells = plan.cells(&m.walls);
     let p = &mut m.particles;
-    let fixed = &p.fixed;
-    let best = outermost(&cells, &p.pos, &p.radius, |i| fixed[i] & dof::KILLED != 0);
-    let shares = shares(&cells, &best);
+    let (best, shares) = picks(&cells, p);
     for (&(i, _), &k) in best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE) {
         let i = i as usize;
         let place = cells.place(&p.pos[i], p.radius[i]);

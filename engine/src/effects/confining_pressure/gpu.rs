@@ -136,21 +136,26 @@ impl Holder for Lanes {
     }
 }
 
-/// The pipelines bound to one upload, in the order a step dispatches them.
-pub struct Kernels([Kernel; 5]);
+/// The pipelines bound to one upload, in the order a step dispatches them, and the bytes of the
+/// stage's buffers.
+pub struct Kernels {
+    list: [Kernel; 5],
+    bytes: u64,
+}
 
 pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
     let place = [PARAMS, ORIGIN, DISP, KIND, WALLS, cp::CONFINE, cp::CELLS];
     let bind = |pipeline, lanes: &[Lane], groups| Kernel::bind_lanes(device, pipeline, lanes, &[d, f], groups);
     let cells = (f.cells.size() / 12) as usize;
-    Ok(Kernels([
+    let list = [
         bind(&p.clear, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
         bind(&p.mark, &place, groups_for(d.n))?,
         bind(&p.pick, &place, groups_for(d.n))?,
         bind(&p.share, &[cp::CONFINE, cp::CELLS], groups_for(cells))?,
         bind(&p.apply, &[ORIGIN, DISP, WALLS, cp::CONFINE, cp::CELLS, FORCE], groups_for(cells))?,
-    ]))
+    ];
+    Ok(Kernels { list, bytes: f.bytes })
 }
 
 /// The stage for one upload, when the plan has it (`device_force::Upload`).
@@ -164,17 +169,16 @@ pub fn upload(
 ) -> Result<Option<Box<dyn DeviceForce>>> {
     let Some(c) = &plan.confining else { return Ok(None) };
     let lanes = Lanes::upload(ctx, c);
-    let kernels = kernels(&ctx.device, &pipelines(ctx, constants), d, &lanes)?;
-    Ok(Some(Box::new((kernels, lanes.bytes))))
+    Ok(Some(Box::new(kernels(&ctx.device, &pipelines(ctx, constants), d, &lanes)?)))
 }
 
-impl DeviceForce for (Kernels, u64) {
+impl DeviceForce for Kernels {
     /// The step's five dispatches, in order.
     fn kernels(&self) -> Vec<&Kernel> {
-        self.0 .0.iter().collect()
+        self.list.iter().collect()
     }
 
     fn bytes(&self) -> u64 {
-        self.1
+        self.bytes
     }
 }

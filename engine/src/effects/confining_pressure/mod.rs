@@ -22,7 +22,7 @@ pub mod gpu;
 pub mod physics;
 pub mod settings;
 
-use crate::effects::confining_pressure::physics::{outermost, shares, Cells, NONE};
+use crate::effects::confining_pressure::physics::{picks, Cells, NONE};
 pub use crate::effects::confining_pressure::settings::Confinement;
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -194,8 +194,7 @@ impl Model {
         let plan = ConfiningPlan::of(self)?;
         let cells = plan.cells(&self.walls);
         let p = &self.particles;
-        let best = outermost(&cells, &p.pos, &p.radius, |i| p.fixed[i] & dof::KILLED != 0);
-        let shares = shares(&cells, &best);
+        let (best, shares) = picks(&cells, p);
         // (reach, patches) of each touched cell.
         let touched: Vec<(f64, f64)> =
             best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE).map(|(b, &k)| (b.1, f64::from(1 + k))).collect();
@@ -227,8 +226,7 @@ impl Model {
         let Some(plan) = ConfiningPlan::of(self) else { return 0.0 };
         let cells = plan.cells(&self.walls);
         let p = &self.particles;
-        let best = outermost(&cells, &p.pos, &p.radius, |i| p.fixed[i] & dof::KILLED != 0);
-        let shares = shares(&cells, &best);
+        let (best, shares) = picks(&cells, p);
         let volume =
             best.iter().zip(&shares).filter(|(b, _)| b.0 != NONE).map(|(b, &k)| f64::from(1 + k) * cells.volume(b.1));
         plan.pressure * volume.sum::<f64>()

@@ -22,6 +22,7 @@
 //! sum of the loads is σ times the membrane's area.
 
 use crate::physics::Vec3;
+use crate::state::particles::{dof, Particles};
 
 /// The membrane's cells at one instant (the platens where they are now).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,6 +160,15 @@ pub fn shares(cells: &Cells, best: &[(u32, f64)]) -> Vec<u32> {
         }
     }
     shares
+}
+
+/// The membrane's picks for the particles as they stand: each cell's outermost grain and reach
+/// ([`outermost`], killed elements out of the model) and each cell's shares ([`shares`]). The
+/// CPU pass, the report and the potential all start here.
+pub fn picks(cells: &Cells, p: &Particles) -> (Vec<(u32, f64)>, Vec<u32>) {
+    let best = outermost(cells, &p.pos, &p.radius, |i| p.fixed[i] & dof::KILLED != 0);
+    let shares = shares(cells, &best);
+    (best, shares)
 }
 
 #[cfg(test)]
