@@ -84,6 +84,9 @@ pub enum Container {
     Cuboid { width: f64, length: f64 },
     /// A vertical cylinder of this radius (the oedometer ring), centred on the origin.
     Cylinder { radius: f64 },
+    /// A 2D box of this width (x) in the x–z plane (MatDEM's `sampleL = 0`): one layer of
+    /// elements at y = 0, the model made 2D ([`crate::planar`]).
+    Rectangle { width: f64 },
 }
 
 /// MatDEM's box: a sample of `height` in a container, filled loosely with the gradation.
@@ -121,6 +124,9 @@ impl BoxSpec {
             Container::Cylinder { radius } => {
                 check_positive("radius", radius, false)?;
             }
+            Container::Rectangle { width } => {
+                check_positive("width", width, false)?;
+            }
         }
         if self.classes.is_empty() {
             return Err(Error::InvalidScene("a box needs at least one size class".into()));
@@ -150,22 +156,46 @@ impl BoxSpec {
         Ok(())
     }
 
+    /// The container's cross-section: an area in 3D, the width of a 2D box (whose "volumes"
+    /// are areas of the x–z plane).
     fn cross_section(&self) -> f64 {
         match self.container {
             Container::Cuboid { width, length } => width * length,
             Container::Cylinder { radius } => std::f64::consts::PI * radius * radius,
+            Container::Rectangle { width } => width,
         }
     }
 
-    /// Particles per class so the settled sample fills `height` at `target_porosity`.
+    fn planar(&self) -> bool {
+        matches!(self.container, Container::Rectangle { .. })
+    }
+
+    /// An element's solid: its sphere's volume in 3D, its disc's area in 2D.
+    fn solid_of(&self, r: f64) -> f64 {
+        if self.planar() {
+            std::f64::consts::PI * r * r
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * r.powi(3)
+        }
+    }
+
+    /// Particles per class so the settled sample fills `height` at `target_porosity` (by area
+    /// in a 2D box).
     pub fn counts(&self) -> Vec<usize> {
         let solid = self.cross_section() * self.height * (1.0 - self.target_porosity);
         let total_ratio: f64 = self.classes.iter().map(|c| c.mass_ratio).sum();
         self.classes
             .iter()
             .map(|c| {
+                // Mean area of a disc with r uniform in [a, b]: π·(b³ − a³)/(3(b − a)).
+                let v = if self.planar() {
+                    if c.r_max > c.r_min {
+                        std::f64::consts::PI / 3.0 * (c.r_max.powi(3) - c.r_min.powi(3)) / (c.r_max - c.r_min)
+                    } else {
+                        self.solid_of(c.r_min)
+                    }
                 // Mean volume of a sphere with r uniform in [a, b]: (4π/3)·(b⁴ − a⁴)/(4(b − a)).
-                let v = if c.r_max > c.r_min {
+                } else if c.r_max > c.r_min {
                     std::f64::consts::PI / 3.0 * (c.r_max.powi(4) - c.r_min.powi(4)) / (c.r_max - c.r_min)
                 } else {
                     4.0 / 3.0 * std::f64::consts::PI * c.r_min.powi(3)
@@ -201,7 +231,7 @@ impl BoxSpec {
         }
         // Largest first: random sequential addition packs a wide gradation far better so.
         grains.sort_by(|a, b| b.1.total_cmp(&a.1));
-        let solid: f64 = grains.iter().map(|g| 4.0 / 3.0 * std::f64::consts::PI * g.1.powi(3)).sum();
+        let solid: f64 = grains.iter().map(|g| self.solid_of(g.1)).sum();
         // A loose column at ~33% solids: grains fall less than a grid would make them.
         let loose_height = (solid / (LOOSE_SOLID_FRACTION * self.cross_section())).max(2.0 * r_max);
         let placed = self.random_sequential_addition(&grains, loose_height, &mut rng, control)?;
@@ -213,8 +243,21 @@ impl BoxSpec {
         let loose_height = placed.iter().zip(&grains).map(|(p, g)| p.z + g.1).fold(0.0, f64::max);
         let top = loose_height.max(self.height);
         let z = Vec3::z();
-        m.add_wall(Wall::plane("bottom", Vec3::zeros(), z, self.cross_section())?)?;
+        // A 2D box's walls are lines of the plate: their areas are lengths × its thickness.
+        let depth = if let Container::Rectangle { .. } = self.container {
+            if m.planar().is_none() {
+                m.make_planar(None)?;
+            }
+            m.planar().map_or(1.0, |p| p.thickness)
+        } else {
+            1.0
+        };
+        m.add_wall(Wall::plane("bottom", Vec3::zeros(), z, self.cross_section() * depth)?)?;
         match self.container {
+            Container::Rectangle { width } => {
+                m.add_wall(Wall::plane("left", Vec3::zeros(), Vec3::x(), depth * top)?)?;
+                m.add_wall(Wall::plane("right", Vec3::new(width, 0.0, 0.0), -Vec3::x(), depth * top)?)?;
+            }
             Container::Cuboid { width, length } => {
                 m.add_wall(Wall::plane("left", Vec3::zeros(), Vec3::x(), length * top)?)?;
                 m.add_wall(Wall::plane("right", Vec3::new(width, 0.0, 0.0), -Vec3::x(), length * top)?)?;
@@ -227,7 +270,7 @@ impl BoxSpec {
             }
         }
         if self.top_platen {
-            m.add_wall(Wall::plane("top_platen", Vec3::new(0.0, 0.0, top), -z, self.cross_section())?)?;
+            m.add_wall(Wall::plane("top_platen", Vec3::new(0.0, 0.0, top), -z, self.cross_section() * depth)?)?;
         }
         Ok(BuiltBox { class_ids, loose_height })
     }
@@ -245,6 +288,7 @@ impl BoxSpec {
         let (lo, hi) = match self.container {
             Container::Cuboid { width, length } => (Vec3::zeros(), Vec3::new(width, length, 0.0)),
             Container::Cylinder { radius } => (Vec3::new(-radius, -radius, 0.0), Vec3::new(radius, radius, 0.0)),
+            Container::Rectangle { width } => (Vec3::zeros(), Vec3::new(width, 0.0, 0.0)),
         };
         let h = 2.0 * r_max;
         let (nx, ny) = (((hi.x - lo.x) / h) as usize + 1, ((hi.y - lo.y) / h) as usize + 1);
@@ -268,7 +312,7 @@ impl BoxSpec {
                     )));
                 }
                 let x = lo.x + r + (hi.x - lo.x - 2.0 * r) * rng.uniform();
-                let y = lo.y + r + (hi.y - lo.y - 2.0 * r) * rng.uniform();
+                let y = if self.planar() { 0.0 } else { lo.y + r + (hi.y - lo.y - 2.0 * r) * rng.uniform() };
                 let z = r + (height - 2.0 * r).max(0.0) * rng.uniform();
                 if let Container::Cylinder { radius } = self.container {
                     if (x * x + y * y).sqrt() + r > radius {

@@ -163,6 +163,8 @@ enum Section {
     /// The confining pressure on a cylindrical sample (its pressure, axis, platens and cells).
     /// A file without it loads unconfined.
     Confinement { settings: Confinement },
+    /// A 2D model's plate. A file without it loads 3D.
+    Planar { setting: crate::planar::setting::Planar },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -237,6 +239,9 @@ impl Section {
         if let Some(c) = &m.settings.confinement {
             out.push(Section::Confinement { settings: c.clone() });
         }
+        if let Some(setting) = m.settings.planar {
+            out.push(Section::Planar { setting });
+        }
         out
     }
 
@@ -297,6 +302,17 @@ impl Section {
                     return Err("the confining pressure names a platen the model does not have".into());
                 }
                 m.settings.confinement = Some(c);
+            }
+            Section::Planar { setting } => {
+                let t = setting.thickness;
+                if !(t.is_finite() && t > 0.0) {
+                    return Err("the 2D model's thickness is not a finite length > 0".into());
+                }
+                let held = crate::planar::setting::HELD;
+                if m.particles.pos.iter().zip(&m.particles.fixed).any(|(x, f)| x.y != 0.0 || f & held != held) {
+                    return Err("a 2D model's element lies off the plane y = 0 or is free to leave it".into());
+                }
+                m.settings.planar = Some(setting);
             }
             Section::RotationAngle { angle } => {
                 let n = m.len();

@@ -24,6 +24,8 @@
 //!   bonds, rolling resistance, applied loads, the energy ledger, and pore density flow (the
 //!   Delaunay pore network of the packing, fluid mass and pressure per pore, flow through the
 //!   throats, pressure on the grains). [`plan::registry`] has a row per stage.
+//! - [`planar`] makes a model 2D (one layer in the x–z plane, MatDEM's `sampleL = 0`): what it
+//!   holds still, porosity by area, the hexagonal lattice's macro ↔ micro conversion.
 //! - [`analysis`] reads a settled model: the contact list by the contact laws, fabric,
 //!   Love–Weber stress, porosity and strain in a region.
 //! - [`status`] measures energies, heat, coordination number and porosity;
@@ -59,6 +61,7 @@ pub mod model;
 pub mod neighbours;
 pub mod physics;
 pub mod plan;
+pub mod planar;
 pub mod provenance;
 pub mod scaling;
 pub mod settings;

@@ -125,8 +125,19 @@ impl Material {
     /// A material from macro properties through the lattice conversion (paper 003, app. A),
     /// for elements of diameter `d`. Hertz constants are the macro E and ν.
     pub fn from_macro(name: &str, density: f64, p: &MacroProperties, d: f64) -> Result<Self> {
-        let micro = macro_to_micro(p, d)
-            .map_err(|e| Error::InvalidMaterial { material: name.to_string(), reason: e.to_string() })?;
+        Self::converted(name, density, p, d, macro_to_micro(p, d), "lattice formulas (paper 003, app. A)")
+    }
+
+    /// A material from micro values a conversion gave (or its error), with their provenance.
+    pub(crate) fn converted(
+        name: &str,
+        density: f64,
+        p: &MacroProperties,
+        d: f64,
+        micro: Result<MicroParameters>,
+        formulas: &str,
+    ) -> Result<Self> {
+        let micro = micro.map_err(|e| Error::InvalidMaterial { material: name.to_string(), reason: e.to_string() })?;
         let m = Material {
             name: name.to_string(),
             density,
@@ -143,8 +154,7 @@ impl Material {
         m.validate()?;
         let mut m = m;
         let how = format!(
-            "lattice formulas (paper 003, app. A) from E {:.4e} Pa, ν {}, Tu {:.4e} Pa, Cu {:.4e} Pa, μi {} at d = \
-             {d:.4e} m",
+            "{formulas} from E {:.4e} Pa, ν {}, Tu {:.4e} Pa, Cu {:.4e} Pa, μi {} at d = {d:.4e} m",
             p.young, p.poisson, p.tensile, p.compressive, p.internal_friction
         );
         m.provenance.set_all(&["density", "young", "poisson"], Source::Given);

@@ -63,6 +63,10 @@ pub struct Settings {
     /// default). Saved in a checkpoint's sections, so that older checkpoints still read.
     #[serde(skip)]
     pub confinement: Option<crate::effects::confining_pressure::settings::Confinement>,
+    /// A 2D model's plate (`None`: 3D). Saved in a checkpoint's sections, so that older
+    /// checkpoints still read.
+    #[serde(skip)]
+    pub planar: Option<crate::planar::setting::Planar>,
 }
 
 impl Default for Settings {
@@ -85,6 +89,7 @@ impl Default for Settings {
             rolling: None,
             pores: crate::effects::pore_flow::PoreSettings::default(),
             confinement: None,
+            planar: None,
         }
     }
 }
@@ -225,8 +230,12 @@ impl Model {
                 self.materials.len()
             )));
         }
+        self.check_in_plane(&pos)?;
         let mass = self.sphere_mass(material as usize, radius);
         let id = self.particles.push(pos, radius, mass, material);
+        if self.settings.planar.is_some() {
+            self.particles.fixed[id] |= crate::planar::setting::HELD;
+        }
         self.parallel_bonds.fit(self.particles.len());
         if self.particles.thermal.temperature.len() == self.len() {
             self.particles.thermal.temperature[id] = self.settings.heat.reference;
@@ -309,9 +318,11 @@ impl Model {
     }
 
     /// Blocks (or frees) translational degrees of freedom; blocked components keep their
-    /// current velocity (zero unless a script sets one).
+    /// current velocity (zero unless a script sets one). A 2D model's held components
+    /// ([`crate::planar::setting::HELD`]) stay held.
     pub fn fix(&mut self, ids: &[u32], dofs: u8, fixed: bool) -> Result<()> {
         self.check_ids(ids)?;
+        let dofs = if fixed || self.settings.planar.is_none() { dofs } else { dofs & !crate::planar::setting::HELD };
         for &i in ids {
             let f = &mut self.particles.fixed[i as usize];
             // A killed element stays blocked in everything: freeing it would let it drift.

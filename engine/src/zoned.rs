@@ -288,8 +288,7 @@ fn held_unbalanced_ratio(sim: &mut Simulation, walls: &ZoneWalls) -> f64 {
     let m = &sim.model;
     let g = m.settings.gravity;
     let p = &m.particles;
-    let inner: Vec<usize> =
-        (0..p.len()).filter(|&i| p.fixed[i] == 0 && walls.crossing(i, &p.pos[i]).is_none()).collect();
+    let inner: Vec<usize> = (0..p.len()).filter(|&i| m.is_free(i) && walls.crossing(i, &p.pos[i]).is_none()).collect();
     let net: f64 = inner.iter().map(|&i| (p.force[i] + g * p.mass[i]).norm()).sum::<f64>() / inner.len().max(1) as f64;
     if mean_normal > 0.0 {
         net / mean_normal

@@ -28,6 +28,7 @@ mod lattice;
 mod module_deps;
 mod moisture;
 mod parallel_bond;
+mod planar;
 mod pore_coupling;
 mod pore_flow;
 mod pore_flow_balance;

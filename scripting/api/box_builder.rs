@@ -72,6 +72,9 @@ fn build(host: &Host, b: &mut BoxBuilder) -> RhaiResult<ModelHandle> {
     };
     let container = if data.sample_r > 0.0 {
         Container::Cylinder { radius: data.sample_r }
+    } else if data.sample_l == 0.0 {
+        // MatDEM's `sampleL = 0`: a 2D model in the x–z plane.
+        Container::Rectangle { width: data.sample_w }
     } else {
         Container::Cuboid { width: data.sample_w, length: data.sample_l }
     };

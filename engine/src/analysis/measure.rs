@@ -54,7 +54,8 @@ pub struct Measurement {
 
 /// Measures `region` (see the module's docs for the rules).
 pub fn measure(m: &Model, list: &ContactList, region: &Region) -> Result<Measurement> {
-    let volume = region.volume();
+    // A 2D model's region is its cut by the plane times the thickness.
+    let volume = m.region_volume(region);
     if !(volume > 0.0 && volume.is_finite()) {
         return Err(Error::InvalidScene(format!("measure: the region's volume is {volume} m³; give it a size > 0")));
     }

@@ -96,14 +96,51 @@ fn slack(r: f64) -> f64 {
     1e-9 * r
 }
 
-/// A box [0, w] × [0, l] × [0, h] (m) filled with elements of radius `r`.
+/// A box [0, w] × [0, l] × [0, h] (m) filled with elements of radius `r`. A length of 0
+/// makes a 2D box ([`make_box_2d`]), as MatDEM's `sampleL = 0`.
 pub fn make_box(w: f64, l: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
+    if l == 0.0 {
+        return make_box_2d(w, h, r, kind);
+    }
     for (name, v) in [("width", w), ("length", l), ("height", h), ("element radius", r)] {
         check_positive(name, v, false)?;
     }
     let hi = Vec3::new(w, l, h);
     let e = slack(r);
     fill(kind, 2.0 * r, Vec3::zeros(), hi, |p| (0..3).all(|k| p[k] >= r - e && p[k] <= hi[k] - r + e))
+}
+
+/// A 2D box [0, w] × [0, h] (m) in the x–z plane (every centre at y = 0): one close-packed
+/// layer of elements of radius `r` (FCC and HCP: hexagonal, rows along x spaced √3/2·d in z,
+/// every other row shifted by d/2; SC: square), every element whole inside.
+pub fn make_box_2d(w: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
+    for (name, v) in [("width", w), ("height", h), ("element radius", r)] {
+        check_positive(name, v, false)?;
+    }
+    let d = 2.0 * r;
+    let (row, shift) = match kind {
+        LatticeKind::Fcc | LatticeKind::Hcp => (d * 3f64.sqrt() / 2.0, d / 2.0),
+        LatticeKind::Sc => (d, 0.0),
+    };
+    let (nx, nz) = ((w / d) as usize + 1, ((h - d).max(0.0) / row) as usize + 1);
+    if nx.saturating_mul(nz) > MAX_BOX_PARTICLES {
+        return Err(Error::InvalidScene(format!(
+            "a {w} × {h} m 2D box of radius {r} holds about {} elements, more than the {MAX_BOX_PARTICLES} a model may hold",
+            nx.saturating_mul(nz)
+        )));
+    }
+    let e = slack(r);
+    let mut centres = Vec::with_capacity(nx * nz);
+    for k in 0..nz {
+        let z = r + k as f64 * row;
+        for i in 0..nx {
+            let x = r + i as f64 * d + if k % 2 == 1 { shift } else { 0.0 };
+            if x <= w - r + e && z <= h - r + e {
+                centres.push(Vec3::new(x, 0.0, z));
+            }
+        }
+    }
+    ElementSet::uniform(centres, r)
 }
 
 /// A vertical column of radius `radius` on the z axis, z in [0, h].
@@ -187,6 +224,23 @@ mod tests {
         assert!(solid > 0.93 * CLOSE_PACKED && solid < CLOSE_PACKED, "{solid}");
         let (lo, hi) = s.bounds().unwrap();
         assert!(lo.min() >= -1e-9 && hi.max() <= 40.0 + 1e-9, "{lo} {hi}");
+    }
+
+    /// A 2D box's hexagonal layer: every element touches its neighbours and none overlaps,
+    /// interior elements touch six, and a large one fills π/(2√3) of its area.
+    #[test]
+    fn a_2d_box_is_one_hexagonal_layer_in_the_xz_plane() {
+        let s = make_box(30.0, 0.0, 30.0, 0.5, LatticeKind::Fcc).unwrap();
+        assert!(s.pos().iter().all(|p| p.y == 0.0));
+        assert!(min_gap(&s).abs() < 1e-12, "{}", min_gap(&s));
+        let touching = |i: usize| s.pos().iter().filter(|q| ((*q - s.pos()[i]).norm() - 1.0).abs() < 1e-9).count();
+        let centre = s.pos().iter().position(|p| (p.x - 15.0).abs() < 0.6 && (p.z - 15.0).abs() < 0.5).unwrap();
+        assert_eq!(touching(centre), 6);
+        let solid = s.len() as f64 * std::f64::consts::PI * 0.25 / (30.0 * 30.0);
+        let hexagonal = std::f64::consts::PI / (2.0 * 3f64.sqrt());
+        assert!(solid > 0.93 * hexagonal && solid < hexagonal, "{solid}");
+        let (lo, hi) = s.bounds().unwrap();
+        assert!(lo.x >= -1e-9 && lo.z >= -1e-9 && hi.x <= 30.0 + 1e-9 && hi.z <= 30.0 + 1e-9, "{lo} {hi}");
     }
 
     #[test]

@@ -13,6 +13,7 @@
 pub mod elements;
 pub mod lattice;
 pub mod polygon;
+pub mod region;
 pub mod sphere_box;
 pub mod surface;
 

@@ -164,6 +164,8 @@ pub struct StepPlan {
     pub applied_loads: Option<AppliedLoadsPlan>,
     /// A confining pressure on a cylindrical sample (the scene confines one).
     pub confining: Option<ConfiningPlan>,
+    /// A 2D model's plate thickness (m): the scene lies in the x–z plane (`crate::planar`).
+    pub planar: Option<f64>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -256,6 +258,7 @@ impl StepPlan {
             pore_flow: PoreFlowPlan::of(m),
             applied_loads,
             confining: ConfiningPlan::of(m),
+            planar: m.settings.planar.map(|p| p.thickness),
         }
     }
 
@@ -433,7 +436,12 @@ impl StepPlan {
                 self.servo_walls
             ));
         }
-        stages.push("neighbours(cell list, skin rebuild)".to_string());
+        stages.push(if self.planar.is_some() {
+            // The packing has no extent in y: its cell grid is one layer.
+            "neighbours(cell list, one layer of cells: 2D, skin rebuild)".to_string()
+        } else {
+            "neighbours(cell list, skin rebuild)".to_string()
+        });
         let (normal, tangential) = (self.normal.name(), self.tangential.description());
         // With no material below e = 1 the tangential dashpot's coefficient is zero: the plan
         // says so.
@@ -465,7 +473,13 @@ impl StepPlan {
         if !body.is_empty() {
             stages.push(body.join(" + "));
         }
-        stages.push(if self.rotation { "integrate(leapfrog, rotation)" } else { "integrate(leapfrog)" }.to_string());
+        let integrate = match (self.rotation, self.planar) {
+            (true, Some(_)) => "integrate(leapfrog, rotation about y; 2D: y and spin about x, z held)",
+            (false, Some(_)) => "integrate(leapfrog; 2D: y held)",
+            (true, None) => "integrate(leapfrog, rotation)",
+            (false, None) => "integrate(leapfrog)",
+        };
+        stages.push(integrate.to_string());
         stages.extend(self.words_of(Role::Field));
         writeln!(f, "step plan: {}", stages.join(" → "))?;
         let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
