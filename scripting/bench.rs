@@ -44,6 +44,9 @@ pub enum BenchScene {
     /// The same lattice with every grain started at up to ±0.5 m/s a component: the grains
     /// collide and the neighbour rows are rebuilt every few hundred steps, as in a deposition.
     Stirred,
+    /// As many particles in 2D: one square layer in the x–z plane (20:50), the model made 2D
+    /// (y and spin about x and z held): what a 2D scene costs against the 3D one.
+    Planar,
 }
 
 /// A field stage `bench --field` switches on in the standard scene, every step (a field step
@@ -102,6 +105,7 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<String, String> {
     let scene = match cfg.scene {
         BenchScene::Packed => scene,
         BenchScene::Stirred => scene.stirred(),
+        BenchScene::Planar => scene.planar(),
     };
     if cfg.steps == 0 {
         return Err("error: --steps must be at least 1".into());
@@ -275,7 +279,7 @@ pub fn cpu_model() -> String {
 fn scene_line(s: &LatticeScene) -> String {
     let mut line = format!(
         "lattice {}×{}×{} = {} spheres, d = {} mm at spacing {} mm, ρ = {} kg/m³, Hertz–Mindlin E = {} MPa ν = {}, \
-         μ = {}, e = {}, 5 plane walls, gravity {} m/s², rotation {}, dt = {:e} s",
+         μ = {}, e = {}, {} plane walls, gravity {} m/s², rotation {}, dt = {:e} s",
         s.nx,
         s.ny,
         s.nz,
@@ -287,12 +291,16 @@ fn scene_line(s: &LatticeScene) -> String {
         s.poisson,
         s.friction,
         s.restitution,
+        if s.planar { 3 } else { 5 },
         s.gravity,
         if s.rotation { "on" } else { "off" },
         s.dt
     );
     if s.stir > 0.0 {
         let _ = write!(line, ", stirred: start velocities within ±{} m/s a component", s.stir);
+    }
+    if s.planar {
+        line.push_str(", 2D (x–z plane; y and spin about x, z held)");
     }
     line
 }
@@ -407,7 +415,16 @@ fn json(s: &LatticeScene, r: &BenchReport, b: &Backend, on: &[BenchField], profi
         ("backend", json_str(b.name)),
         ("device", json_str(&b.device)),
         ("threads", r.threads.to_string()),
-        ("scene", json_str(if s.stir > 0.0 { "stirred lattice" } else { "lattice" })),
+        (
+            "scene",
+            json_str(if s.planar {
+                "2D lattice"
+            } else if s.stir > 0.0 {
+                "stirred lattice"
+            } else {
+                "lattice"
+            }),
+        ),
         ("fields", format!("[{}]", on.join(","))),
         ("nx", s.nx.to_string()),
         ("ny", s.ny.to_string()),

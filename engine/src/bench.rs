@@ -51,6 +51,9 @@ pub struct LatticeScene {
     /// Each grain starts with each velocity component drawn uniformly from ±`stir` (m/s; a
     /// fixed seed); 0: at rest.
     pub stir: f64,
+    /// A 2D scene ([`LatticeScene::planar`]): one layer in the x–z plane (ny = 1, centres at
+    /// y = 0), the model made 2D, no walls in y.
+    pub planar: bool,
 }
 
 impl Default for LatticeScene {
@@ -70,6 +73,7 @@ impl Default for LatticeScene {
             rotation: true,
             dt: 1e-6,
             stir: 0.0,
+            planar: false,
         }
     }
 }
@@ -89,6 +93,16 @@ impl LatticeScene {
     /// a few hundred steps.
     pub fn stirred(self) -> Self {
         LatticeScene { stir: 0.5, ..self }
+    }
+
+    /// The same count in 2D: a square lattice in the x–z plane of the standard scene's 20:50
+    /// aspect, nx = round((n/2.5)^(1/2)), nz = round(n/nx), made 2D. What a 2D scene costs
+    /// against a 3D one of as many particles (each touches 4 against 6; the walls in y go).
+    pub fn planar(self) -> Self {
+        let n = self.particles();
+        let nx = ((n as f64 / 2.5).sqrt().round() as usize).max(1);
+        let nz = ((n as f64 / nx as f64).round() as usize).max(1);
+        LatticeScene { nx, ny: 1, nz, planar: true, ..self }
     }
 
     pub fn particles(&self) -> usize {
@@ -125,17 +139,23 @@ impl LatticeScene {
         let (lx, ly, lz) = (self.nx as f64 * s, self.ny as f64 * s, self.nz as f64 * s);
         let mut rng = crate::builder::Rng::new(1);
         let mut stir = || self.stir * (2.0 * rng.uniform() - 1.0);
-        for x in simple_cubic(self.nx, self.ny, self.nz, s, Vec3::repeat(0.5 * s)) {
+        let y0 = if self.planar { 0.0 } else { 0.5 * s };
+        for x in simple_cubic(self.nx, self.ny, self.nz, s, Vec3::new(0.5 * s, y0, 0.5 * s)) {
             let id = m.add_particle(x, r, 0)?;
             if self.stir > 0.0 {
-                m.particles.vel[id] = Vec3::new(stir(), stir(), stir());
+                let (vx, vy, vz) = (stir(), stir(), stir());
+                m.particles.vel[id] = Vec3::new(vx, if self.planar { 0.0 } else { vy }, vz);
             }
         }
         m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), lx * ly)?)?;
         m.add_wall(Wall::plane("x0", Vec3::zeros(), Vec3::x(), ly * lz)?)?;
         m.add_wall(Wall::plane("x1", Vec3::new(lx, 0.0, 0.0), -Vec3::x(), ly * lz)?)?;
-        m.add_wall(Wall::plane("y0", Vec3::zeros(), Vec3::y(), lx * lz)?)?;
-        m.add_wall(Wall::plane("y1", Vec3::new(0.0, ly, 0.0), -Vec3::y(), lx * lz)?)?;
+        if self.planar {
+            m.make_planar(Some(self.diameter))?;
+        } else {
+            m.add_wall(Wall::plane("y0", Vec3::zeros(), Vec3::y(), lx * lz)?)?;
+            m.add_wall(Wall::plane("y1", Vec3::new(0.0, ly, 0.0), -Vec3::y(), lx * lz)?)?;
+        }
         if self.rotation {
             m.particles.enable_rotation();
         }

@@ -18,7 +18,7 @@ use std::rc::Rc;
 
 /// The documentation of every name registered here: (name, usage, what it does).
 pub const DOCS: &[(&str, &str, &str)] = &[
-    ("make_box", "make_box(w, l, h, ball_r) / make_box(w, l, h, ball_r, \"fcc\" | \"hcp\" | \"sc\") -> Geometry", "a box [0, w] × [0, l] × [0, h] (m) filled with elements of radius ball_r on a lattice (close-packed FCC unless named), every element whole inside (MatDEM mfs.makeBox)"),
+    ("make_box", "make_box(w, l, h, ball_r) / make_box(w, l, h, ball_r, \"fcc\" | \"hcp\" | \"sc\") -> Geometry", "a box [0, w] × [0, l] × [0, h] (m) filled with elements of radius ball_r on a lattice (close-packed FCC unless named), every element whole inside (MatDEM mfs.makeBox); l = 0 makes one layer in the x–z plane at y = 0 for a 2D model (hexagonal, or square with \"sc\")"),
     ("make_column", "make_column(radius, h, ball_r) / (…, lattice) -> Geometry", "a vertical column on the z axis, z in [0, h], filled like make_box (MatDEM mfs.makeColumn)"),
     ("make_ring", "make_ring(r_in, r_out, h, ball_r) / (…, lattice) -> Geometry", "a vertical ring (tube wall) between radii r_in and r_out on the z axis, z in [0, h]; the wall must be at least one element diameter thick (MatDEM mfs.makeRing)"),
     ("make_tube", "make_tube(r_in, r_out, h, ball_r) / (…, lattice) -> Geometry", "the same as make_ring"),

@@ -35,7 +35,19 @@ fn opt(vals: &[(String, f64)], key: &str) -> Option<f64> {
 
 /// `material(name, #{E, nu, Tu, Cu, mu_i, density, d})`: macro → micro for elements of diameter d.
 fn material_macro(name: &str, map: Map) -> RhaiResult<Material> {
-    let what = format!("material(\"{name}\")");
+    converted(name, map, "material", Material::from_macro)
+}
+
+/// `material_2d(name, #{…})`: as `material`, through the 2D hexagonal lattice's formulas
+/// (MatDEM's `macroToMicro2`), for a 2D model of elements of diameter d.
+fn material_2d(name: &str, map: Map) -> RhaiResult<Material> {
+    converted(name, map, "material_2d", Material::from_macro_2d)
+}
+
+type Conversion = fn(&str, f64, &MacroProperties, f64) -> matdem_engine::Result<Material>;
+
+fn converted(name: &str, map: Map, call: &str, convert: Conversion) -> RhaiResult<Material> {
+    let what = format!("{call}(\"{name}\")");
     let v = read(&map, MACRO_KEYS, &what)?;
     let p = MacroProperties {
         young: get(&v, "E", &what)?,
@@ -44,8 +56,7 @@ fn material_macro(name: &str, map: Map) -> RhaiResult<Material> {
         compressive: get(&v, "Cu", &what)?,
         internal_friction: get(&v, "mu_i", &what)?,
     };
-    let mut m =
-        Material::from_macro(name, opt(&v, "density").unwrap_or(2650.0), &p, get(&v, "d", &what)?).map_err(raise)?;
+    let mut m = convert(name, opt(&v, "density").unwrap_or(2650.0), &p, get(&v, "d", &what)?).map_err(raise)?;
     if let Some(e) = opt(&v, "restitution") {
         m.restitution = e;
         m.provenance.set("restitution", Source::Given);
@@ -144,6 +155,7 @@ pub fn register(engine: &mut Engine) {
     engine.register_type_with_name::<Material>("Material");
     engine
         .register_fn("material", material_macro)
+        .register_fn("material_2d", material_2d)
         .register_fn("material_micro", material_micro)
         .register_get("name", |m: &mut Material| m.name.clone())
         .register_get("kn", |m: &mut Material| m.kn)
@@ -181,16 +193,21 @@ pub fn register(engine: &mut Engine) {
     engine
         .register_fn("to_string", |m: &mut Material| describe(m))
         .register_fn("to_debug", |m: &mut Material| describe(m))
-        .register_fn("macro_properties", |m: &mut Material, d: FLOAT| {
-            let p = m.lattice_macro(d);
-            let mut map = Map::new();
-            map.insert("E".into(), p.young.into());
-            map.insert("nu".into(), p.poisson.into());
-            map.insert("Tu".into(), p.tensile.into());
-            map.insert("Cu".into(), p.compressive.into());
-            map.insert("mu_i".into(), p.internal_friction.into());
-            map
+        .register_fn("macro_properties", |m: &mut Material, d: FLOAT| macro_map(m.lattice_macro(d)))
+        .register_fn("macro_properties_2d", |m: &mut Material, d: FLOAT| {
+            let micro = MicroParameters { kn: m.kn, ks: m.ks, xb: m.xb, fs0: m.fs0, mu_p: m.mu_p };
+            macro_map(matdem_engine::planar::conversion::micro_to_macro_2d(&micro, d))
         });
+}
+
+fn macro_map(p: MacroProperties) -> Map {
+    let mut map = Map::new();
+    map.insert("E".into(), p.young.into());
+    map.insert("nu".into(), p.poisson.into());
+    map.insert("Tu".into(), p.tensile.into());
+    map.insert("Cu".into(), p.compressive.into());
+    map.insert("mu_i".into(), p.internal_friction.into());
+    map
 }
 
 /// One line of values, then each value that was not simply given: where it came from.

@@ -34,6 +34,7 @@ mod loads;
 pub mod measure;
 mod moisture;
 mod observation;
+mod planar;
 mod pores;
 mod regions;
 mod running;
@@ -197,6 +198,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     groups::register(engine, &host);
     boundaries::register(engine, &host);
     confinement::register(engine, &host);
+    planar::register(engine);
     running::register(engine, &host);
     observation::register(engine, &host);
     elements::register(engine, &host);

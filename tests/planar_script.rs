@@ -1,0 +1,73 @@
+//! 2D models through the script API (issue 34 item 1): a box with `sample_l = 0` builds a
+//! one-layer model in the x–z plane with the 2D lattice material, deposits in its plane,
+//! measures porosity by area, pictures every element; `make_box(w, 0, h, r)` makes a hexagonal
+//! layer; a 3D packing is refused by `d.make_2d()` with what to do instead.
+
+use crate::common::{run_script, stderr, stdout, temp_dir};
+
+#[test]
+fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
+    let dir = temp_dir("planar_script");
+    let script = r#"
+        let b = new_box("plate");
+        b.sample_w = 0.01; b.sample_l = 0; b.sample_h = 0.008;
+        b.ball_r = 0.25e-3; b.distri_rate = 0.2; b.seed = 3;
+        b.set_type("top_platen");
+        let d = b.build_initial_model();
+        let mat = material_2d("rock", #{ E: 1e8, nu: 0.25, Tu: 1e5, Cu: 1e6, mu_i: 0.6, d: 0.5e-3 });
+        let back = mat.macro_properties_2d(0.5e-3);
+        print(`round trip ${(back.E / 1e8 - 1.0).abs() < 1e-12 && (back.nu - 0.25).abs() < 1e-12}`);
+        d.set_group_mat("sample", mat);
+        d.set_standard_dt();
+        sediment(d, #{ accel: 30.0, tolerance: 0.05 });
+        print(`dimension ${d.dimension()} thickness ${d.thickness()} n ${d.n}`);
+        print(d.plan());
+        print(`y ${d.y.abs().max()} vy ${d.vy.abs().max()}`);
+        print(`porosity ${d.porosity_box([0.002, -1.0, 0.001], [0.008, 1.0, 0.004])}`);
+        d.show("z", "plate");
+        let g = make_box(0.01, 0, 0.005, 0.25e-3);
+        print(`layer ${g.n} ${g.y.abs().max()}`);
+    "#;
+    let out = run_script(&dir, "plate.rhai", script, &[]);
+    let (so, se) = (stdout(&out), stderr(&out));
+    assert!(out.status.success(), "{so}\n{se}");
+    let line = |key: &str| so.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no `{key}` in\n{so}"));
+    assert_eq!(line("round trip"), "round trip true");
+    assert!(line("dimension").starts_with("dimension 2 thickness 0.000"), "{so}");
+    assert!(so.contains("one layer of cells: 2D") && so.contains("2D: y held"), "{so}");
+    assert_eq!(line("y "), "y 0.0 vy 0.0");
+    let phi: f64 = line("porosity").split(' ').nth(1).unwrap().parse().unwrap();
+    // By area: a 2D random packing of a narrow gradation; by volume it would read above 0.5.
+    assert!((0.1..0.3).contains(&phi), "porosity by area {phi}");
+    // A 20 × 10-diameter hexagonal layer: 11 rows (spaced √3/2·d) of 20 and 19 alternately.
+    assert_eq!(line("layer"), "layer 215 0.0");
+    for ext in ["svg", "png"] {
+        assert!(dir.join("out").join(format!("plate.{ext}")).exists(), "plate.{ext} not written");
+    }
+}
+
+#[test]
+fn a_3d_packing_is_refused_as_2d_and_a_3d_material_refuses_a_2d_poisson_ratio() {
+    let dir = temp_dir("planar_refusals");
+    let out = run_script(
+        &dir,
+        "flat.rhai",
+        r#"
+        let b = new_box("cube");
+        b.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = 0.4e-3;
+        let d = b.build_initial_model();
+        d.make_2d();
+        "#,
+        &[],
+    );
+    let se = stderr(&out);
+    assert!(!out.status.success() && se.contains("sample_l = 0") && se.contains("y = "), "{se}");
+    let out = run_script(
+        &dir,
+        "nu.rhai",
+        r#"material("rock", #{ E: 1e8, nu: 0.25, Tu: 1e5, Cu: 1e6, mu_i: 0.6, d: 0.5e-3 });"#,
+        &[],
+    );
+    let se = stderr(&out);
+    assert!(!out.status.success() && se.contains("0.2"), "{se}");
+}
