@@ -229,8 +229,9 @@ pub struct MicroParameters {
     pub mu_p: f64,
 }
 
-/// Macro → micro (paper 003, app. A). Errors outside 0 ≤ ν ≤ 0.2 and μi ≥ 1/(2√2).
-pub fn macro_to_micro(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
+/// What every lattice conversion refuses, in 3D and 2D: E, Tu, Cu, d not finite or negative,
+/// E outside [`YOUNG_RANGE`], Tu above Cu.
+pub(crate) fn check_common(p: &MacroProperties, d: f64) -> Result<()> {
     check_positive("E", p.young, false)?;
     check_positive("Tu", p.tensile, true)?;
     check_positive("Cu", p.compressive, true)?;
@@ -258,6 +259,12 @@ pub fn macro_to_micro(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
             ),
         ));
     }
+    Ok(())
+}
+
+/// Macro → micro (paper 003, app. A). Errors outside 0 ≤ ν ≤ 0.2 and μi ≥ 1/(2√2).
+pub fn macro_to_micro(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
+    check_common(p, d)?;
     if !p.poisson.is_finite() || p.poisson < 0.0 || p.poisson > 0.2 {
         return Err(Error::param(
             "nu",

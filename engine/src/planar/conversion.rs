@@ -15,8 +15,8 @@
 //!
 //! Valid for 0 ≤ ν ≤ 1/3 (Ks ≥ 0) and μi ≥ 1/(2√6) ≈ 0.204 (μp ≥ 0).
 
-use crate::error::{check_positive, Error, Result};
-use crate::materials::{MacroProperties, Material, MicroParameters, YOUNG_RANGE};
+use crate::error::{Error, Result};
+use crate::materials::{check_common, MacroProperties, Material, MicroParameters};
 
 const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
@@ -31,20 +31,7 @@ pub fn min_internal_friction_2d() -> f64 {
 /// Macro → micro for a 2D model of element diameter `d` (m), thickness d. Errors outside
 /// 0 ≤ ν ≤ 1/3 and μi ≥ 0.204, with what to give instead.
 pub fn macro_to_micro_2d(p: &MacroProperties, d: f64) -> Result<MicroParameters> {
-    check_positive("E", p.young, false)?;
-    check_positive("Tu", p.tensile, true)?;
-    check_positive("Cu", p.compressive, true)?;
-    check_positive("d", d, false)?;
-    if !(YOUNG_RANGE.0..=YOUNG_RANGE.1).contains(&p.young) {
-        return Err(Error::param("E", p.young, "is outside 1 to 1e14 Pa, where no rock or soil lies; give E in Pa"));
-    }
-    if p.tensile > p.compressive {
-        return Err(Error::param(
-            "Tu",
-            p.tensile,
-            format!("is above Cu = {:e} Pa: check that the two are not swapped", p.compressive),
-        ));
-    }
+    check_common(p, d)?;
     if !p.poisson.is_finite() || p.poisson < 0.0 || p.poisson > MAX_POISSON_2D {
         return Err(Error::param(
             "nu",
