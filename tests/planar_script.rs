@@ -71,3 +71,46 @@ fn a_3d_packing_is_refused_as_2d_and_a_3d_material_refuses_a_2d_poisson_ratio() 
     let se = stderr(&out);
     assert!(!out.status.success() && se.contains("0.2"), "{se}");
 }
+
+#[test]
+fn a_2d_test_sample_runs_lab_tests_and_trains_from_the_2d_formulas() {
+    let dir = temp_dir("planar_training");
+    let script = r#"
+        let m = material_2d("soil", #{ E: 5e7, nu: 0.25, Tu: 2e4, Cu: 2e5, mu_i: 0.6, d: 2e-3, density: 2000.0 });
+        let s = test_sample(m, #{ elements: 200, dimension: 2 });
+        let r = s.lab_test("uniaxial_compression", #{});
+        print(`ucs E ${r.E} nu ${r.nu} peak ${r.peak_stress}`);
+        let t = train(#{ name: "soil_2d", E: 5e7, nu: 0.25, Tu: 2e4, Cu: 2e5, mu_i: 0.6, density: 2000.0 },
+                      #{ elements: 200, dimension: 2, rounds: 1, quiet: true });
+        print(`trained ${t.elements}`);
+    "#;
+    let out = run_script(&dir, "train2d.rhai", script, &[]);
+    let (so, se) = (stdout(&out), stderr(&out));
+    assert!(out.status.success(), "{so}\n{se}");
+    let ucs: Vec<f64> = so
+        .lines()
+        .find(|l| l.starts_with("ucs"))
+        .unwrap_or_else(|| panic!("{so}"))
+        .split(' ')
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    // A random layer of the lattice material: E within a factor 5, ν within the 2D range.
+    assert!(ucs[0] > 1e7 && ucs[0] < 2.5e8 && (0.0..0.5).contains(&ucs[1]) && ucs[2] > 0.0, "{so}");
+    let trained: f64 = so.lines().find_map(|l| l.strip_prefix("trained ")).and_then(|v| v.parse().ok()).unwrap_or(0.0);
+    assert!((150.0..260.0).contains(&trained), "{so}");
+    // ν 0.25 is beyond the 3D formulas: refused without dimension 2; a dimension of 4 too.
+    let refused = run_script(
+        &dir,
+        "train3d.rhai",
+        r#"train(#{ E: 5e7, nu: 0.25, Tu: 2e4, Cu: 2e5, mu_i: 0.6 }, #{ elements: 200, rounds: 1 });"#,
+        &[],
+    );
+    assert!(!refused.status.success() && stderr(&refused).contains("0.2"), "{}", stderr(&refused));
+    let refused = run_script(
+        &dir,
+        "train4d.rhai",
+        r#"train(#{ E: 5e7, nu: 0.1, Tu: 2e4, Cu: 2e5, mu_i: 0.6 }, #{ dimension: 4 });"#,
+        &[],
+    );
+    assert!(!refused.status.success() && stderr(&refused).contains("2 or 3"), "{}", stderr(&refused));
+}

@@ -133,7 +133,8 @@ fn small_strain_triaxial(m: Model) -> (f64, f64) {
 }
 
 fn pack(d: f64, material: &Material, seed: u64) -> PackedSample {
-    let spec = SampleSpec { elements: 400, radius: 0.5 * d, distri_rate: 0.2, aspect: 1.5, seed };
+    let spec =
+        SampleSpec { elements: 400, radius: 0.5 * d, distri_rate: 0.2, aspect: 1.5, seed, ..SampleSpec::default() };
     PackedSample::pack(&spec, material, &RunControl::default()).unwrap()
 }
 

@@ -9,7 +9,7 @@ use crate::plot::LineChart;
 use matdem_engine::materials::MacroProperties;
 use matdem_engine::training::fit::mohr_coulomb;
 use matdem_engine::training::{
-    run_test, validate_targets, LabTest, Loading, PackedSample, Round, SampleSpec, TestResult, TrainOptions,
+    run_test, validate_targets, Dimension, LabTest, Loading, PackedSample, Round, SampleSpec, TestResult, TrainOptions,
     TrainedMaterial, Training,
 };
 use matdem_engine::{Material, Model};
@@ -25,11 +25,13 @@ struct SampleData {
     material: Material,
     diameter: f64,
     bonded: Model,
+    /// Whose lattice formulas say what the sample should show (a 2D sample: the hexagonal layer's).
+    dimension: Dimension,
 }
 
 const TARGET_KEYS: &[&str] = &["name", "E", "nu", "Tu", "Cu", "mu_i", "density"];
 const OPTION_KEYS: &[&str] =
-    &["elements", "radius", "distri_rate", "seed", "rounds", "confining", "steps_to_peak", "quiet", "out"];
+    &["elements", "radius", "distri_rate", "seed", "dimension", "rounds", "confining", "steps_to_peak", "quiet", "out"];
 
 fn check_keys(map: &Map, known: &[&str], what: &str) -> RhaiResult<()> {
     for k in map.keys() {
@@ -62,8 +64,9 @@ fn count(map: &Map, key: &str, what: &str) -> RhaiResult<Option<usize>> {
     }
 }
 
-/// The targets map as macro properties, refused with a reason when training cannot start.
-fn targets(map: &Map) -> RhaiResult<(String, MacroProperties, f64)> {
+/// The targets map as macro properties, refused with a reason when training cannot start
+/// from `dim`'s formulas.
+fn targets(map: &Map, dim: Dimension) -> RhaiResult<(String, MacroProperties, f64)> {
     let what = "train";
     check_keys(map, TARGET_KEYS, what)?;
     let name = map.get("name").map(|v| v.to_string()).unwrap_or_else(|| "trained".into());
@@ -74,7 +77,7 @@ fn targets(map: &Map) -> RhaiResult<(String, MacroProperties, f64)> {
         compressive: required(map, "Cu", what)?,
         internal_friction: required(map, "mu_i", what)?,
     };
-    validate_targets(&t).map_err(|e| err(format!("train(\"{name}\"): {e}")))?;
+    validate_targets(&t, dim).map_err(|e| err(format!("train(\"{name}\"): {e}")))?;
     let density = num(map, "density", what)?.unwrap_or(2650.0);
     Ok((name, t, density))
 }
@@ -93,8 +96,18 @@ fn sample_spec(map: &Map, what: &str) -> RhaiResult<SampleSpec> {
     if let Some(n) = count(map, "seed", what)? {
         s.seed = n as u64;
     }
+    s.dimension = dimension(map, what)?;
     s.validate().map_err(|e| err(format!("{what}: {e}")))?;
     Ok(s)
+}
+
+/// `dimension: 2` trains (or tests) a 2D sample, one layer in the x–z plane; 3 by default.
+fn dimension(map: &Map, what: &str) -> RhaiResult<Dimension> {
+    match count(map, "dimension", what)? {
+        None | Some(3) => Ok(Dimension::Three),
+        Some(2) => Ok(Dimension::Two),
+        Some(n) => Err(err(format!("{what}: `dimension` is 2 or 3, got {n}"))),
+    }
 }
 
 fn options(map: &Map, density: f64) -> RhaiResult<TrainOptions> {
@@ -249,7 +262,7 @@ fn write_training(host: &Host, t: &Training, out: &str) -> RhaiResult<(Table, Pa
 }
 
 fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
-    let (name, t, density) = targets(&targets_map)?;
+    let (name, t, density) = targets(&targets_map, dimension(&opts_map, "train options")?)?;
     let opts = options(&opts_map, density)?;
     let quiet = opts_map.get("quiet").and_then(|v| v.as_bool().ok()).unwrap_or(false);
     let out = opts_map.get("out").map(|v| v.to_string()).unwrap_or_else(|| format!("train_{name}"));
@@ -327,12 +340,13 @@ fn test_sample(host: &Host, material: Material, opts: Map) -> RhaiResult<TestSam
     let spec = sample_spec(&opts, "test_sample")?;
     let packed = PackedSample::pack(&spec, &material, &host.control).map_err(raise)?;
     let bonded = packed.bonded(&material, &host.control).map_err(raise)?;
-    Ok(TestSample(Rc::new(SampleData { diameter: packed.diameter(), material, bonded })))
+    let (diameter, dimension) = (packed.diameter(), spec.dimension);
+    Ok(TestSample(Rc::new(SampleData { diameter, material, bonded, dimension })))
 }
 
 fn lab_test(host: &Host, s: &TestSample, kind: &str, opts: Map) -> RhaiResult<Map> {
     let test = lab_kind(kind, &opts)?;
-    let lattice = s.0.material.lattice_macro(s.0.diameter);
+    let lattice = s.0.dimension.lattice_macro(&s.0.material, s.0.diameter);
     let expected = match num(&opts, "expected_peak_strain", "lab_test")? {
         Some(e) => e,
         None => match test {

@@ -114,7 +114,10 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
     let mut m = sample.clone();
     let (lo, hi) = extent(&m);
     let size = hi - lo;
-    let area = size.x * size.y;
+    // A 2D sample is a plate: its depth in y is its thickness, and it has no walls in y.
+    let planar = m.planar().map(|p| p.thickness);
+    let depth = planar.unwrap_or(size.y);
+    let area = size.x * depth;
     let dt = m.clock.dt;
     let r_mean = m.mean_radius();
     let mut steps = 0;
@@ -133,10 +136,12 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
         add_plane(&mut m, "bottom", Vec3::new(0.0, 0.0, lo.z), Vec3::z(), area)?;
         add_plane(&mut m, "top", Vec3::new(0.0, 0.0, hi.z), -Vec3::z(), area)?;
         if let LabTest::ConfinedCompression { .. } = test {
-            add_plane(&mut m, "left", Vec3::new(lo.x, 0.0, 0.0), Vec3::x(), size.y * size.z)?;
-            add_plane(&mut m, "right", Vec3::new(hi.x, 0.0, 0.0), -Vec3::x(), size.y * size.z)?;
-            add_plane(&mut m, "front", Vec3::new(0.0, lo.y, 0.0), Vec3::y(), size.x * size.z)?;
-            add_plane(&mut m, "back", Vec3::new(0.0, hi.y, 0.0), -Vec3::y(), size.x * size.z)?;
+            add_plane(&mut m, "left", Vec3::new(lo.x, 0.0, 0.0), Vec3::x(), depth * size.z)?;
+            add_plane(&mut m, "right", Vec3::new(hi.x, 0.0, 0.0), -Vec3::x(), depth * size.z)?;
+            if planar.is_none() {
+                add_plane(&mut m, "front", Vec3::new(0.0, lo.y, 0.0), Vec3::y(), size.x * size.z)?;
+                add_plane(&mut m, "back", Vec3::new(0.0, hi.y, 0.0), -Vec3::y(), size.x * size.z)?;
+            }
         }
         (Vec::new(), Vec::new())
     };
@@ -145,7 +150,7 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
         steps += confine(&mut sim, confining, r_mean, ctl)?;
     }
     let m = &mut sim.model;
-    let free: Vec<usize> = (0..m.len()).filter(|&i| m.particles.fixed[i] == 0).collect();
+    let free: Vec<usize> = (0..m.len()).filter(|&i| m.is_free(i)).collect();
     let origin: Vec<Vec3> = m.particles.pos.clone();
     let length = |m: &Model| -> f64 {
         if tension {
@@ -177,11 +182,7 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
         let strain = if tension { (h - h0) / h0 } else { (h0 - h) / h0 };
         if let LabTest::ConfinedCompression { .. } = test {
             // The side walls shrink in height with the sample: keep their stress honest.
-            let (w, l) = (plane_x(m, "right") - plane_x(m, "left"), plane_y(m, "back") - plane_y(m, "front"));
-            for (name, a) in [("left", l * h), ("right", l * h), ("front", w * h), ("back", w * h)] {
-                let k = m.wall_index(name)?;
-                m.walls[k].area = a;
-            }
+            side_areas(m, h)?;
         }
         let stress = if tension {
             let pull = |ids: &[u32]| ids.iter().map(|&i| m.particles.force[i as usize].z).sum::<f64>();
@@ -190,7 +191,11 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
             0.5 * (m.walls[m.wall_index("top")?].stress() + m.walls[m.wall_index("bottom")?].stress())
         };
         let ez = grain_strain(m, &free, &origin, 2);
-        let lateral = 0.5 * (grain_strain(m, &free, &origin, 0) + grain_strain(m, &free, &origin, 1));
+        // A 2D sample's lateral strain is in x alone.
+        let lateral = match planar {
+            Some(_) => grain_strain(m, &free, &origin, 0),
+            None => 0.5 * (grain_strain(m, &free, &origin, 0) + grain_strain(m, &free, &origin, 1)),
+        };
         let grain = if tension { ez } else { -ez };
         curve.push(CurvePoint {
             strain,
@@ -250,11 +255,7 @@ fn confine(sim: &mut Simulation, stress: f64, r_mean: f64, ctl: &RunControl) -> 
         steps += rep.steps;
         let m = &mut sim.model;
         let h = plane_z(m, "top") - plane_z(m, "bottom");
-        let (w, l) = (plane_x(m, "right") - plane_x(m, "left"), plane_y(m, "back") - plane_y(m, "front"));
-        for (name, a) in [("left", l * h), ("right", l * h), ("front", w * h), ("back", w * h)] {
-            let k = m.wall_index(name)?;
-            m.walls[k].area = a;
-        }
+        side_areas(m, h)?;
         let all_there = m.walls.iter().all(|w| (w.stress() - stress).abs() < 0.02 * stress);
         if all_there && rep.unbalanced_ratio.unwrap_or(1.0) < 0.01 {
             break;
@@ -266,6 +267,21 @@ fn confine(sim: &mut Simulation, stress: f64, r_mean: f64, ctl: &RunControl) -> 
         }
     }
     Ok(steps)
+}
+
+/// Sets the side walls' areas for the sample's height `h`: width × h across x and y in 3D,
+/// thickness × h on the two sides of a 2D sample.
+fn side_areas(m: &mut Model, h: f64) -> Result<()> {
+    let (w, l) = match m.planar() {
+        Some(p) => (0.0, p.thickness),
+        None => (plane_x(m, "right") - plane_x(m, "left"), plane_y(m, "back") - plane_y(m, "front")),
+    };
+    for (name, a) in [("left", l * h), ("right", l * h), ("front", w * h), ("back", w * h)] {
+        if let Ok(k) = m.wall_index(name) {
+            m.walls[k].area = a;
+        }
+    }
+    Ok(())
 }
 
 /// Moves the loaded ends apart (tension) or together (compression) at `speed` each.

@@ -4,6 +4,7 @@
 //! Packing depends only on geometry, so one packing serves every round of training; each
 //! round bonds it with its own material.
 
+use super::dimension::Dimension;
 use crate::backend::RunControl;
 use crate::builder::{BoxSpec, Container, SizeClass};
 use crate::error::{check_positive, Error, Result};
@@ -26,11 +27,15 @@ pub struct SampleSpec {
     /// Height over width (2 for a standard uniaxial specimen).
     pub aspect: f64,
     pub seed: u64,
+    /// A 3D box, or a 2D one (one layer in the x–z plane, a 2D model). Files written before
+    /// 2D samples read as 3D.
+    #[serde(default)]
+    pub dimension: Dimension,
 }
 
 impl Default for SampleSpec {
     fn default() -> Self {
-        SampleSpec { elements: 1000, radius: 1e-3, distri_rate: 0.2, aspect: 2.0, seed: 1 }
+        SampleSpec { elements: 1000, radius: 1e-3, distri_rate: 0.2, aspect: 2.0, seed: 1, dimension: Dimension::Three }
     }
 }
 
@@ -52,8 +57,10 @@ impl SampleSpec {
     }
 }
 
-/// Porosity the packing is sized for (a frictionless random packing jams near 0.36–0.40).
+/// Porosity the packing is sized for (a frictionless random packing jams near 0.36–0.40; a
+/// 2D one of discs near 0.16–0.18, by area).
 const PACK_POROSITY: f64 = 0.38;
+const PACK_POROSITY_2D: f64 = 0.17;
 /// Platen stress while packing, as a strain of the lattice: σ = PACK_STRAIN·E_lattice.
 /// Small, so the bonded sample starts nearly stress-free.
 const PACK_STRAIN: f64 = 1e-4;
@@ -75,6 +82,9 @@ pub struct PackedSample {
     pub radius: Vec<f64>,
     /// Steps the packing took.
     pub steps: u64,
+    /// A 2D sample's plate thickness (m); `None` for a 3D sample.
+    #[serde(default)]
+    pub thickness: Option<f64>,
 }
 
 impl PackedSample {
@@ -83,20 +93,34 @@ impl PackedSample {
     pub fn pack(spec: &SampleSpec, material: &Material, ctl: &RunControl) -> Result<Self> {
         spec.validate()?;
         let (r0, r1) = (spec.radius * (1.0 - spec.distri_rate), spec.radius * (1.0 + spec.distri_rate));
-        // Mean sphere volume for r uniform in [r0, r1]: (π/3)·(r1⁴ − r0⁴)/(r1 − r0).
-        let v_grain = if r1 > r0 {
-            std::f64::consts::PI / 3.0 * (r1.powi(4) - r0.powi(4)) / (r1 - r0)
-        } else {
-            4.0 / 3.0 * std::f64::consts::PI * r0.powi(3)
-        };
-        let volume = spec.elements as f64 * v_grain / (1.0 - PACK_POROSITY);
-        let width = (volume / spec.aspect).cbrt();
+        let planar = spec.dimension == Dimension::Two;
         // Grains start shrunk by `s` so that random placement fills the final box at a
         // solid fraction it can reach; they then grow back in place (radius expansion):
         // the whole box jams at once instead of a platen sweeping a loose column.
-        let s = (START_SOLID_FRACTION / (1.0 - PACK_POROSITY)).cbrt();
+        let (width, s, container) = if planar {
+            // Mean disc area for r uniform in [r0, r1]: (π/3)·(r1³ − r0³)/(r1 − r0).
+            let a_grain = if r1 > r0 {
+                std::f64::consts::PI / 3.0 * (r1.powi(3) - r0.powi(3)) / (r1 - r0)
+            } else {
+                std::f64::consts::PI * r0 * r0
+            };
+            let area = spec.elements as f64 * a_grain / (1.0 - PACK_POROSITY_2D);
+            let width = (area / spec.aspect).sqrt();
+            (width, (START_SOLID_FRACTION / (1.0 - PACK_POROSITY_2D)).sqrt(), Container::Rectangle { width })
+        } else {
+            // Mean sphere volume for r uniform in [r0, r1]: (π/3)·(r1⁴ − r0⁴)/(r1 − r0).
+            let v_grain = if r1 > r0 {
+                std::f64::consts::PI / 3.0 * (r1.powi(4) - r0.powi(4)) / (r1 - r0)
+            } else {
+                4.0 / 3.0 * std::f64::consts::PI * r0.powi(3)
+            };
+            let volume = spec.elements as f64 * v_grain / (1.0 - PACK_POROSITY);
+            let width = (volume / spec.aspect).cbrt();
+            let s = (START_SOLID_FRACTION / (1.0 - PACK_POROSITY)).cbrt();
+            (width, s, Container::Cuboid { width, length: width })
+        };
         let box_spec = BoxSpec {
-            container: Container::Cuboid { width, length: width },
+            container,
             height: spec.aspect * width,
             classes: vec![SizeClass { r_min: s * r0, r_max: s * r1, mass_ratio: 1.0 }],
             target_porosity: 1.0 - START_SOLID_FRACTION,
@@ -109,7 +133,7 @@ impl PackedSample {
         packing.fs0 = 0.0;
         packing.xb = 0.0;
         let d = 2.0 * spec.radius;
-        let stress = PACK_STRAIN * packing.lattice_macro(d).young;
+        let stress = PACK_STRAIN * spec.dimension.lattice_macro(&packing, d).young;
         let density = packing.density;
         let mut m = Model::new();
         m.add_material(packing)?;
@@ -134,6 +158,13 @@ impl PackedSample {
         // The grown grains are near jamming; a servo platen brings them to the small
         // packing stress, so the bonds start nearly unloaded.
         let top = sim.model.wall_index("top_platen")?;
+        if planar {
+            // The plate was made as thick as the shrunk grains: now as the grown ones, so the
+            // platen's stress is its force over width × the grains' diameter.
+            let t = 2.0 * sim.model.mean_radius();
+            sim.model.make_planar(Some(t))?;
+            sim.model.walls[top].area = width * t;
+        }
         let z_top =
             sim.model.particles.pos.iter().zip(&sim.model.particles.radius).map(|(x, r)| x.z + r).fold(0.0, f64::max);
         sim.model.walls[top].shape = WallShape::Plane { point: Vec3::new(0.0, 0.0, z_top), normal: -Vec3::z() };
@@ -150,7 +181,8 @@ impl PackedSample {
             }
         }
         let p = &sim.model.particles;
-        Ok(PackedSample { pos: p.pos.clone(), radius: p.radius.clone(), steps })
+        let thickness = sim.model.planar().map(|pl| pl.thickness);
+        Ok(PackedSample { pos: p.pos.clone(), radius: p.radius.clone(), steps, thickness })
     }
 
     pub fn len(&self) -> usize {
@@ -172,6 +204,7 @@ impl PackedSample {
             pos: self.pos.iter().map(|x| x * s).collect(),
             radius: self.radius.iter().map(|r| r * s).collect(),
             steps: self.steps,
+            thickness: self.thickness.map(|t| t * s),
         }
     }
 
@@ -184,6 +217,9 @@ impl PackedSample {
             m.add_particle(*x, *r, k)?;
         }
         m.groups.set("sample", (0..m.len() as u32).collect());
+        if let Some(t) = self.thickness {
+            m.make_planar(Some(t))?;
+        }
         // Only touching pairs: a bond across a gap would start in tension (the bonded
         // spring counts from touching), and for a rock that tension exceeds Kn·Xb.
         let bonds = m.connect(None, 0.0)?;

@@ -7,6 +7,7 @@
 //! (Ks/Kn for ν, μp for μi); from the second correction on, each uses the secant of its
 //! last two rounds, which learns how strongly the property responds.
 
+use super::dimension::Dimension;
 use super::fit::mohr_coulomb;
 use super::lab_tests::{run_test, LabTest, Loading, TestResult};
 use super::sample::{PackedSample, SampleSpec};
@@ -67,32 +68,41 @@ impl Default for TrainOptions {
     }
 }
 
-/// Refuses targets the conversion formulas cannot start from, saying what to do instead.
-pub fn validate_targets(t: &MacroProperties) -> Result<()> {
+/// Refuses targets the conversion formulas of `dim` cannot start from, saying what to do instead.
+pub fn validate_targets(t: &MacroProperties, dim: Dimension) -> Result<()> {
     let bad = |name: &'static str, v: f64, why: &str| Err(Error::param(name, v, why));
     if !(t.young.is_finite() && t.young > 0.0) {
         return bad("E", t.young, "Young's modulus must be a finite number > 0 Pa");
     }
-    if !(t.poisson.is_finite() && (0.0..=0.2).contains(&t.poisson)) {
-        return bad(
-            "nu",
-            t.poisson,
+    let nu_why = match dim {
+        Dimension::Three => {
             "training needs 0 ≤ ν ≤ 0.2: above 0.2 the shear spring Ks would be negative (a bonded packing of \
-             spheres cannot reach it); use ν ≤ 0.2",
-        );
+             spheres cannot reach it); use ν ≤ 0.2"
+        }
+        Dimension::Two => {
+            "training in 2D needs 0 ≤ ν ≤ 1/3: above it the shear spring Ks would be negative (a bonded layer \
+             cannot reach it); use ν ≤ 1/3"
+        }
+    };
+    if !(t.poisson.is_finite() && (0.0..=dim.max_poisson()).contains(&t.poisson)) {
+        return bad("nu", t.poisson, nu_why);
     }
     for (name, v) in [("Tu", t.tensile), ("Cu", t.compressive)] {
         if !(v.is_finite() && v > 0.0) {
             return bad(name, v, "strengths must be finite numbers > 0 Pa");
         }
     }
-    if !(t.internal_friction.is_finite() && t.internal_friction >= MIN_INTERNAL_FRICTION - 1e-12) {
-        return bad(
-            "mu_i",
-            t.internal_friction,
-            "training needs μi ≥ 1/(2√2) ≈ 0.354 (below it the element friction μp would be negative); \
-             use μi ≥ 0.354",
-        );
+    let mu_why = match dim {
+        Dimension::Three => {
+            "training needs μi ≥ 1/(2√2) ≈ 0.354 (below it the element friction μp would be negative); use μi ≥ 0.354"
+        }
+        Dimension::Two => {
+            "training in 2D needs μi ≥ 1/(2√6) ≈ 0.204 (below it the element friction μp would be negative); use \
+             μi ≥ 0.205"
+        }
+    };
+    if !(t.internal_friction.is_finite() && t.internal_friction >= dim.min_internal_friction() - 1e-12) {
+        return bad("mu_i", t.internal_friction, mu_why);
     }
     if t.tensile >= t.compressive {
         return bad("Tu", t.tensile, "the tensile strength must be smaller than the compressive strength Cu");
@@ -227,6 +237,7 @@ impl Training {
             converged: self.converged,
             round: best.round,
             elements: self.elements,
+            dimension: self.options.sample.dimension,
         }
     }
 }
@@ -242,6 +253,10 @@ pub struct TrainedMaterial {
     pub converged: bool,
     pub round: usize,
     pub elements: usize,
+    /// Trained on a 3D or a 2D sample: a 2D material belongs in 2D models. Files written before
+    /// 2D training read as 3D.
+    #[serde(default)]
+    pub dimension: Dimension,
 }
 
 impl TrainedMaterial {
@@ -294,20 +309,21 @@ pub fn train(
     ctl: &RunControl,
     on_round: &mut dyn FnMut(&Round),
 ) -> Result<Training> {
-    validate_targets(targets)?;
+    let dim = opts.sample.dimension;
+    validate_targets(targets, dim)?;
     opts.validate()?;
     let d = 2.0 * opts.sample.radius;
     let start = Instant::now();
-    let first = Material::from_macro(name, opts.density, targets, d)?;
+    let first = dim.material(name, opts.density, targets, d)?;
     let sample = PackedSample::pack(&opts.sample, &first, ctl)?;
     let packing_seconds = start.elapsed().as_secs_f64();
     let d = sample.diameter();
-    let mut material = Material::from_macro(name, opts.density, targets, d)?;
+    let mut material = dim.material(name, opts.density, targets, d)?;
     let mut rounds: Vec<Round> = Vec::new();
     for k in 0..opts.max_rounds {
         let t0 = Instant::now();
         material.validate()?;
-        let inputs = material.lattice_macro(d);
+        let inputs = dim.lattice_macro(&material, d);
         let m = measure(&sample, &material, targets, opts, ctl)?;
         let round = Round {
             round: k + 1,
@@ -325,7 +341,7 @@ pub fn train(
         if done {
             break;
         }
-        material = corrected(&rounds, targets, d);
+        material = corrected(&rounds, targets, d, dim);
     }
     let best = (0..rounds.len()).min_by(|&a, &b| rounds[a].score.total_cmp(&rounds[b].score)).unwrap_or(0);
     Ok(Training {
@@ -345,7 +361,7 @@ pub fn train(
 /// the property it mainly controls: Kn ← E, Ks/Kn ← ν, Kn·Xb (the breaking force) ← Tu,
 /// Fs0 ← Cu, μp ← μi. ν and μi are corrected on the lattice formulas' scale (ν from Ks/Kn,
 /// μi from μp), so a correction means the same at any starting point.
-fn corrected(rounds: &[Round], t: &MacroProperties, d: f64) -> Material {
+fn corrected(rounds: &[Round], t: &MacroProperties, d: f64, dim: Dimension) -> Material {
     let last = rounds.last().expect("at least one round");
     let prev = (rounds.len() >= 2).then(|| &rounds[rounds.len() - 2]);
     let (mat, m) = (&last.material, &last.measured);
@@ -370,14 +386,14 @@ fn corrected(rounds: &[Round], t: &MacroProperties, d: f64) -> Material {
     };
     // A shift of the lattice value by the miss, over the secant slope, limited per round.
     let shift = |lattice: fn(&MacroProperties) -> f64, get: fn(&MacroProperties) -> f64, max_step: f64| -> f64 {
-        let here = lattice(&mat.lattice_macro(d));
+        let here = lattice(&dim.lattice_macro(mat, d));
         let (mi, ti) = (get(m), get(t));
         if !mi.is_finite() {
             return here;
         }
         let slope = prev
             .and_then(|r| {
-                let (dx, dm) = (here - lattice(&r.material.lattice_macro(d)), mi - get(&r.measured));
+                let (dx, dm) = (here - lattice(&dim.lattice_macro(&r.material, d)), mi - get(&r.measured));
                 let k = dm / dx;
                 (dx.abs() > 1e-3 && k.is_finite() && k > 0.1).then(|| k.clamp(0.5, 2.0))
             })
@@ -386,18 +402,16 @@ fn corrected(rounds: &[Round], t: &MacroProperties, d: f64) -> Material {
     };
     let mut next = mat.clone();
     let s_old = mat.ks / mat.kn;
-    // ν = (1 − s)/(5 + s) on the lattice, so s = (1 − 5ν)/(1 + ν).
-    let nu = shift(|p| p.poisson, |p| p.poisson, 0.08).clamp(0.0, 0.2);
-    let s_new = (1.0 - 5.0 * nu) / (1.0 + nu);
-    // Lattice E ∝ Kn·(1 + s)/(5 + s): keep the change of s from moving E.
-    let e_factor = |s: f64| (1.0 + s) / (5.0 + s);
-    next.kn = mat.kn * ratio(|x| x.kn, |p| p.young) * e_factor(s_old) / e_factor(s_new);
+    // ν = (1 − s)/(5 + s) on the 3D lattice (2D: (1 − s)/(3 + s)); s from ν.
+    let nu = shift(|p| p.poisson, |p| p.poisson, 0.08).clamp(0.0, dim.max_poisson());
+    let s_new = dim.shear_ratio(nu);
+    // Lattice E ∝ Kn·(1 + s)/(5 + s) (2D: (3 + s)): keep the change of s from moving E.
+    next.kn = mat.kn * ratio(|x| x.kn, |p| p.young) * dim.young_factor(s_old) / dim.young_factor(s_new);
     next.ks = s_new * next.kn;
     let breaking_force = mat.kn * mat.xb * ratio(|x| x.kn * x.xb, |p| p.tensile);
     next.xb = breaking_force / next.kn;
     next.fs0 = mat.fs0 * ratio(|x| x.fs0, |p| p.compressive);
-    let mu_i = shift(|p| p.internal_friction, |p| p.internal_friction, 0.3).max(MIN_INTERNAL_FRICTION);
-    let i = ((1.0 + mu_i * mu_i).sqrt() + mu_i).powi(2);
-    next.mu_p = ((-2.0 * SQRT_2 + SQRT_2 * i) / (2.0 + 2.0 * i)).max(0.0);
+    let mu_i = shift(|p| p.internal_friction, |p| p.internal_friction, 0.3).max(dim.min_internal_friction());
+    next.mu_p = dim.mu_p(mu_i);
     next
 }
