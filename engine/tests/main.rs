@@ -45,4 +45,5 @@ mod stage_lanes;
 mod strip;
 mod tangential_damping;
 mod training;
+mod triaxial_elastic;
 mod zoned;
