@@ -25,6 +25,8 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
         print(`y ${d.y.abs().max()} vy ${d.vy.abs().max()}`);
         print(`porosity ${d.porosity_box([0.002, -1.0, 0.001], [0.008, 1.0, 0.004])}`);
         d.show("z", "plate");
+        let q = plane_strain(#{ E: 1e8, nu: 0.2 });
+        print(`plane strain ${(q.E / (1e8 / 0.96) - 1.0).abs() < 1e-12 && (q.nu - 0.25).abs() < 1e-12}`);
         let g = make_box(0.01, 0, 0.005, 0.25e-3);
         print(`layer ${g.n} ${g.y.abs().max()}`);
     "#;
@@ -33,6 +35,7 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
     assert!(out.status.success(), "{so}\n{se}");
     let line = |key: &str| so.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no `{key}` in\n{so}"));
     assert_eq!(line("round trip"), "round trip true");
+    assert_eq!(line("plane strain"), "plane strain true");
     assert!(line("dimension").starts_with("dimension 2 thickness 0.000"), "{so}");
     assert!(so.contains("one layer of cells: 2D") && so.contains("2D: y held"), "{so}");
     assert_eq!(line("y "), "y 0.0 vy 0.0");

@@ -156,6 +156,24 @@ pub fn register(engine: &mut Engine) {
     engine
         .register_fn("material", material_macro)
         .register_fn("material_2d", material_2d)
+        .register_fn("plane_strain", |map: Map| -> RhaiResult<Map> {
+            let what = "plane_strain";
+            let v = read(&map, &["E", "nu", "Tu", "Cu", "mu_i"], what)?;
+            let p = MacroProperties {
+                young: get(&v, "E", what)?,
+                poisson: get(&v, "nu", what)?,
+                tensile: opt(&v, "Tu").unwrap_or(0.0),
+                compressive: opt(&v, "Cu").unwrap_or(0.0),
+                internal_friction: opt(&v, "mu_i").unwrap_or(0.0),
+            };
+            if !(p.young.is_finite() && p.young > 0.0 && p.poisson.is_finite() && (0.0..0.5).contains(&p.poisson)) {
+                return Err(err(format!(
+                    "{what}: give E > 0 Pa and 0 ≤ ν < 0.5, got E {} and ν {}",
+                    p.young, p.poisson
+                )));
+            }
+            Ok(macro_map(matdem_engine::planar::conversion::plane_strain_equivalent(&p)))
+        })
         .register_fn("material_micro", material_micro)
         .register_get("name", |m: &mut Material| m.name.clone())
         .register_get("kn", |m: &mut Material| m.kn)

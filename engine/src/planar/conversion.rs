@@ -92,6 +92,14 @@ pub fn micro_to_macro_2d(m: &MicroParameters, d: f64) -> MacroProperties {
     MacroProperties { young, poisson, tensile, compressive, internal_friction }
 }
 
+/// The 2D properties of a 3D material held in plane strain (a slice of a long body, MatDEM's
+/// `macro3Dto2D` as we read it): E' = E/(1 − ν²), ν' = ν/(1 − ν); strengths and μi kept. A 2D
+/// model is a plate in plane stress: give it these to stand for a plane-strain section.
+pub fn plane_strain_equivalent(p: &MacroProperties) -> MacroProperties {
+    let nu = p.poisson;
+    MacroProperties { young: p.young / (1.0 - nu * nu), poisson: nu / (1.0 - nu), ..*p }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -133,6 +141,19 @@ mod tests {
         assert!(rel(p.young, 2.0 * 1e6 / (SQRT_3 * 1e-3)) < 1e-14);
         // μp = 0: σ1/σ3 = 3/2 at failure without cohesion.
         assert!(rel(p.internal_friction, min_internal_friction_2d()) < 1e-14);
+    }
+
+    /// Plane strain: a plate of the 2D properties under uniaxial stress σ strains as the 3D
+    /// body held at ε_yy = 0 does: ε_xx = σ(1 − ν²)/E, ε_zz = −σν(1 + ν)/E.
+    #[test]
+    fn the_plane_strain_equivalent_strains_as_the_held_3d_body() {
+        let p = MacroProperties { young: 3e10, poisson: 0.2, tensile: 6e6, compressive: 8e7, internal_friction: 0.7 };
+        let q = plane_strain_equivalent(&p);
+        let (e, nu, sigma) = (p.young, p.poisson, 1e6);
+        // 3D, ε_yy = 0: σ_yy = ν·σ; ε_xx = (σ − ν·σ_yy)/E, ε_zz = −ν(σ + σ_yy)/E.
+        let (exx, ezz) = ((sigma - nu * nu * sigma) / e, -nu * (sigma + nu * sigma) / e);
+        assert!(rel(sigma / q.young, exx) < 1e-14 && rel(-q.poisson * sigma / q.young, ezz) < 1e-14);
+        assert_eq!((q.tensile, q.compressive, q.internal_friction), (p.tensile, p.compressive, p.internal_friction));
     }
 
     #[test]
