@@ -16,6 +16,8 @@ override VISCOUS: bool = false;
 override LOCAL: bool = false;
 // The epsd rolling resistance model: rows carry a rolling spring per entry (rolling_resistance.wgsl).
 override ROLLING_SPRING: bool = false;
+// A 2D model (every centre at y = 0): the neighbour search visits one layer of cells.
+override PLANAR: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;

@@ -112,8 +112,10 @@ fn build_row(local: u32) -> vec2<u32> {
     // Cells that hash to one bucket are visited once, so no j is seen twice.
     var seen: array<u32, 27>;
     var buckets = 0u;
+    // A 2D model's centres share one layer of cells: its neighbours are in the 9 cells about i's.
+    let y_reach = select(1, 0, PLANAR);
     for (var z = -1; z <= 1; z++) {
-        for (var y = -1; y <= 1; y++) {
+        for (var y = -y_reach; y <= y_reach; y++) {
             for (var x = -1; x <= 1; x++) {
                 if !alive {
                     continue;

@@ -752,3 +752,28 @@ fn device_rows_of_forty_thousand_grains_equal_the_cpu_rows() {
     assert!(bonds > 10_000 && set == 2 * bonds, "every bond carried: {set} set entries, {bonds} bonds");
     assert!(entries > 5 * m.len(), "most of the six face neighbours are within the skin: {entries}");
 }
+
+// A 2D model's device build searches one layer of cells (the PLANAR constant: 9 cells, not 27):
+// the rows of 10,000 grains jittered about a hexagonal layer in the x–z plane equal the CPU's.
+#[test]
+fn device_rows_of_a_2d_layer_search_one_layer_and_equal_the_cpu_rows() {
+    let Some(ctx) = gpu("device_rows_2d") else { return };
+    let r = 0.001;
+    let mut m = Model::new();
+    let k = m.add_material(bond_material()).unwrap();
+    let mut rng = Rng::new(23);
+    let layer =
+        matdem_engine::geometry::lattice::make_box_2d(0.2, 0.12, r, matdem_engine::geometry::LatticeKind::Fcc).unwrap();
+    for x in layer.pos() {
+        let jitter = Vec3::new(rng.uniform() - 0.5, 0.0, rng.uniform() - 0.5) * 0.1 * r;
+        m.add_particle(x + jitter, r * (0.9 + 0.1 * rng.uniform()), k).unwrap();
+    }
+    m.make_planar(None).unwrap();
+    m.contacts.skin = 0.4 * r;
+    let bonds = m.connect(None, 0.05 * r).unwrap();
+    rebuild(&mut m);
+    let (entries, set, _) = device_rows_match_cpu(&ctx, &m);
+    eprintln!("2D: {} grains, {bonds} bonds; {entries} entries, {set} set", m.len());
+    assert!(m.len() > 5_000 && set == 2 * bonds, "every bond carried: {set} set entries, {bonds} bonds");
+    assert!(entries > 4 * m.len(), "most of the six neighbours in the plane are within the skin: {entries}");
+}

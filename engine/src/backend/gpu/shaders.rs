@@ -197,6 +197,7 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
         ("VISCOUS", flag(plan.damping > 0.0)),
         ("LOCAL", flag(plan.local_damping > 0.0)),
         ("ROLLING_SPRING", flag(plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd))),
+        ("PLANAR", flag(plan.planar.is_some())),
     ])
     .collect()
 }
