@@ -26,7 +26,28 @@ fn tunnel_quick_mode_closes_the_opening_at_rest_and_writes_its_charts() {
         assert!(out.join(f).is_file(), "{f} missing");
     }
 
-    let m = metrics(&out);
+    check_closes_at_rest(&out);
+}
+
+/// The 2D model of the same scene (`--set dimension=2`, default element size: about 990
+/// elements in one layer, 6 s): the same checks. Measured: u_r 3.5 × Kirsch at the wall and
+/// 3.6 × at 2a (the random layer is softer than the hexagonal lattice whose formulas gave the
+/// modulus: a 2D training's first round reads E at a quarter to a half of it), and a crown
+/// element freed by the excavation falls into the opening (crown settlement 0.15 m).
+#[test]
+fn tunnel_in_2d_closes_the_opening_at_rest() {
+    let dir = temp_dir("tunnel_2d");
+    let out = dir.join("out");
+    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join("tunnel");
+    let o = bin().arg("run").arg(&pkg).args(["--set", "dimension=2", "--out"]).arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    check_closes_at_rest(&out);
+}
+
+/// The opening closes (inwards, finite, largest at the wall), the run ends at rest, and the
+/// bonds that break break near the opening.
+fn check_closes_at_rest(out: &std::path::Path) {
+    let m = metrics(out);
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
     assert!(get("excavated") > 20.0, "{m:?}");
     // The opening closes: the crown settles and the wall moves inwards, by a finite amount
