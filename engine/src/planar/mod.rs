@@ -45,6 +45,13 @@ impl Model {
                 "must be a finite length > 0 m (the mean element diameter, as MatDEM)",
             ));
         }
+        if self.settings.confinement.is_some() || self.pores.is_some() {
+            return Err(Error::InvalidScene(
+                "the model has a confining pressure or pore flow, which need 3D: remove them (d.unconfine(), \
+                 d.disable(\"pore_flow\")) before making it 2D"
+                    .into(),
+            ));
+        }
         let p = &mut self.particles;
         if let Some(i) = p.pos.iter().position(|x| x.y != 0.0) {
             return Err(Error::InvalidScene(format!(

@@ -128,6 +128,13 @@ impl Model {
     /// `confining_pressure` stage), replacing any confinement it had. Without `bands`/`sectors`
     /// the cells are about one mean grain diameter high and wide at the sample's outer radius.
     pub fn confine(&mut self, req: ConfineRequest) -> Result<()> {
+        if self.settings.planar.is_some() {
+            return Err(Error::InvalidScene(
+                "the confining pressure is a membrane round a 3D cylinder; a 2D model has none: confine it with \
+                 servo side walls (d.set_platen_stress(\"left\", σ3), d.set_platen_stress(\"right\", σ3)), a biaxial test"
+                    .into(),
+            ));
+        }
         let p = req.pressure;
         if !(p.is_finite() && p > 0.0) {
             return Err(Error::InvalidScene(format!(

@@ -236,6 +236,13 @@ impl Model {
     /// filled with the scene's fluid at ρ0 (zero gauge pressure), with the scene's boundary
     /// regions. Enabling again rebuilds it (the fluid starts afresh).
     pub fn enable_pore_flow(&mut self) -> Result<()> {
+        if self.settings.planar.is_some() {
+            return Err(Error::InvalidScene(
+                "pore flow's pores are the tetrahedra between element centres in 3D; a 2D model's centres lie in \
+                 one plane and enclose none (2D pore flow is not implemented): run the scene as a 3D slice"
+                    .into(),
+            ));
+        }
         if self.len() < 4 {
             return Err(Error::InvalidScene(format!(
                 "pore flow needs a packing of at least 4 elements (the pores are the tetrahedra of their centres); \
