@@ -25,6 +25,11 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
         print(`y ${d.y.abs().max()} vy ${d.vy.abs().max()}`);
         print(`porosity ${d.porosity_box([0.002, -1.0, 0.001], [0.008, 1.0, 0.004])}`);
         d.show("z", "plate");
+        // A side wall's stress over the height × thickness the settled layer stands on it.
+        let h = (d.z + d.r).max();
+        let before = d.boundary("left").stress;
+        d.set_boundary_area("left", h * d.thickness());
+        print(`side area ${(d.boundary("left").area / (h * d.thickness()) - 1.0).abs() < 1e-12 && d.boundary("left").stress >= before}`);
         let q = plane_strain(#{ E: 1e8, nu: 0.2 });
         print(`plane strain ${(q.E / (1e8 / 0.96) - 1.0).abs() < 1e-12 && (q.nu - 0.25).abs() < 1e-12}`);
         let g = make_box(0.01, 0, 0.005, 0.25e-3);
@@ -36,6 +41,7 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
     let line = |key: &str| so.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no `{key}` in\n{so}"));
     assert_eq!(line("round trip"), "round trip true");
     assert_eq!(line("plane strain"), "plane strain true");
+    assert_eq!(line("side area"), "side area true");
     assert!(line("dimension").starts_with("dimension 2 thickness 0.000"), "{so}");
     assert!(so.contains("one layer of cells: 2D") && so.contains("2D: y held"), "{so}");
     assert_eq!(line("y "), "y 0.0 vy 0.0");
@@ -116,4 +122,11 @@ fn a_2d_test_sample_runs_lab_tests_and_trains_from_the_2d_formulas() {
         &[],
     );
     assert!(!refused.status.success() && stderr(&refused).contains("2 or 3"), "{}", stderr(&refused));
+    let refused = run_script(
+        &dir,
+        "area.rhai",
+        r#"let b = new_box("t"); let d = b.build_initial_model(); d.set_boundary_area("bottom", -1.0);"#,
+        &[],
+    );
+    assert!(!refused.status.success() && stderr(&refused).contains("> 0 m²"), "{}", stderr(&refused));
 }

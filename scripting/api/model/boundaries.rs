@@ -40,6 +40,13 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             d.model().wall_mut(name).map_err(raise)?.friction = Some(mu);
             Ok(())
         })
+        .register_fn("set_boundary_area", |d: &mut ModelHandle, name: &str, area: FLOAT| -> RhaiResult<()> {
+            if !(area.is_finite() && area > 0.0) {
+                return Err(err(format!("d.set_boundary_area: the area must be a finite number > 0 m², got {area}")));
+            }
+            d.model().wall_mut(name).map_err(raise)?.area = area;
+            Ok(())
+        })
         .register_fn("set_platen_stress", |d: &mut ModelHandle, name: &str, stress: FLOAT| -> RhaiResult<()> {
             set_servo(d, name, stress, None)
         })
