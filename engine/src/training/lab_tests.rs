@@ -182,7 +182,7 @@ pub fn run_test(sample: &Model, test: LabTest, loading: &Loading, ctl: &RunContr
         let strain = if tension { (h - h0) / h0 } else { (h0 - h) / h0 };
         if let LabTest::ConfinedCompression { .. } = test {
             // The side walls shrink in height with the sample: keep their stress honest.
-            side_areas(m, h)?;
+            side_areas(m, h);
         }
         let stress = if tension {
             let pull = |ids: &[u32]| ids.iter().map(|&i| m.particles.force[i as usize].z).sum::<f64>();
@@ -255,7 +255,7 @@ fn confine(sim: &mut Simulation, stress: f64, r_mean: f64, ctl: &RunControl) -> 
         steps += rep.steps;
         let m = &mut sim.model;
         let h = plane_z(m, "top") - plane_z(m, "bottom");
-        side_areas(m, h)?;
+        side_areas(m, h);
         let all_there = m.walls.iter().all(|w| (w.stress() - stress).abs() < 0.02 * stress);
         if all_there && rep.unbalanced_ratio.unwrap_or(1.0) < 0.01 {
             break;
@@ -271,7 +271,7 @@ fn confine(sim: &mut Simulation, stress: f64, r_mean: f64, ctl: &RunControl) -> 
 
 /// Sets the side walls' areas for the sample's height `h`: width × h across x and y in 3D,
 /// thickness × h on the two sides of a 2D sample.
-fn side_areas(m: &mut Model, h: f64) -> Result<()> {
+fn side_areas(m: &mut Model, h: f64) {
     let (w, l) = match m.planar() {
         Some(p) => (0.0, p.thickness),
         None => (plane_x(m, "right") - plane_x(m, "left"), plane_y(m, "back") - plane_y(m, "front")),
@@ -281,7 +281,6 @@ fn side_areas(m: &mut Model, h: f64) -> Result<()> {
             m.walls[k].area = a;
         }
     }
-    Ok(())
 }
 
 /// Moves the loaded ends apart (tension) or together (compression) at `speed` each.
