@@ -194,6 +194,16 @@ fn write_lane(m: &mut Model, lane: Lane, ids: Option<Vec<u32>>, value: &Dynamic,
             values[k]
         )));
     }
+    // A 2D model's elements stay in its plane: y, vy, and the spin about x and z are its.
+    if m.planar().is_some() && matches!(lane, Lane::Pos(1) | Lane::Vel(1) | Lane::AngVel(0) | Lane::AngVel(2)) {
+        if let Some(k) = values.iter().position(|&v| v != 0.0) {
+            return Err(err(format!(
+                "{call}: the model is 2D (x–z plane) and `{}` must stay 0 there, got {} (value {k}); nothing was changed",
+                lane.name(),
+                values[k]
+            )));
+        }
+    }
     if let Lane::Vel(_) | Lane::AngVel(_) = lane {
         // A killed element stays at rest: a velocity would move it (its blocked degrees of
         // freedom keep the velocity they have).
