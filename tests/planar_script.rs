@@ -129,4 +129,12 @@ fn a_2d_test_sample_runs_lab_tests_and_trains_from_the_2d_formulas() {
         &[],
     );
     assert!(!refused.status.success() && stderr(&refused).contains("> 0 m²"), "{}", stderr(&refused));
+    // A 2D model's elements stay in its plane.
+    let refused = run_script(
+        &dir,
+        "off_plane.rhai",
+        r#"let b = new_box("t"); b.sample_l = 0; b.sample_h = 0.01; b.ball_r = 1e-3; let d = b.build_initial_model(); d.set("y", [0], 1e-4);"#,
+        &[],
+    );
+    assert!(!refused.status.success() && stderr(&refused).contains("is 2D"), "{}", stderr(&refused));
 }
