@@ -36,11 +36,12 @@ struct Measured {
     unbalanced: f64,
 }
 
-/// Compresses an N × ROWS hexagonal layer normal to its rows by STRAIN; measures E and ν.
-fn compress_hexagonal_layer(poisson: f64) -> Measured {
-    let props = MacroProperties { young: 1e9, poisson, tensile: 1e9, compressive: 1e10, internal_friction: 0.6 };
+/// An N × ROWS hexagonal layer of a 2D material of `props` (rows along x), every touching
+/// pair bonded but the top row's in-row pairs, the bottom and top rows held in z, damping 0.2,
+/// the standard step: the model, the top row's ids and the height between the end rows.
+fn bonded_layer(props: &MacroProperties) -> (Model, Vec<u32>, f64) {
     let mut m = Model::new();
-    m.add_material(Material::from_macro_2d("layer", 2600.0, &props, D).unwrap()).unwrap();
+    m.add_material(Material::from_macro_2d("layer", 2600.0, props, D).unwrap()).unwrap();
     let row = D * 3f64.sqrt() / 2.0;
     for k in 0..ROWS {
         for i in 0..N {
@@ -60,8 +61,16 @@ fn compress_hexagonal_layer(poisson: f64) -> Measured {
     m.fix(&bottom, dof::Z, true).unwrap();
     m.fix(&top, dof::Z, true).unwrap();
     m.settings.damping = 0.2;
-    let dt = m.set_standard_dt().unwrap();
+    m.set_standard_dt().unwrap();
     let height = (ROWS - 1) as f64 * row;
+    (m, top, height)
+}
+
+/// Compresses an N × ROWS hexagonal layer normal to its rows by STRAIN; measures E and ν.
+fn compress_hexagonal_layer(poisson: f64) -> Measured {
+    let props = MacroProperties { young: 1e9, poisson, tensile: 1e9, compressive: 1e10, internal_friction: 0.6 };
+    let (mut m, top, height) = bonded_layer(&props);
+    let dt = m.clock.dt;
     let load_steps = 1500;
     let speed = STRAIN * height / (load_steps as f64 * dt);
     for &i in &top {
@@ -120,29 +129,8 @@ fn a_bonded_hexagonal_layer_returns_the_2d_lattice_e_and_nu() {
 fn pull_hexagonal_layer(tensile: f64) -> (f64, f64, f64) {
     let props =
         MacroProperties { young: 1e9, poisson: 0.15, tensile, compressive: 10.0 * tensile, internal_friction: 0.6 };
-    let mut m = Model::new();
-    m.add_material(Material::from_macro_2d("layer", 2600.0, &props, D).unwrap()).unwrap();
-    let row = D * 3f64.sqrt() / 2.0;
-    for k in 0..ROWS {
-        for i in 0..N {
-            let x = i as f64 * D + if k % 2 == 1 { D / 2.0 } else { 0.0 };
-            m.add_particle(Vec3::new(x, 0.0, k as f64 * row), D / 2.0, 0).unwrap();
-        }
-    }
-    m.make_planar(Some(D)).unwrap();
-    m.connect(None, 0.01 * D).unwrap();
-    let bottom: Vec<u32> = (0..N as u32).collect();
-    let top: Vec<u32> = ((ROWS - 1) * N..ROWS * N).map(|i| i as u32).collect();
-    for (k, &i) in top.iter().enumerate() {
-        for &j in &top[k + 1..] {
-            m.contacts.set_bond(i as usize, j as usize, false);
-        }
-    }
-    m.fix(&bottom, dof::Z, true).unwrap();
-    m.fix(&top, dof::Z, true).unwrap();
-    m.settings.damping = 0.2;
-    let dt = m.set_standard_dt().unwrap();
-    let height = (ROWS - 1) as f64 * row;
+    let (mut m, top, height) = bonded_layer(&props);
+    let dt = m.clock.dt;
     // To twice the strain at which the formula breaks it, in 40,000 steps: quasi-static.
     let speed = 2.0 * tensile / 1e9 * height / (40_000.0 * dt);
     for &i in &top {
