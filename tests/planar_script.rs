@@ -34,6 +34,8 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
         print(`plane strain ${(q.E / (1e8 / 0.96) - 1.0).abs() < 1e-12 && (q.nu - 0.25).abs() < 1e-12}`);
         let g = make_box(0.01, 0, 0.005, 0.25e-3);
         print(`layer ${g.n} ${g.y.abs().max()}`);
+        let lining = make_annulus(2e-3, 3e-3, 0.25e-3);
+        print(`lining ${lining.n > 20 && lining.y.abs().max() == 0.0 && ((lining.x * lining.x + lining.z * lining.z) ** 0.5).max() <= 2.75e-3 + 1e-12}`);
     "#;
     let out = run_script(&dir, "plate.rhai", script, &[]);
     let (so, se) = (stdout(&out), stderr(&out));
@@ -50,6 +52,7 @@ fn a_box_with_sample_l_0_builds_and_deposits_a_2d_model() {
     assert!((0.1..0.3).contains(&phi), "porosity by area {phi}");
     // A 20 × 10-diameter hexagonal layer: 11 rows (spaced √3/2·d) of 20 and 19 alternately.
     assert_eq!(line("layer"), "layer 215 0.0");
+    assert_eq!(line("lining"), "lining true");
     for ext in ["svg", "png"] {
         assert!(dir.join("out").join(format!("plate.{ext}")).exists(), "plate.{ext} not written");
     }

@@ -22,6 +22,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("make_column", "make_column(radius, h, ball_r) / (…, lattice) -> Geometry", "a vertical column on the z axis, z in [0, h], filled like make_box (MatDEM mfs.makeColumn)"),
     ("make_ring", "make_ring(r_in, r_out, h, ball_r) / (…, lattice) -> Geometry", "a vertical ring (tube wall) between radii r_in and r_out on the z axis, z in [0, h]; the wall must be at least one element diameter thick (MatDEM mfs.makeRing)"),
     ("make_tube", "make_tube(r_in, r_out, h, ball_r) / (…, lattice) -> Geometry", "the same as make_ring"),
+    ("make_annulus", "make_annulus(r_in, r_out, ball_r) / (…, lattice) -> Geometry", "a 2D ring in the x–z plane centred on the origin (every centre at y = 0; r_in = 0: a full circle), one close-packed layer, every element whole between the radii: a 2D tunnel's lining, to move and add to a 2D model"),
     ("make_disc", "make_disc(radius, ball_r) -> Geometry", "one close-packed layer of elements in a disc centred on the origin at z = 0 (MatDEM mfs.makeDisc)"),
     ("make_sphere", "make_sphere(radius, ball_r) / (…, lattice) -> Geometry", "a ball of elements centred on the origin, every element whole inside (MatDEM mfs.makeSphere)"),
     ("make_lattice", "make_lattice(\"fcc\" | \"hcp\" | \"sc\", nx, ny, nz, d) -> Geometry", "nx × ny × nz elements of diameter d on a lattice, the first at the origin; FCC and HCP stack close-packed layers along z (FCC's [111], the direction the material() formulas are derived for)"),
@@ -160,6 +161,8 @@ pub fn register(engine: &mut Engine) {
         .register_fn("make_disc", |rad: Dynamic, r: Dynamic| {
             shape("make_disc", lattice::make_disc(num(&rad, "make_disc: radius")?, num(&r, "make_disc: ball_r")?))
         })
+        .register_fn("make_annulus", |a: Dynamic, b: Dynamic, r: Dynamic| make_annulus(&a, &b, &r, "fcc"))
+        .register_fn("make_annulus", |a: Dynamic, b: Dynamic, r: Dynamic, k: &str| make_annulus(&a, &b, &r, k))
         .register_fn("make_sphere", |rad: Dynamic, r: Dynamic| make_sphere(&rad, &r, "fcc"))
         .register_fn("make_sphere", |rad: Dynamic, r: Dynamic, k: &str| make_sphere(&rad, &r, k))
         .register_fn(
@@ -258,6 +261,11 @@ fn make_ring(call: &str, a: &Dynamic, b: &Dynamic, h: &Dynamic, r: &Dynamic, k: 
     let (a, b) = (num(a, &format!("{call}: r_in"))?, num(b, &format!("{call}: r_out"))?);
     let (h, r) = (num(h, &format!("{call}: h"))?, num(r, &format!("{call}: ball_r"))?);
     shape(call, lattice::make_ring(a, b, h, r, kind(k)?))
+}
+
+fn make_annulus(a: &Dynamic, b: &Dynamic, r: &Dynamic, k: &str) -> RhaiResult<Geometry> {
+    let (a, b) = (num(a, "make_annulus: r_in")?, num(b, "make_annulus: r_out")?);
+    shape("make_annulus", lattice::make_annulus_2d(a, b, num(r, "make_annulus: ball_r")?, kind(k)?))
 }
 
 fn make_sphere(rad: &Dynamic, r: &Dynamic, k: &str) -> RhaiResult<Geometry> {

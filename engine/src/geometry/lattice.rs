@@ -143,6 +143,34 @@ pub fn make_box_2d(w: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementS
     ElementSet::uniform(centres, r)
 }
 
+/// A 2D annulus in the x–z plane centred on the origin (every centre at y = 0): the hexagonal
+/// (or square) layer of [`make_box_2d`] kept where an element lies whole between radii `r_in`
+/// and `r_out` (a 2D tunnel's lining; `r_in` = 0: a full circle).
+pub fn make_annulus_2d(r_in: f64, r_out: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
+    check_positive("inner radius", r_in, true)?;
+    for (name, v) in [("outer radius", r_out), ("element radius", r)] {
+        check_positive(name, v, false)?;
+    }
+    if r_out - r_in < 2.0 * r {
+        return Err(Error::param(
+            "outer radius",
+            r_out,
+            format!("the ring (outer − inner = {}) must be at least one element diameter ({})", r_out - r_in, 2.0 * r),
+        ));
+    }
+    let square = make_box_2d(2.0 * r_out, 2.0 * r_out, r, kind)?;
+    let e = slack(r);
+    let keep: Vec<bool> = square
+        .pos()
+        .iter()
+        .map(|p| {
+            let rho = (p.x - r_out).hypot(p.z - r_out);
+            rho <= r_out - r + e && (r_in == 0.0 || rho >= r_in + r - e)
+        })
+        .collect();
+    square.filtered(&keep)?.translated(Vec3::new(-r_out, 0.0, -r_out))
+}
+
 /// A vertical column of radius `radius` on the z axis, z in [0, h].
 pub fn make_column(radius: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
     make_ring(0.0, radius, h, r, kind)
@@ -241,6 +269,19 @@ mod tests {
         assert!(solid > 0.93 * hexagonal && solid < hexagonal, "{solid}");
         let (lo, hi) = s.bounds().unwrap();
         assert!(lo.x >= -1e-9 && lo.z >= -1e-9 && hi.x <= 30.0 + 1e-9 && hi.z <= 30.0 + 1e-9, "{lo} {hi}");
+    }
+
+    #[test]
+    fn a_2d_annulus_holds_its_elements_whole_in_the_plane() {
+        let ring = make_annulus_2d(3.0, 6.0, 0.5, LatticeKind::Fcc).unwrap();
+        assert!(ring.len() > 50);
+        for p in ring.pos() {
+            let rho = p.x.hypot(p.z);
+            assert!(p.y == 0.0 && (3.5 - 1e-9..=5.5 + 1e-9).contains(&rho), "{p}");
+        }
+        let circle = make_annulus_2d(0.0, 6.0, 0.5, LatticeKind::Fcc).unwrap();
+        assert!(circle.len() > ring.len() && circle.pos().iter().all(|p| p.x.hypot(p.z) <= 5.5 + 1e-9));
+        assert!(make_annulus_2d(3.0, 3.5, 0.5, LatticeKind::Fcc).is_err());
     }
 
     #[test]
