@@ -123,6 +123,19 @@ fn a_bonded_hexagonal_layer_returns_the_2d_lattice_e_and_nu() {
     }
 }
 
+/// The mean z force on the top row's elements at least 3d from the free sides, over the d × d
+/// each stands on (Pa; upward positive).
+fn inner_top_stress(m: &Model, top: &[u32]) -> f64 {
+    let p = &m.particles;
+    let x0 = p.origin[0].x;
+    let inner = top
+        .iter()
+        .map(|&i| i as usize)
+        .filter(|&i| p.origin[i].x > x0 + 3.0 * D && p.origin[i].x < x0 + (N - 3) as f64 * D);
+    let (force, count) = inner.fold((0.0, 0), |(f, c), i| (f + p.force[i].z, c + 1));
+    force / (count as f64 * D * D)
+}
+
 /// Pulls the hexagonal layer of [`compress_hexagonal_layer`] normal to its rows until it
 /// breaks; returns the peak mean stress on the top row's inner elements (Pa) and the strain at
 /// the first broken bond, and how far from the left side that bond's first element lay (m).
@@ -142,17 +155,12 @@ fn pull_hexagonal_layer(tensile: f64) -> (f64, f64, f64) {
     let t = top[0] as usize;
     for _ in 0..400 {
         sim.run(100, &ctl, &mut |_| {}).unwrap();
+        // The rows below pull the top row down.
+        peak = peak.max(-inner_top_stress(&sim.model, &top));
         let p = &sim.model.particles;
-        let x0 = p.origin[0].x;
-        let inner = top
-            .iter()
-            .map(|&i| i as usize)
-            .filter(|&i| p.origin[i].x > x0 + 3.0 * D && p.origin[i].x < x0 + (N - 3) as f64 * D);
-        let (force, count) = inner.fold((0.0, 0), |(f, c), i| (f - p.force[i].z, c + 1));
-        peak = peak.max(force / (count as f64 * D * D));
         if first_break.is_nan() && !sim.model.breakages.is_empty() {
             first_break = (p.pos[t].z - p.origin[t].z) / height;
-            first_x = p.origin[sim.model.breakages[0].i as usize].x - x0;
+            first_x = p.origin[sim.model.breakages[0].i as usize].x - p.origin[0].x;
         }
     }
     (peak, first_break, first_x)
@@ -334,14 +342,7 @@ fn crush_hexagonal_layer(internal_friction: f64, compressive: f64) -> f64 {
     let mut peak = 0.0f64;
     for _ in 0..400 {
         sim.run(100, &RunControl::default(), &mut |_| {}).unwrap();
-        let p = &sim.model.particles;
-        let x0 = p.origin[0].x;
-        let inner = top
-            .iter()
-            .map(|&i| i as usize)
-            .filter(|&i| p.origin[i].x > x0 + 3.0 * D && p.origin[i].x < x0 + (N - 3) as f64 * D);
-        let (force, count) = inner.fold((0.0, 0), |(f, c), i| (f + p.force[i].z, c + 1));
-        peak = peak.max(force / (count as f64 * D * D));
+        peak = peak.max(inner_top_stress(&sim.model, &top));
     }
     peak
 }
