@@ -186,9 +186,14 @@ impl Material {
         Ok(())
     }
 
+    /// Its micro values, as the conversion formulas take them.
+    pub fn micro(&self) -> MicroParameters {
+        MicroParameters { kn: self.kn, ks: self.ks, xb: self.xb, fs0: self.fs0, mu_p: self.mu_p }
+    }
+
     /// The macro properties this material has on an ideal lattice of diameter `d`.
     pub fn lattice_macro(&self, d: f64) -> MacroProperties {
-        micro_to_macro(&MicroParameters { kn: self.kn, ks: self.ks, xb: self.xb, fs0: self.fs0, mu_p: self.mu_p }, d)
+        micro_to_macro(&self.micro(), d)
     }
 
     /// Rescales to elements of diameter `d_new` from `d_old`, keeping Kn/d, Kn/Ks and the

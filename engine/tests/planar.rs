@@ -187,9 +187,7 @@ fn a_bonded_hexagonal_layer_pulled_normal_to_its_rows_holds_its_tensile_strength
 fn a_2d_material_converts_back_to_its_macro_properties() {
     let props = MacroProperties { young: 3e10, poisson: 0.25, tensile: 6e6, compressive: 8e7, internal_friction: 0.7 };
     let mat = Material::from_macro_2d("rock", 2600.0, &props, 2e-3).unwrap();
-    let micro =
-        matdem_engine::materials::MicroParameters { kn: mat.kn, ks: mat.ks, xb: mat.xb, fs0: mat.fs0, mu_p: mat.mu_p };
-    let back = micro_to_macro_2d(&micro, 2e-3);
+    let back = micro_to_macro_2d(&mat.micro(), 2e-3);
     assert!((back.young / props.young - 1.0).abs() < 1e-12);
     assert!((back.poisson - props.poisson).abs() < 1e-12);
     assert!(Material::from_macro("rock", 2600.0, &props, 2e-3).is_err(), "the 3D formulas refuse ν 0.25");

@@ -2,6 +2,7 @@
 //! properties through the lattice formulas, or from micro values directly.
 
 use super::arrays::number;
+use super::training::properties_map;
 use super::{err, raise, RhaiResult};
 use matdem_engine::materials::{MacroProperties, Material, MicroParameters};
 use matdem_engine::provenance::Source;
@@ -172,7 +173,7 @@ pub fn register(engine: &mut Engine) {
                     p.young, p.poisson
                 )));
             }
-            Ok(macro_map(matdem_engine::planar::conversion::plane_strain_equivalent(&p)))
+            Ok(properties_map(&matdem_engine::planar::conversion::plane_strain_equivalent(&p)))
         })
         .register_fn("material_micro", material_micro)
         .register_get("name", |m: &mut Material| m.name.clone())
@@ -211,21 +212,10 @@ pub fn register(engine: &mut Engine) {
     engine
         .register_fn("to_string", |m: &mut Material| describe(m))
         .register_fn("to_debug", |m: &mut Material| describe(m))
-        .register_fn("macro_properties", |m: &mut Material, d: FLOAT| macro_map(m.lattice_macro(d)))
+        .register_fn("macro_properties", |m: &mut Material, d: FLOAT| properties_map(&m.lattice_macro(d)))
         .register_fn("macro_properties_2d", |m: &mut Material, d: FLOAT| {
-            let micro = MicroParameters { kn: m.kn, ks: m.ks, xb: m.xb, fs0: m.fs0, mu_p: m.mu_p };
-            macro_map(matdem_engine::planar::conversion::micro_to_macro_2d(&micro, d))
+            properties_map(&matdem_engine::planar::conversion::micro_to_macro_2d(&m.micro(), d))
         });
-}
-
-fn macro_map(p: MacroProperties) -> Map {
-    let mut map = Map::new();
-    map.insert("E".into(), p.young.into());
-    map.insert("nu".into(), p.poisson.into());
-    map.insert("Tu".into(), p.tensile.into());
-    map.insert("Cu".into(), p.compressive.into());
-    map.insert("mu_i".into(), p.internal_friction.into());
-    map
 }
 
 /// One line of values, then each value that was not simply given: where it came from.

@@ -127,7 +127,8 @@ fn options(map: &Map, density: f64) -> RhaiResult<TrainOptions> {
     Ok(o)
 }
 
-fn properties_map(p: &MacroProperties) -> Map {
+/// Macro properties as scripts name them: E, nu, Tu, Cu, mu_i.
+pub(super) fn properties_map(p: &MacroProperties) -> Map {
     let mut m = Map::new();
     m.insert("E".into(), p.young.into());
     m.insert("nu".into(), p.poisson.into());

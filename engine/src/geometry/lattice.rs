@@ -143,10 +143,8 @@ pub fn make_box_2d(w: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementS
     ElementSet::uniform(centres, r)
 }
 
-/// A 2D annulus in the x–z plane centred on the origin (every centre at y = 0): the hexagonal
-/// (or square) layer of [`make_box_2d`] kept where an element lies whole between radii `r_in`
-/// and `r_out` (a 2D tunnel's lining; `r_in` = 0: a full circle).
-pub fn make_annulus_2d(r_in: f64, r_out: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
+/// Refuses a ring's radii: not finite, negative, or a wall thinner than one element diameter.
+fn check_ring(r_in: f64, r_out: f64, r: f64) -> Result<()> {
     check_positive("inner radius", r_in, true)?;
     for (name, v) in [("outer radius", r_out), ("element radius", r)] {
         check_positive(name, v, false)?;
@@ -155,9 +153,17 @@ pub fn make_annulus_2d(r_in: f64, r_out: f64, r: f64, kind: LatticeKind) -> Resu
         return Err(Error::param(
             "outer radius",
             r_out,
-            format!("the ring (outer − inner = {}) must be at least one element diameter ({})", r_out - r_in, 2.0 * r),
+            format!("the wall (outer − inner = {}) must be at least one element diameter ({})", r_out - r_in, 2.0 * r),
         ));
     }
+    Ok(())
+}
+
+/// A 2D annulus in the x–z plane centred on the origin (every centre at y = 0): the hexagonal
+/// (or square) layer of [`make_box_2d`] kept where an element lies whole between radii `r_in`
+/// and `r_out` (a 2D tunnel's lining; `r_in` = 0: a full circle).
+pub fn make_annulus_2d(r_in: f64, r_out: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
+    check_ring(r_in, r_out, r)?;
     let square = make_box_2d(2.0 * r_out, 2.0 * r_out, r, kind)?;
     let e = slack(r);
     let keep: Vec<bool> = square
@@ -178,17 +184,8 @@ pub fn make_column(radius: f64, h: f64, r: f64, kind: LatticeKind) -> Result<Ele
 
 /// A vertical ring (tube) between radii `r_in` and `r_out` on the z axis, z in [0, h].
 pub fn make_ring(r_in: f64, r_out: f64, h: f64, r: f64, kind: LatticeKind) -> Result<ElementSet> {
-    check_positive("inner radius", r_in, true)?;
-    for (name, v) in [("outer radius", r_out), ("height", h), ("element radius", r)] {
-        check_positive(name, v, false)?;
-    }
-    if r_out - r_in < 2.0 * r {
-        return Err(Error::param(
-            "outer radius",
-            r_out,
-            format!("the wall (outer − inner = {}) must be at least one element diameter ({})", r_out - r_in, 2.0 * r),
-        ));
-    }
+    check_ring(r_in, r_out, r)?;
+    check_positive("height", h, false)?;
     let e = slack(r);
     let (lo, hi) = (Vec3::new(-r_out, -r_out, 0.0), Vec3::new(r_out, r_out, h));
     fill(kind, 2.0 * r, lo, hi, |p| {

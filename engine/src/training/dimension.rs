@@ -3,7 +3,7 @@
 //! formulas' reading of a material, and the relations the corrections move along.
 
 use crate::error::Result;
-use crate::materials::{micro_to_macro, MacroProperties, Material, MicroParameters};
+use crate::materials::{MacroProperties, Material};
 use crate::planar::conversion::{micro_to_macro_2d, min_internal_friction_2d, MAX_POISSON_2D};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::SQRT_2;
@@ -31,10 +31,9 @@ impl Dimension {
 
     /// What the formulas say `m` gives at diameter `d`.
     pub fn lattice_macro(self, m: &Material, d: f64) -> MacroProperties {
-        let micro = MicroParameters { kn: m.kn, ks: m.ks, xb: m.xb, fs0: m.fs0, mu_p: m.mu_p };
         match self {
-            Dimension::Three => micro_to_macro(&micro, d),
-            Dimension::Two => micro_to_macro_2d(&micro, d),
+            Dimension::Three => m.lattice_macro(d),
+            Dimension::Two => micro_to_macro_2d(&m.micro(), d),
         }
     }
 
