@@ -58,7 +58,7 @@ pub fn new_engine(host: Rc<Host>) -> Engine {
     let h = host.clone();
     engine.on_print(move |text| {
         if !h.replaying() {
-            println!("{}", terminal_text::lines(text));
+            say(terminal_text::lines(text));
         }
     });
     // Rhai's own `debug` output, the same way (source and position as Rhai prints them).
@@ -68,11 +68,19 @@ pub fn new_engine(host: Rc<Host>) -> Engine {
         }
         let text = terminal_text::lines(text);
         match (source.map(terminal_text::one_line), pos.is_none()) {
-            (Some(source), true) => println!("{source} | {text}"),
-            (Some(source), false) => println!("{source} @ {pos:?} | {text}"),
-            (None, true) => println!("{text}"),
-            (None, false) => println!("{pos:?} | {text}"),
+            (Some(source), true) => say(format!("{source} | {text}")),
+            (Some(source), false) => say(format!("{source} @ {pos:?} | {text}")),
+            (None, true) => say(text),
+            (None, false) => say(format!("{pos:?} | {text}")),
         }
     });
     engine
+}
+
+/// A line of what a script prints, to stdout. A reader that went away (`matdem-rs run s.rhai |
+/// head -1`) must not stop the run, whose outputs are still being written: the line is dropped
+/// (`println!` would panic on the broken pipe).
+fn say(line: impl std::fmt::Display) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
 }
