@@ -279,25 +279,34 @@ fn evaluate(
     host.resumable = !cfg.plan_only;
     let host = Rc::new(host);
     let mut engine = crate::new_engine(host.clone());
-    // A signal in a script loop stops the script at its next operation; a balance sees the
-    // flag first and saves a resume point (see api::model::running::run_steps).
-    // Past --max-memory (values counted after they were made), it stops the same way.
+    // A signal lands where it lands: in a balance, which saves a resume point (see
+    // api::model::running::run_steps), or in the script's own code between two balances. There
+    // the script goes on for up to STOP_GRACE, so that its next run or balance (usually a few
+    // operations away) saves the resume point after its first chunk; a script that reaches
+    // none in that time (a long loop of its own) is stopped with no resume point.
+    // Past --max-memory (values counted after they were made), it stops at once.
     let control = cfg.control.clone();
-    engine.on_progress(
-        move |_| {
-            if control.is_cancelled() {
-                Some(Stop::Stopped.token())
-            } else {
-                crate::memory::over_limit()
+    let resumable = host.resumable;
+    let signalled_at = std::cell::Cell::new(None::<std::time::Instant>);
+    engine.on_progress(move |_| {
+        if control.is_cancelled() {
+            let since = signalled_at.get().unwrap_or_else(std::time::Instant::now);
+            signalled_at.set(Some(since));
+            if !resumable || since.elapsed() >= STOP_GRACE {
+                return Some(Stop::Stopped.token());
             }
-        },
-    );
+        }
+        crate::memory::over_limit()
+    });
     let sources = Sources { main_path: path, main_text: text };
     let result = compile_and_run(cfg, &mut engine, &host, &sources);
     let plans = host.plans.take();
     let ran_on = (host.backend.borrow().describe(), host.speed_test.take());
     (result, plans, ran_on)
 }
+
+/// How long a script signalled between two balances may go on to reach the next one.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// The `matdem-rs` binary running this process, which `run_points` starts again for each
 /// point; `None` where a run is evaluated inside another program (a test binary), which

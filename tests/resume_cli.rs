@@ -144,3 +144,64 @@ fn every_run_folder_records_the_script_hash_parameters_backend_and_exit() {
         assert!(record.contains(&want), "run.ron lacks {want}:\n{record}");
     }
 }
+
+/// A signal that lands in the script's own code between two balances (here a loop of
+/// arithmetic) still leaves a resume point: the script goes on to its next run, which saves
+/// one after its first chunk, and the resumed run ends as the uninterrupted one.
+#[test]
+fn sigterm_between_two_balances_still_leaves_a_resume_point() {
+    let dir = temp_dir("resume_between");
+    let script = dir.join("between.rhai");
+    let text = r#"
+let b = new_box("tiny");
+b.ball_r = 0.5e-3; b.distri_rate = 0.2;
+b.sample_w = 6e-3; b.sample_l = 6e-3; b.sample_h = 8e-3;
+let d = b.build_initial_model();
+d.set_group_mat("sample", material_micro("grain", #{ kn: 2e4, ks: 8e3, r: 0.5e-3, mu_p: 0.5, restitution: 0.5 }));
+d.set_standard_dt();
+d.gravity = [0.0, 0.0, -9.81 * 50.0];
+d.run(500);
+print("between");
+let s = 0;
+for i in 0..300000 { s += i % 7; }
+d.record(#{ s: s, mean_z: d.z.mean() });
+d.run(3000);
+d.status.save("final.csv");
+d.save("settled");
+"#;
+    std::fs::write(&script, text).unwrap();
+    let straight = run(&script, &dir.join("straight"));
+    assert!(straight.status.success(), "{}", stderr(&straight));
+
+    let out = dir.join("cut");
+    let mut child = Running(
+        bin()
+            .arg("run")
+            .arg(&script)
+            .arg("--out")
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    // The loop after "between" takes tens of milliseconds: the signal lands in it (or, on a
+    // slow day, in the run after it, which saves a resume point as before).
+    let mut line = [0u8; 8];
+    child.0.stdout.take().unwrap().read_exact(&mut line).unwrap();
+    assert_eq!(&line, b"between\n");
+    assert!(Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap().success());
+    let status = child.0.wait().unwrap();
+    let mut err = String::new();
+    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(out.join("resume/journal.ron").is_file(), "a resume point is saved: {err}");
+    assert!(!out.join("final.csv").exists(), "the interruption must land before the end of the run");
+
+    let resumed = bin().arg("run").arg(&script).arg("--resume").arg(&out).output().unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    for file in ["final.csv", "settled.mdem"] {
+        let (a, b) = (std::fs::read(dir.join("straight").join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
+        assert!(a == b, "{file} of the resumed run differs from the uninterrupted run's");
+    }
+}
