@@ -18,6 +18,8 @@ override LOCAL: bool = false;
 override ROLLING_SPRING: bool = false;
 // A 2D model (every centre at y = 0): the neighbour search visits one layer of cells.
 override PLANAR: bool = false;
+// Clumps exist: the neighbour search leaves out pairs within one clump (its `clump_of` lane).
+override CLUMPS: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;
@@ -32,6 +34,9 @@ const MAX_WALLS: u32 = 8u;
 // The `kind` lane's bit of a killed element (dof::KILLED << 24, Model::kill): in no row and
 // touching no wall. Its other fixity bits are set too, so the integrator keeps it at rest.
 const KILLED: u32 = 0x40000000u;
+// The `kind` lane's bit of a clump's member (dof::CLUMPED << 24): moved by its clump (the
+// `clumps` stage), not by the integrator; in no row with a member of its own clump.
+const CLUMPED: u32 = 0x80000000u;
 
 // Slots of the counters buffer.
 const C_STEP: u32 = 0u;

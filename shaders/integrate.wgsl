@@ -30,6 +30,10 @@ fn count_step() {
 // Moves particle i under its summed force f and torque t (the wall pass calls this for its own
 // particle when no force stage comes between them: wall_forces.wgsl).
 fn integrate_particle(i: u32, f: vec3<f32>, t: vec3<f32>) {
+    if (kind[i] & CLUMPED) != 0u {
+        // Its clump moves it (the `clumps` stage, next).
+        return;
+    }
     let dt = params.dt;
     let mi = body[i].x;
     // Half the viscous damping coefficient times dt over m (semi-implicit form).

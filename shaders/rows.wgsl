@@ -136,6 +136,10 @@ fn build_row(local: u32) -> vec2<u32> {
                     if j == i || (kind[j] & KILLED) != 0u {
                         continue;
                     }
+                    // Members of one clump never touch: it is rigid.
+                    if CLUMPS && (kind[i] & CLUMPED) != 0u && clump_of[i] == clump_of[j] {
+                        continue;
+                    }
                     // Both parts of the position differ little between neighbours: subtract each first.
                     let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
                     let cut = ri + origin[j].w + params.skin;

@@ -39,6 +39,7 @@ mod movie_cli;
 mod oedometer_seeds;
 mod packages;
 mod parallel_bond_cli;
+mod clumps_script;
 mod planar_script;
 mod pore_flow_script;
 mod porosity_and_statistics;

@@ -34,6 +34,7 @@
 use crate::body_potential::{BodyFields, BodyWork};
 use crate::effects::applied_loads::lanes::AppliedLoads;
 use crate::effects::buoyancy::WaterTable;
+use crate::effects::clumps::lanes::Clumps;
 use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::effects::conduction::HeatSettings;
 use crate::effects::confining_pressure::{Confinement, MAX_CELLS};
@@ -165,6 +166,8 @@ enum Section {
     Confinement { settings: Confinement },
     /// A 2D model's plate. A file without it loads 3D.
     Planar { setting: crate::planar::setting::Planar },
+    /// The clumps' bodies, members and offsets. A file without it loads with none.
+    Clumps { clumps: Clumps },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -242,6 +245,9 @@ impl Section {
         if let Some(setting) = m.settings.planar {
             out.push(Section::Planar { setting });
         }
+        if !m.clumps.is_empty() {
+            out.push(Section::Clumps { clumps: m.clumps.clone() });
+        }
         out
     }
 
@@ -313,6 +319,10 @@ impl Section {
                     return Err("a 2D model's element lies off the plane y = 0 or is free to leave it".into());
                 }
                 m.settings.planar = Some(setting);
+            }
+            Section::Clumps { clumps } => {
+                check_clumps(&clumps, &m.particles.fixed)?;
+                m.clumps = clumps;
             }
             Section::RotationAngle { angle } => {
                 let n = m.len();
@@ -800,4 +810,31 @@ mod tests {
         assert_eq!(loaded.settings.pores.boundaries[0].temperature, Some(350.0));
         assert_eq!(loaded.pores.as_ref().unwrap().region_mass, m.pores.as_ref().unwrap().region_mass);
     }
+}
+
+/// A saved clump set fits the model it is loaded into: every member a live element marked as a
+/// member, of one clump, its body sound.
+fn check_clumps(c: &Clumps, fixed: &[u8]) -> Result<(), String> {
+    use crate::state::particles::dof;
+    let n = fixed.len();
+    let shaped = c.of.len() == n
+        && c.member_start.len() == c.bodies.len() + 1
+        && c.member_start.first() == Some(&0)
+        && c.member_start.windows(2).all(|w| w[0] < w[1])
+        && c.member_start.last().map(|&e| e as usize) == Some(c.members.len())
+        && c.offsets.len() == c.members.len();
+    if !shaped {
+        return Err("the clumps' member lists do not match their bodies or the elements".into());
+    }
+    for (k, b) in c.bodies.iter().enumerate() {
+        let finite = [b.mass, b.inertia.x, b.inertia.y, b.inertia.z].iter().all(|v| v.is_finite() && *v > 0.0)
+            && b.pos.iter().chain(b.vel.iter()).chain(b.ang_mom.iter()).chain(&b.orientation).all(|v| v.is_finite());
+        let members_sound = c.members[c.range(k)].iter().all(|&i| {
+            (i as usize) < n && c.of[i as usize] == k as u32 && fixed[i as usize] & dof::CLUMPED != 0
+        });
+        if !finite || !members_sound {
+            return Err(format!("clump {k} has an unsound body or a member that is not marked as its own"));
+        }
+    }
+    Ok(())
 }

@@ -73,6 +73,7 @@ impl Model {
         for &i in &doomed {
             member[i] = true;
         }
+        self.detach_from_clumps(&member, None);
         report.bonds_broken = self.break_bonds_touching(&member);
         let pb = &mut self.parallel_bonds;
         for i in 0..pb.row_start.len().saturating_sub(1) {
@@ -181,6 +182,8 @@ impl Model {
         }
         self.contacts = kept;
         crate::neighbours::rebuild(self);
+        let leaving: Vec<bool> = keep.iter().map(|k| !k).collect();
+        self.detach_from_clumps(&leaving, Some(&map));
         self.touch();
         Ok(())
     }

@@ -142,6 +142,10 @@ pub struct Model {
     /// account (`body_potential`). Saved after a checkpoint's sections (format 8).
     #[serde(skip)]
     pub body_work: crate::state::body_work::BodyWork,
+    /// The `clumps` stage's rigid bodies (empty unless the scene made clumps). Saved in a
+    /// checkpoint's sections.
+    #[serde(skip)]
+    pub clumps: crate::effects::clumps::lanes::Clumps,
 }
 
 impl Default for Model {
@@ -167,6 +171,7 @@ impl Model {
             wall_rolling: Vec::new(),
             pores: None,
             body_work: Default::default(),
+            clumps: Default::default(),
         }
     }
 

@@ -152,11 +152,13 @@ pub fn parallel_bond_energies(m: &Model) -> (f64, f64) {
 /// Kinetic energy from the stored (half-step) velocities (J).
 pub fn kinetic_energy(m: &Model) -> f64 {
     let p = &m.particles;
-    let mut ke: f64 = (0..p.len()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared()).sum();
+    // A clump's members count as its body, not one by one.
+    let own = |i: &usize| p.fixed[*i] & crate::state::particles::dof::CLUMPED == 0;
+    let mut ke: f64 = (0..p.len()).filter(own).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared()).sum();
     if let Some(r) = &p.rotation {
-        ke += (0..p.len()).map(|i| 0.5 * p.inertia(i) * r.ang_vel[i].norm_squared()).sum::<f64>();
+        ke += (0..p.len()).filter(own).map(|i| 0.5 * p.inertia(i) * r.ang_vel[i].norm_squared()).sum::<f64>();
     }
-    ke
+    ke + m.clumps.bodies.iter().map(crate::effects::clumps::lanes::Body::kinetic_energy).sum::<f64>()
 }
 
 /// Contact statistics between particles.

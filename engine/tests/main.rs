@@ -10,6 +10,7 @@ mod applied_loads;
 mod buoyancy;
 mod buoyancy_energy;
 mod checkpoint;
+mod clumps;
 mod conduction;
 mod cone;
 mod confining_pressure;

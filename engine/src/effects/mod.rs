@@ -6,6 +6,7 @@
 //! The core step (walls, neighbour rows, contacts, integration, guard) stays in the backends.
 pub mod applied_loads;
 pub mod buoyancy;
+pub mod clumps;
 pub mod conduction;
 pub mod confining_pressure;
 pub mod heat_ledger;

@@ -23,6 +23,7 @@ use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::state::particles::dof;
+use crate::effects::clumps::lanes::NONE;
 use cell_list::find_pairs;
 use rayon::prelude::*;
 
@@ -44,6 +45,11 @@ pub fn rebuild(m: &mut Model) {
                 pairs.push((i as u32, j));
             }
         }
+    }
+    // Members of one clump never touch: their clump is rigid (bonds between them go too).
+    if !m.clumps.is_empty() {
+        let of = |i: u32| m.clumps.of.get(i as usize).copied().unwrap_or(NONE);
+        pairs.retain(|&(i, j)| of(i) == NONE || of(i) != of(j));
     }
     pairs.par_sort_unstable();
     pairs.dedup();

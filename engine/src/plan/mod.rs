@@ -4,6 +4,7 @@
 
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::effects::buoyancy::BuoyancyPlan;
+use crate::effects::clumps::ClumpsPlan;
 use crate::effects::conduction::ConductionPlan;
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::effects::moisture::MoisturePlan;
@@ -67,6 +68,10 @@ pub enum Stage {
     Buoyancy,
     /// Body forces, damping and leapfrog integration (rotation when on).
     Integrate,
+    /// Optional: clumps (effects/clumps/), rigid bodies of elements: each clump's member loads
+    /// summed, its body advanced and its members placed, right after the move (which leaves
+    /// the members alone).
+    Clumps,
     /// Optional: the energy ledger, the heat each particle releases by cause and the work
     /// walls do. Its lanes exist only in plans that keep it; the core stages book into them
     /// as they dissipate, because each cause is a by-product of a core law (see
@@ -94,6 +99,9 @@ pub enum Role {
     Force,
     /// An optional field stage: a field step after the move.
     Field,
+    /// An optional stage that moves rigid bodies right after the move (clumps), before the
+    /// field stages.
+    Body,
     /// Booked inside the stages that dissipate (the heat ledger), no pass of its own.
     Ledger,
     /// The stability guard, every `guard_every` steps.
@@ -166,6 +174,8 @@ pub struct StepPlan {
     pub confining: Option<ConfiningPlan>,
     /// A 2D model's plate thickness (m): the scene lies in the x–z plane (`crate::planar`).
     pub planar: Option<f64>,
+    /// Rigid clumps of elements (the scene made some).
+    pub clumps: Option<ClumpsPlan>,
 }
 
 /// One stage's per-particle lanes in a plan, on the CPU backend (f64).
@@ -259,6 +269,7 @@ impl StepPlan {
             applied_loads,
             confining: ConfiningPlan::of(m),
             planar: m.settings.planar.map(|p| p.thickness),
+            clumps: ClumpsPlan::of(m),
         }
     }
 
@@ -480,6 +491,7 @@ impl StepPlan {
             (false, None) => "integrate(leapfrog)",
         };
         stages.push(integrate.to_string());
+        stages.extend(self.words_of(Role::Body));
         stages.extend(self.words_of(Role::Field));
         writeln!(f, "step plan: {}", stages.join(" → "))?;
         let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
@@ -591,6 +603,7 @@ mod tests {
         for s in Stage::ALL {
             match s.role() {
                 Role::Force => assert!(at(Stage::WallForces) < at(s) && at(s) < at(Stage::Integrate), "{s}"),
+                Role::Body => assert!(at(s) == at(Stage::Integrate) + 1, "{s}"),
                 Role::Field => assert!(at(Stage::Integrate) < at(s) && at(s) < at(Stage::Guard), "{s}"),
                 Role::Core | Role::Ledger | Role::Guard => {}
             }

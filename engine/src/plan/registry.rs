@@ -14,6 +14,7 @@
 use super::{LaneSet, Role, Stage, StepPlan};
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::effects::buoyancy::BuoyancyPlan;
+use crate::effects::clumps::ClumpsPlan;
 use crate::effects::conduction::ConductionPlan;
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::effects::moisture::MoisturePlan;
@@ -58,7 +59,7 @@ fn per_particle(stage: Stage, lanes: Vec<&'static str>, bytes: usize) -> LaneSet
 }
 
 /// Every stage, in step order.
-pub const REGISTRY: [Entry; 15] = [
+pub const REGISTRY: [Entry; 16] = [
     core(Stage::Walls, "walls", |p| p.walls > 0),
     core(Stage::Neighbours, "neighbours", |_| true),
     core(Stage::ContactForces, "contact_forces", |_| true),
@@ -159,6 +160,25 @@ pub const REGISTRY: [Entry; 15] = [
         words: |p| p.buoyancy.as_ref().map(BuoyancyPlan::words),
     },
     core(Stage::Integrate, "integrate", |_| true),
+    Entry {
+        stage: Stage::Clumps,
+        name: "clumps",
+        role: Role::Body,
+        effect: true,
+        runs: |p| p.clumps.is_some(),
+        // Per element its clump; per member its number and offset, and its share of its
+        // body: counted on every element, a bound (a scene of clumps is mostly members).
+        lanes: |p| {
+            p.clumps.map(|c| {
+                let body = size_of::<crate::effects::clumps::lanes::Body>() * c.clumps;
+                let member = size_of::<u32>() + size_of::<Vec3>() + body.div_ceil(c.members.max(1));
+                per_particle(Stage::Clumps, vec!["clump_of", "member", "offset", "body"], size_of::<u32>() + member)
+            })
+        },
+        checkpoint: "Section::Clumps",
+        script: "d.clump",
+        words: |p| p.clumps.as_ref().map(ClumpsPlan::words),
+    },
     Entry {
         stage: Stage::HeatLedger,
         name: "heat_ledger",

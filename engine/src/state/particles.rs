@@ -23,6 +23,9 @@ pub mod dof {
     /// neighbour rows and the wall contacts, left out of statistics and pictures. Bit 6, so the
     /// GPU's `kind` lane carries it at bit 30 beside the other fixities.
     pub const KILLED: u8 = 64;
+    /// A clump's member (effects/clumps/): moved by its clump's body, not integrated on its
+    /// own. Bit 7, the GPU's `kind` bit 31.
+    pub const CLUMPED: u8 = 128;
 }
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]

@@ -35,6 +35,7 @@ pub mod measure;
 mod moisture;
 mod observation;
 mod planar;
+mod clumps;
 mod pores;
 mod regions;
 mod running;
@@ -199,6 +200,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     boundaries::register(engine, &host);
     confinement::register(engine, &host);
     planar::register(engine);
+    clumps::register(engine);
     running::register(engine, &host);
     observation::register(engine, &host);
     elements::register(engine, &host);

@@ -107,6 +107,10 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
     mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
+    if b.fixed & dof::CLUMPED != 0 {
+        // Its clump moves it (the `clumps` stage, next).
+        return;
+    }
     let (dt, mi) = (k.dt, b.mass);
     let v0 = *vel;
     let mut f_total = b.force + k.gravity * mi;
@@ -174,6 +178,9 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
+    if fixed & dof::CLUMPED != 0 {
+        return;
+    }
     let inertia = 0.4 * mass * radius * radius;
     let w0 = *ang_vel;
     let mut w1 = if DAMP {

@@ -16,6 +16,7 @@ pub mod wall_forces;
 // The effects' passes, each in its folder (`effects/<name>/`).
 use crate::effects::applied_loads::cpu as applied_loads;
 use crate::effects::buoyancy::cpu as buoyancy;
+use crate::effects::clumps::cpu as clumps;
 use crate::effects::conduction::cpu as conduction;
 use crate::effects::confining_pressure::cpu as confining_pressure;
 use crate::effects::heat_ledger::cpu as heat_ledger;
@@ -32,7 +33,7 @@ use crate::neighbours;
 use crate::plan::{Role, Stage, StepPlan};
 use crate::status::{potential_energies, Energies, EnergySample};
 use contact_forces::{compute_contact_forces, sync_rows, Breaks, PairScratch};
-use integrate::integrate;
+use integrate::{integrate, Observed};
 use wall_forces::compute_wall_forces;
 
 /// Per-run derived data: the plan and each particle's viscous damping coefficient.
@@ -118,6 +119,11 @@ impl CpuBackend {
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
+        for stage in self.plan.runs(Role::Body) {
+            let t = Instant::now();
+            self.body_stage(m, stage);
+            times.add(stage, t.elapsed());
+        }
         for stage in self.plan.runs(Role::Field) {
             let t = Instant::now();
             self.field_stage(m, stage);
@@ -170,6 +176,7 @@ impl CpuBackend {
             // Nothing is read between the forces and the move: finish each particle in one pass.
             let breaks = fused::forces_and_motion(m, &self.plan, &mut self.pairs, &self.damping_c);
             record_breaks(m, breaks);
+            self.body_stages(m);
             self.field_stages(m);
             m.clock.step += 1;
             m.clock.time += dt;
@@ -190,6 +197,7 @@ impl CpuBackend {
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
+            self.body_stages(m);
             self.field_stages(m);
             m.clock.step += 1;
             m.clock.time += dt;
@@ -200,7 +208,12 @@ impl CpuBackend {
         // with the force at the end of the move; count half of it (the trapezoid rule), or
         // while a platen loads the sample the account runs ahead by F·v·dt/2.
         e.wall_work -= 0.5 * (e.wall_work - work_before);
-        let obs = integrate(m, &self.plan, &self.damping_c);
+        let mut obs = integrate(m, &self.plan, &self.damping_c);
+        for stage in self.plan.runs(Role::Body) {
+            let o = self.body_stage(m, stage);
+            obs.kinetic += o.kinetic;
+            obs.damping_heat += o.damping_heat;
+        }
         e.kinetic = obs.kinetic;
         // The kinetic energy is that of the integer time, half way through this step's
         // damping: book half of it, or the account runs half a step behind (an offset of
@@ -248,6 +261,22 @@ impl CpuBackend {
             _ => unreachable!("{stage} is not a force stage of this plan"),
         }
         0.0
+    }
+
+    /// One optional body stage of the plan (`Role::Body`), right after the move: what it adds
+    /// to an observed step's kinetic energy and damping heat.
+    fn body_stage(&mut self, m: &mut Model, stage: Stage) -> Observed {
+        match stage {
+            Stage::Clumps => clumps::clumps(m, &self.plan, &self.damping_c),
+            _ => unreachable!("{stage} is not a body stage of this plan"),
+        }
+    }
+
+    /// The plan's body stages after the move, in step order.
+    fn body_stages(&mut self, m: &mut Model) {
+        for stage in self.plan.runs(Role::Body) {
+            let _ = self.body_stage(m, stage);
+        }
     }
 
     /// One optional field stage of the plan (`Role::Field`), a field step after the move.

@@ -145,6 +145,8 @@ pub const VEL: Lane = lane(Home::Core, "vel", "array<vec4<f32>>");
 pub const BODY: Lane = lane(Home::Core, "body", "array<vec4<f32>>");
 /// Material and fixities (the KILLED bit: in no row).
 pub const KIND: Lane = lane(Home::Core, "kind", "array<u32>");
+/// Each element's clump (`u32::MAX`: none); one word while the model has no clumps.
+pub const CLUMP_OF: Lane = lane(Home::Core, "clump_of", "array<u32>");
 pub const FORCE: Lane = lane(Home::Core, "force", "array<vec4<f32>>");
 pub const ANG_VEL: Lane = lane(Home::Core, "ang_vel", "array<vec4<f32>>");
 pub const TORQUE: Lane = lane(Home::Core, "torque", "array<vec4<f32>>");

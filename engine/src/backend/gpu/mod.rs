@@ -49,6 +49,7 @@ pub mod walls;
 // The effects' passes, each in its folder (`effects/<name>/`).
 use crate::effects::applied_loads::gpu as applied_loads;
 use crate::effects::buoyancy::gpu as buoyancy;
+use crate::effects::clumps::gpu as clumps;
 use crate::effects::conduction::gpu as conduction;
 use crate::effects::confining_pressure::gpu as confining_pressure;
 use crate::effects::heat_ledger::gpu as heat_ledger;
@@ -78,7 +79,7 @@ pub use device::{select, BackendChoice, Compute};
 
 /// Every WGSL stage, the core's and the effects', for validation without a device
 /// (`shaders.rs`'s tests).
-pub const SHADERS: [&shaders::Shader; 19] = [
+pub const SHADERS: [&shaders::Shader; 20] = [
     &shaders::NEIGHBOURS,
     &shaders::CELL_LIST,
     &shaders::SCAN,
@@ -94,6 +95,7 @@ pub const SHADERS: [&shaders::Shader; 19] = [
     &applied_loads::SHADER,
     &confining_pressure::SHADER,
     &buoyancy::SHADER,
+    &clumps::SHADER,
     &conduction::SHADER,
     &moisture::SHADER,
     &pore_flow::SHADER,
@@ -219,6 +221,8 @@ struct Session {
     water: Option<moisture::Lanes>,
     /// The pore_flow stage's network, fluid and kernels, when the plan has it.
     pores: Option<pore_flow::PoreSession>,
+    /// The clumps' bodies and members, when the plan has them.
+    clumps: Option<clumps::Session>,
 }
 
 impl Session {
@@ -554,7 +558,12 @@ impl GpuBackend {
                 .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan, thermal.as_ref()))
                 .transpose()?,
         };
+        let rigid = match self.plan.clumps {
+            Some(_) => Some(clumps::Session::upload(&self.ctx, &self.constants, m, &lanes)?),
+            None => None,
+        };
         self.device_bytes = lanes.bytes
+            + rigid.as_ref().map_or(0, |c| c.bytes)
             + bonds.as_ref().map_or(0, |b| b.bytes)
             + thermal.as_ref().map_or(0, |t| t.bytes)
             + moist.as_ref().map_or(0, |w| w.bytes)
@@ -563,7 +572,19 @@ impl GpuBackend {
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session { host, lanes, kernels, forces, bonds, steps: 0, step0: m.clock.step, thermal, water: moist, pores })
+        Ok(Session {
+            host,
+            lanes,
+            kernels,
+            forces,
+            bonds,
+            steps: 0,
+            step0: m.clock.step,
+            thermal,
+            water: moist,
+            pores,
+            clumps: rigid,
+        })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -633,6 +654,7 @@ impl GpuBackend {
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
+                Stage::Clumps => StageWork::Kernels(vec![s.clumps.as_ref()?.kernel()?]),
                 Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
                     StageWork::Conduction(kr.conduction.as_ref()?)
                 }
@@ -717,6 +739,9 @@ impl GpuBackend {
         }
         if let Some(f) = &s.pores {
             f.download(&self.ctx, m)?;
+        }
+        if let Some(c) = &s.clumps {
+            c.download(&self.ctx, m)?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;
         let counters = read::<u32>(&self.ctx, &s.lanes.counters, COUNTERS)?;

@@ -63,6 +63,7 @@ pub const ROWS: Shader = Shader {
         read_write(DASHPOT),
         read_write(ROLLING),
         read(KIND),
+        read(CLUMP_OF),
     ]]),
 };
 
@@ -198,6 +199,7 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
         ("LOCAL", flag(plan.local_damping > 0.0)),
         ("ROLLING_SPRING", flag(plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd))),
         ("PLANAR", flag(plan.planar.is_some())),
+        ("CLUMPS", flag(plan.clumps.is_some())),
     ])
     .collect()
 }
