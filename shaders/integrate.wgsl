@@ -30,7 +30,7 @@ fn count_step() {
 // Moves particle i under its summed force f and torque t (the wall pass calls this for its own
 // particle when no force stage comes between them: wall_forces.wgsl).
 fn integrate_particle(i: u32, f: vec3<f32>, t: vec3<f32>) {
-    if (kind[i] & CLUMPED) != 0u {
+    if CLUMPS && (kind[i] & CLUMPED) != 0u {
         // Its clump moves it (the `clumps` stage, next).
         return;
     }

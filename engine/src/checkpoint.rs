@@ -775,6 +775,33 @@ fn check_neighbour_rows(m: &Model) -> Result<(), String> {
     Ok(())
 }
 
+/// A saved clump set fits the model it is loaded into: every member a live element marked as a
+/// member, of one clump, its body sound.
+fn check_clumps(c: &Clumps, fixed: &[u8]) -> Result<(), String> {
+    use crate::state::particles::dof;
+    let n = fixed.len();
+    let shaped = c.of.len() == n
+        && c.member_start.len() == c.bodies.len() + 1
+        && c.member_start.first() == Some(&0)
+        && c.member_start.windows(2).all(|w| w[0] < w[1])
+        && c.member_start.last().map(|&e| e as usize) == Some(c.members.len())
+        && c.offsets.len() == c.members.len();
+    if !shaped {
+        return Err("the clumps' member lists do not match their bodies or the elements".into());
+    }
+    for (k, b) in c.bodies.iter().enumerate() {
+        let finite = [b.mass, b.inertia.x, b.inertia.y, b.inertia.z].iter().all(|v| v.is_finite() && *v > 0.0)
+            && b.pos.iter().chain(b.vel.iter()).chain(b.ang_mom.iter()).chain(&b.orientation).all(|v| v.is_finite());
+        let members_sound = c.members[c.range(k)]
+            .iter()
+            .all(|&i| (i as usize) < n && c.of[i as usize] == k as u32 && fixed[i as usize] & dof::CLUMPED != 0);
+        if !finite || !members_sound {
+            return Err(format!("clump {k} has an unsound body or a member that is not marked as its own"));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -812,29 +839,3 @@ mod tests {
     }
 }
 
-/// A saved clump set fits the model it is loaded into: every member a live element marked as a
-/// member, of one clump, its body sound.
-fn check_clumps(c: &Clumps, fixed: &[u8]) -> Result<(), String> {
-    use crate::state::particles::dof;
-    let n = fixed.len();
-    let shaped = c.of.len() == n
-        && c.member_start.len() == c.bodies.len() + 1
-        && c.member_start.first() == Some(&0)
-        && c.member_start.windows(2).all(|w| w[0] < w[1])
-        && c.member_start.last().map(|&e| e as usize) == Some(c.members.len())
-        && c.offsets.len() == c.members.len();
-    if !shaped {
-        return Err("the clumps' member lists do not match their bodies or the elements".into());
-    }
-    for (k, b) in c.bodies.iter().enumerate() {
-        let finite = [b.mass, b.inertia.x, b.inertia.y, b.inertia.z].iter().all(|v| v.is_finite() && *v > 0.0)
-            && b.pos.iter().chain(b.vel.iter()).chain(b.ang_mom.iter()).chain(&b.orientation).all(|v| v.is_finite());
-        let members_sound = c.members[c.range(k)].iter().all(|&i| {
-            (i as usize) < n && c.of[i as usize] == k as u32 && fixed[i as usize] & dof::CLUMPED != 0
-        });
-        if !finite || !members_sound {
-            return Err(format!("clump {k} has an unsound body or a member that is not marked as its own"));
-        }
-    }
-    Ok(())
-}

@@ -25,7 +25,8 @@ fn run(sim: &mut Simulation, steps: u64) {
 fn tumbler() -> Model {
     let mut m = Model::new();
     let k = m.add_material(material("m", 2650.0, 1e5, 1e7, 0.2)).unwrap();
-    let spheres = [(Vec3::zeros(), R), (Vec3::new(1.2, 0.6, 0.0) * R, 0.8 * R), (Vec3::new(0.0, 0.9, 1.1) * R, 0.6 * R)];
+    let spheres =
+        [(Vec3::zeros(), R), (Vec3::new(1.2, 0.6, 0.0) * R, 0.8 * R), (Vec3::new(0.0, 0.9, 1.1) * R, 0.6 * R)];
     for (x, r) in spheres {
         m.add_particle(x, r, k).unwrap();
     }

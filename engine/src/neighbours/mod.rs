@@ -18,12 +18,12 @@ mod drift;
 
 pub use drift::{is_stale, steps_until_rebuild, walls_stale};
 
+use crate::effects::clumps::lanes::NONE;
 use crate::model::Model;
 use crate::physics::contact_law::PairState;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::state::particles::dof;
-use crate::effects::clumps::lanes::NONE;
 use cell_list::find_pairs;
 use rayon::prelude::*;
 

@@ -40,7 +40,10 @@ fn clump_info(d: &mut ModelHandle, c: INT) -> RhaiResult<Map> {
     let c = usize::try_from(c).map_err(|_| err(format!("d.clump_info: clump numbers start at 0, got {c}")))?;
     let info = m.clump_info(c).map_err(raise)?;
     let mut map = Map::new();
-    map.insert("members".into(), Dynamic::from_array(info.members.iter().map(|&i| Dynamic::from_int(i as INT)).collect()));
+    map.insert(
+        "members".into(),
+        Dynamic::from_array(info.members.iter().map(|&i| Dynamic::from_int(i as INT)).collect()),
+    );
     map.insert("mass".into(), info.mass.into());
     map.insert("centre".into(), vector(&info.centre));
     map.insert("velocity".into(), vector(&info.velocity));

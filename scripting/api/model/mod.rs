@@ -22,6 +22,7 @@ macro_rules! observed {
 }
 
 mod boundaries;
+mod clumps;
 mod confinement;
 pub mod contacts;
 pub mod cutting;
@@ -35,7 +36,6 @@ pub mod measure;
 mod moisture;
 mod observation;
 mod planar;
-mod clumps;
 mod pores;
 mod regions;
 mod running;

@@ -107,10 +107,6 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
     mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
-    if b.fixed & dof::CLUMPED != 0 {
-        // Its clump moves it (the `clumps` stage, next).
-        return;
-    }
     let (dt, mi) = (k.dt, b.mass);
     let v0 = *vel;
     let mut f_total = b.force + k.gravity * mi;
@@ -133,6 +129,11 @@ pub(super) fn advance<const DAMP: bool, const LOCAL: bool, const OBSERVE: bool>(
     };
     let f = b.fixed;
     if f != 0 {
+        if f & dof::CLUMPED != 0 {
+            // Its clump moves it (the `clumps` stage, next): checked in the branch fixed
+            // elements take anyway, so a scene without clumps pays nothing for it.
+            return;
+        }
         for (c, bit) in [dof::X, dof::Y, dof::Z].into_iter().enumerate() {
             if f & bit != 0 {
                 v1[c] = v0[c];
@@ -178,9 +179,6 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     mut heat: Option<&mut f64>,
     obs: &mut Observed,
 ) {
-    if fixed & dof::CLUMPED != 0 {
-        return;
-    }
     let inertia = 0.4 * mass * radius * radius;
     let w0 = *ang_vel;
     let mut w1 = if DAMP {
@@ -189,7 +187,10 @@ pub(super) fn spin<const DAMP: bool, const OBSERVE: bool>(
     } else {
         w0 + torque / inertia * dt
     };
-    if fixed & dof::ROTATION != 0 {
+    if fixed & (dof::ROTATION | dof::CLUMPED) != 0 {
+        if fixed & dof::CLUMPED != 0 {
+            return;
+        }
         for (c, bit) in [dof::RX, dof::RY, dof::RZ].into_iter().enumerate() {
             if fixed & bit != 0 {
                 w1[c] = w0[c];

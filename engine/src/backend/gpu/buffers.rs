@@ -227,7 +227,9 @@ impl HostLanes {
             kind,
             clump_of: match m.clumps.is_empty() {
                 true => vec![crate::effects::clumps::lanes::NONE],
-                false => (0..n).map(|i| m.clumps.of.get(i).copied().unwrap_or(crate::effects::clumps::lanes::NONE)).collect(),
+                false => {
+                    (0..n).map(|i| m.clumps.of.get(i).copied().unwrap_or(crate::effects::clumps::lanes::NONE)).collect()
+                }
             },
             force: p.force.iter().map(|f| v4(f, 0.0)).collect(),
             ang_vel,
