@@ -8,7 +8,7 @@
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
 fn bucket_of_particle(i: u32) -> u32 {
-    return bucket_of(cell_of(origin[i].xyz + disp[i].xyz, params.cell), params.buckets);
+    return bucket_of(cell_at(origin[i].xyz + disp[i].xyz), params.buckets);
 }
 
 @compute @workgroup_size(64)

@@ -20,6 +20,8 @@ override ROLLING_SPRING: bool = false;
 override PLANAR: bool = false;
 // Clumps exist: the neighbour search leaves out pairs within one clump (its `clump_of` lane).
 override CLUMPS: bool = false;
+// A periodic cell: pairs meet through their nearest image (periodic_image.wgsl).
+override PERIODIC: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;
@@ -73,6 +75,11 @@ struct Params {
     one: f32,
     // Blocks of 64 wall-load partials the walls stage folds first; 0: it sums them directly.
     wall_blocks: u32,
+    // A periodic cell's spans (0 on an axis that does not repeat), their inverses (0 there too)
+    // and lower faces (periodic_image.wgsl).
+    period: vec4<f32>,
+    period_inv: vec4<f32>,
+    period_lo: vec4<f32>,
 }
 
 // The particles a dispatch of a per-entry kernel covers: the per-entry lanes (rows, pair

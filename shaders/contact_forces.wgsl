@@ -34,7 +34,7 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let st = state[e];
         let bonded = st.w != 0.0;
         // Both parts of the position differ little between neighbours: subtract each first.
-        let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+        let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui));
         let rj = origin[j].w;
         let touch = ri + rj;
         let dist2 = dot(d, d);

@@ -56,7 +56,7 @@ fn check_state(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         let rj = origin[j].w;
-        let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+        let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui));
         let overlap = ri + rj - length(d);
         if overlap > ratio * min(ri, rj) {
             deep = true;

@@ -19,7 +19,8 @@ fn measure_drift(@builtin(global_invocation_id) gid: vec3<u32>,
     let i = gid.x + gid.y * groups.x * 64u;
     // Workgroup memory starts at zero, the smallest value either measure takes.
     if i < params.n {
-        let d = disp[i].xyz - built[i].xyz;
+        // In a periodic cell an element that crossed a face has drifted by its move, not the span.
+        let d = nearest_image(disp[i].xyz - built[i].xyz);
         atomicMax(&group_drift, bitcast<u32>(dot(d, d)));
         let v = vel[i].xyz;
         atomicMax(&group_speed, bitcast<u32>(dot(v, v)));

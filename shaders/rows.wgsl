@@ -106,7 +106,7 @@ fn build_row(local: u32) -> vec2<u32> {
     let oi = origin[i].xyz;
     let ui = disp[i].xyz;
     let ri = origin[i].w;
-    let c = cell_of(oi + ui, params.cell);
+    let c = cell_at(oi + ui);
     // A killed element looks for no neighbour (and is skipped by everyone else's search below).
     let alive = (kind[i] & KILLED) == 0u;
     // Cells that hash to one bucket are visited once, so no j is seen twice.
@@ -120,7 +120,7 @@ fn build_row(local: u32) -> vec2<u32> {
                 if !alive {
                     continue;
                 }
-                let b = bucket_of(c + vec3<i32>(x, y, z), params.buckets);
+                let b = bucket_of(wrap_cell(c + vec3<i32>(x, y, z)), params.buckets);
                 var again = false;
                 for (var q = 0u; q < buckets; q++) {
                     again = again || seen[q] == b;
@@ -141,7 +141,7 @@ fn build_row(local: u32) -> vec2<u32> {
                         continue;
                     }
                     // Both parts of the position differ little between neighbours: subtract each first.
-                    let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+                    let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui));
                     let cut = ri + origin[j].w + params.skin;
                     if dot(d, d) >= cut * cut {
                         continue;

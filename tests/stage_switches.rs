@@ -10,7 +10,7 @@ use std::rc::Rc;
 
 /// Per effect: what turns it off first (the heat ledger is on by default) and the script that
 /// switches it on, which uses the registry row's switch.
-const SWITCHES: [(&str, &str, &str); 9] = [
+const SWITCHES: [(&str, &str, &str); 11] = [
     (
         "parallel_bond",
         "",
@@ -30,6 +30,8 @@ const SWITCHES: [(&str, &str, &str); 9] = [
     ("heat_ledger", "d.heat_ledger = false;", "d.heat_ledger = true;"),
     ("conduction", "", r#"d.enable("heat");"#),
     ("moisture", "", r#"d.enable("moisture");"#),
+    ("clumps", "", "d.clump([0, 1]);"),
+    ("periodic", "", "d.periodic(#{ x: [0.0, 0.004] });"),
 ];
 
 /// The names on the plan's `stages:` line.

@@ -37,6 +37,7 @@ impl Model {
             self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
             crate::neighbours::rebuild(self);
         }
+        let image = self.settings.periodic.map(|cell| cell.image());
         let p = &self.particles;
         let c = &mut self.contacts;
         let mut count = 0;
@@ -46,7 +47,8 @@ impl Model {
                 if !((a[i] && b[j]) || (a[j] && b[i])) {
                     continue;
                 }
-                let gap = (p.pos[j] - p.pos[i]).norm() - p.radius[i] - p.radius[j];
+                let d = p.pos[j] - p.pos[i];
+                let gap = image.map_or(d, |im| im.nearest(d)).norm() - p.radius[i] - p.radius[j];
                 if gap <= tolerance && !c.state[e].bonded {
                     c.state[e].bonded = true;
                     c.state[e].weakened = 0;

@@ -168,6 +168,8 @@ enum Section {
     Planar { setting: crate::planar::setting::Planar },
     /// The clumps' bodies, members and offsets. A file without it loads with none.
     Clumps { clumps: Clumps },
+    /// The periodic cell. A file without it loads with no periodic axis.
+    Periodic { cell: crate::effects::periodic::Periodic },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -248,6 +250,9 @@ impl Section {
         if !m.clumps.is_empty() {
             out.push(Section::Clumps { clumps: m.clumps.clone() });
         }
+        if let Some(cell) = m.settings.periodic {
+            out.push(Section::Periodic { cell });
+        }
         out
     }
 
@@ -323,6 +328,13 @@ impl Section {
             Section::Clumps { clumps } => {
                 check_clumps(&clumps, &m.particles.fixed)?;
                 m.clumps = clumps;
+            }
+            Section::Periodic { cell } => {
+                let sound = cell.axes.iter().flatten().all(|[lo, hi]| lo.is_finite() && hi.is_finite() && hi > lo);
+                if !sound || cell.axes.iter().all(Option::is_none) {
+                    return Err("the periodic cell's spans are not finite [lo, hi) with lo < hi".into());
+                }
+                m.settings.periodic = Some(cell);
             }
             Section::RotationAngle { angle } => {
                 let n = m.len();
@@ -838,4 +850,3 @@ mod tests {
         assert_eq!(loaded.pores.as_ref().unwrap().region_mass, m.pores.as_ref().unwrap().region_mass);
     }
 }
-

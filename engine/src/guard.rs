@@ -137,7 +137,7 @@ pub fn check_state(m: &Model) -> Result<()> {
 /// the guard holds below `max_overlap_ratio`.
 fn overlap_share(m: &Model, i: usize, j: usize) -> f64 {
     let p = &m.particles;
-    let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+    let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
     overlap / p.radius[i].min(p.radius[j])
 }
 
@@ -316,7 +316,7 @@ pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
                 if j < i || !(free_i || free_j) {
                     continue;
                 }
-                let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+                let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
                 if overlap <= 0.0 && !c.state[e].bonded {
                     continue;
                 }

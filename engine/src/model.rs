@@ -67,6 +67,9 @@ pub struct Settings {
     /// checkpoints still read.
     #[serde(skip)]
     pub planar: Option<crate::planar::setting::Planar>,
+    /// The periodic cell (`None`: no axis repeats). Saved in a checkpoint's sections.
+    #[serde(skip)]
+    pub periodic: Option<crate::effects::periodic::setting::Periodic>,
 }
 
 impl Default for Settings {
@@ -90,6 +93,7 @@ impl Default for Settings {
             pores: crate::effects::pore_flow::PoreSettings::default(),
             confinement: None,
             planar: None,
+            periodic: None,
         }
     }
 }

@@ -149,6 +149,7 @@ impl Simulation {
             return Ok(RunReport { steps: 0, unbalanced_ratio: None });
         }
         check_time_step(&self.model)?;
+        crate::effects::periodic::check_scene(&self.model)?;
         let Simulation { model, observers, target, prepared: cache, stiff_warned } = self;
         let p = prepared(cache, model);
         let backend = match &mut p.backend {
@@ -272,7 +273,7 @@ impl Simulation {
     /// particles added, or drifted past half the skin), so observers see every contact.
     fn refresh_rows(&mut self) {
         use crate::neighbours::{is_stale, rebuild};
-        if is_stale(&self.model.contacts, &self.model.particles.pos) {
+        if is_stale(&self.model.contacts, &self.model.particles.pos, self.model.settings.periodic.as_ref()) {
             rebuild(&mut self.model);
         }
     }

@@ -106,7 +106,7 @@ fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -
                 continue;
             }
             let st = &c.state[k];
-            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+            let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
             if overlap <= 0.0 && !st.bonded {
                 continue;
             }
@@ -186,7 +186,7 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
             if j < i {
                 continue;
             }
-            let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+            let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
             let bonded = c.state[k].bonded;
             if bonded {
                 s.bonds += 1;
@@ -260,7 +260,7 @@ pub fn coordination_without_rattlers(m: &Model) -> Coordination {
     let n = p.len();
     let touching = |i: usize, k: usize| {
         let j = c.other[k] as usize;
-        c.state[k].bonded || (p.pos[j] - p.pos[i]).norm() < p.radius[i] + p.radius[j]
+        c.state[k].bonded || m.separation(i, j).norm() < p.radius[i] + p.radius[j]
     };
     let rows = c.row_start.len().saturating_sub(1).min(n);
     let mut count: Vec<usize> = (0..n)
@@ -338,7 +338,7 @@ pub fn contact_loads(m: &Model, plan: &StepPlan) -> Vec<f64> {
             c.row(i)
                 .map(|k| {
                     let j = c.other[k] as usize;
-                    let overlap = p.radius[i] + p.radius[j] - (p.pos[j] - p.pos[i]).norm();
+                    let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
                     if overlap <= 0.0 {
                         return 0.0;
                     }

@@ -502,7 +502,7 @@ fn device_rows_match_cpu(ctx: &Arc<GpuContext>, m: &Model) -> (usize, usize, usi
     let mut cpu = m.clone();
     rebuild(&mut cpu);
     let (a, b) = (&gpu.contacts, &cpu.contacts);
-    assert!(a.has_pair_ids() && !is_stale(a, &gpu.particles.pos), "the downloaded rows are current");
+    assert!(a.has_pair_ids() && !is_stale(a, &gpu.particles.pos, None), "the downloaded rows are current");
     let p = &cpu.particles;
     let skin = b.skin;
     let (mut entries, mut set, mut far_bonds, mut borderline) = (0, 0, 0, 0);

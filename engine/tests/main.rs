@@ -29,6 +29,7 @@ mod lattice;
 mod module_deps;
 mod moisture;
 mod parallel_bond;
+mod periodic;
 mod planar;
 mod pore_coupling;
 mod pore_flow;

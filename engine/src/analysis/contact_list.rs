@@ -166,7 +166,7 @@ fn evaluate<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(m: &Model, plan
                     continue;
                 }
                 let st = c.state[k];
-                let d = p.pos[j] - xi;
+                let d = m.separation(i, j);
                 let rj = p.radius[j];
                 let (touch, dist) = (ri + rj, d.norm());
                 let key = (i as u32, j as u32);
@@ -214,7 +214,7 @@ fn evaluate<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(m: &Model, plan
                 continue;
             }
             let kind = broken[&(i as u32, bj)];
-            out.rows.push(ContactRow::between(i, j, xi, p.pos[j] - xi, ri, p.radius[j], Bond::Broken(kind)));
+            out.rows.push(ContactRow::between(i, j, xi, m.separation(i, j), ri, p.radius[j], Bond::Broken(kind)));
         }
         for (w, wall) in m.walls.iter().enumerate() {
             let (inward, gap, _) = wall.normal_distance_part(&xi);

@@ -12,5 +12,6 @@ pub mod confining_pressure;
 pub mod heat_ledger;
 pub mod moisture;
 pub mod parallel_bond;
+pub mod periodic;
 pub mod pore_flow;
 pub mod rolling_resistance;

@@ -1,13 +1,22 @@
 //! The cell list behind a row build: every pair closer than the sum of its radii plus the
 //! skin, found by its larger particle.
 
+use crate::effects::periodic::Periodic;
 use crate::physics::Vec3;
 use crate::state::particles::dof;
 use rayon::prelude::*;
 
 /// All pairs (i < j) closer than r_i + r_j + skin, neither of them killed (`fixed` has
-/// [`dof::KILLED`]: a killed element is in no row).
-pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) -> Vec<(u32, u32)> {
+/// [`dof::KILLED`]: a killed element is in no row). In a periodic `cell`, distances are to the
+/// nearest image and the cells wrap round the periodic axes (a pair may come out twice where
+/// the cells are few: the caller sorts and dedups).
+pub(super) fn find_pairs(
+    pos: &[Vec3],
+    radius: &[f64],
+    fixed: &[u8],
+    skin: f64,
+    cell: Option<&Periodic>,
+) -> Vec<(u32, u32)> {
     let killed = |i: usize| fixed[i] & dof::KILLED != 0;
     let n = pos.len();
     let (mut lo, mut hi) = (pos[0], pos[0]);
@@ -15,6 +24,15 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) 
         lo = lo.inf(x);
         hi = hi.sup(x);
     }
+    let wraps: [bool; 3] = std::array::from_fn(|k| cell.is_some_and(|c| c.axes[k].is_some()));
+    if let Some(c) = cell {
+        for (k, axis) in c.axes.iter().enumerate() {
+            if let Some([a, b]) = *axis {
+                (lo[k], hi[k]) = (a, b);
+            }
+        }
+    }
+    let image = cell.map(Periodic::image);
     let r_mean = radius.iter().sum::<f64>() / n as f64;
     // Cells sized for the typical particle; bounded so a sparse scene stays small.
     let mut h = 2.0 * r_mean + skin;
@@ -25,16 +43,27 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) 
         return Vec::new();
     }
     let dims = loop {
-        let cells = |e: f64| ((e / h) as usize).saturating_add(1);
-        let d = [cells(ext.x), cells(ext.y), cells(ext.z)];
+        // A periodic axis is cut into whole cells of at least h, so they tile its span.
+        let cells = |k: usize| match wraps[k] {
+            true => ((ext[k] / h) as usize).max(1),
+            false => ((ext[k] / h) as usize).saturating_add(1),
+        };
+        let d = [cells(0), cells(1), cells(2)];
         if d[0].saturating_mul(d[1]).saturating_mul(d[2]) <= 4 * n + 64 {
             break d;
         }
         h *= 1.26;
     };
+    let width: [f64; 3] = std::array::from_fn(|k| if wraps[k] { ext[k] / dims[k] as f64 } else { h });
     let cell_of = |x: &Vec3| -> [usize; 3] {
-        let c = (x - lo) / h;
-        [(c.x as usize).min(dims[0] - 1), (c.y as usize).min(dims[1] - 1), (c.z as usize).min(dims[2] - 1)]
+        std::array::from_fn(|k| {
+            let c = ((x[k] - lo[k]) / width[k]) as isize;
+            if wraps[k] {
+                c.rem_euclid(dims[k] as isize) as usize
+            } else {
+                (c.max(0) as usize).min(dims[k] - 1)
+            }
+        })
     };
     let flat = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
     let ncell = dims[0] * dims[1] * dims[2];
@@ -62,15 +91,21 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) 
             }
             let (xi, ri) = (pos[i], radius[i]);
             let reach = 2.0 * ri + skin;
-            let k = (reach / h).ceil() as isize;
             let c = cell_of(&xi);
-            let range = |a: usize, d: usize| {
-                let a = a as isize;
-                (a - k).max(0) as usize..=((a + k) as usize).min(d - 1)
+            // The cells within reach along axis a: clamped to the grid, or round it where the
+            // axis is periodic (each cell once, however far the reach).
+            let range = |a: usize| {
+                let (d, k, at) = (dims[a] as isize, (reach / width[a]).ceil() as isize, c[a] as isize);
+                let (first, last) = match wraps[a] {
+                    true if 2 * k + 1 >= d => (0, d - 1),
+                    true => (at - k, at + k),
+                    false => ((at - k).max(0), (at + k).min(d - 1)),
+                };
+                (first..=last).map(move |x| x.rem_euclid(d) as usize)
             };
-            for cz in range(c[2], dims[2]) {
-                for cy in range(c[1], dims[1]) {
-                    for cx in range(c[0], dims[0]) {
+            for cz in range(2) {
+                for cy in range(1) {
+                    for cx in range(0) {
                         let cell = flat([cx, cy, cz]);
                         for &j in &items[cell_start[cell] as usize..cell_start[cell + 1] as usize] {
                             let j = j as usize;
@@ -80,7 +115,11 @@ pub(super) fn find_pairs(pos: &[Vec3], radius: &[f64], fixed: &[u8], skin: f64) 
                                 continue;
                             }
                             let cut = ri + rj + skin;
-                            if (pos[j] - xi).norm_squared() < cut * cut {
+                            let d = match &image {
+                                Some(im) => im.nearest(pos[j] - xi),
+                                None => pos[j] - xi,
+                            };
+                            if d.norm_squared() < cut * cut {
                                 out.push(((i.min(j)) as u32, (i.max(j)) as u32));
                             }
                         }

@@ -1,18 +1,24 @@
 //! The drift rule: rows (and wall masks) hold until something has moved half the skin since
 //! they were built; the GPU backend also asks how many steps it may run before it must look.
 
+use crate::effects::periodic::Periodic;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 use crate::walls::{Wall, WallShape};
 use rayon::prelude::*;
 
 /// Whether some particle moved more than half the skin since the rows were built.
-pub fn is_stale(c: &Contacts, pos: &[Vec3]) -> bool {
+pub fn is_stale(c: &Contacts, pos: &[Vec3], cell: Option<&Periodic>) -> bool {
     if c.stale || c.built_at.len() != pos.len() || !c.has_pair_ids() {
         return true;
     }
     let limit = 0.25 * c.skin * c.skin;
-    let moved = |(a, b): (&Vec3, &Vec3)| (a - b).norm_squared() > limit;
+    // In a periodic cell an element that crossed a face has moved by its drift, not the span.
+    let image = cell.map(Periodic::image);
+    let moved = |(a, b): (&Vec3, &Vec3)| match &image {
+        Some(im) => im.nearest(a - b).norm_squared() > limit,
+        None => (a - b).norm_squared() > limit,
+    };
     // Small models: waking the thread pool every step costs more than the check.
     if pos.len() < 16_384 {
         return pos.iter().zip(&c.built_at).any(moved);

@@ -35,7 +35,8 @@ pub fn rebuild(m: &mut Model) {
         m.contacts.skin = m.settings.skin_ratio * m.mean_radius();
     }
     let skin = m.contacts.skin;
-    let mut pairs = if n == 0 { Vec::new() } else { find_pairs(&p.pos, &p.radius, &p.fixed, skin) };
+    let mut pairs =
+        if n == 0 { Vec::new() } else { find_pairs(&p.pos, &p.radius, &p.fixed, skin, m.settings.periodic.as_ref()) };
     // Keep bonded pairs whatever their distance.
     let old = &m.contacts;
     for i in 0..old.row_start.len().saturating_sub(1) {

@@ -59,7 +59,7 @@ fn per_particle(stage: Stage, lanes: Vec<&'static str>, bytes: usize) -> LaneSet
 }
 
 /// Every stage, in step order.
-pub const REGISTRY: [Entry; 16] = [
+pub const REGISTRY: [Entry; 17] = [
     core(Stage::Walls, "walls", |p| p.walls > 0),
     core(Stage::Neighbours, "neighbours", |_| true),
     core(Stage::ContactForces, "contact_forces", |_| true),
@@ -178,6 +178,18 @@ pub const REGISTRY: [Entry; 16] = [
         checkpoint: "Section::Clumps",
         script: "d.clump",
         words: |p| p.clumps.as_ref().map(ClumpsPlan::words),
+    },
+    Entry {
+        stage: Stage::Periodic,
+        name: "periodic",
+        role: Role::Body,
+        effect: true,
+        runs: |p| p.periodic.is_some(),
+        // It moves the core's lanes and keeps none of its own.
+        lanes: |_| None,
+        checkpoint: "Section::Periodic",
+        script: "d.periodic",
+        words: |p| p.periodic.as_ref().map(crate::effects::periodic::words),
     },
     Entry {
         stage: Stage::HeatLedger,

@@ -35,6 +35,7 @@ mod loads;
 pub mod measure;
 mod moisture;
 mod observation;
+mod periodic;
 mod planar;
 mod pores;
 mod regions;
@@ -201,6 +202,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     confinement::register(engine, &host);
     planar::register(engine);
     clumps::register(engine);
+    periodic::register(engine);
     running::register(engine, &host);
     observation::register(engine, &host);
     elements::register(engine, &host);

@@ -22,6 +22,7 @@ use crate::effects::confining_pressure::cpu as confining_pressure;
 use crate::effects::heat_ledger::cpu as heat_ledger;
 use crate::effects::moisture::cpu as moisture;
 use crate::effects::parallel_bond::cpu as parallel_bond;
+use crate::effects::periodic::cpu as periodic;
 use crate::effects::pore_flow::cpu as pore_flow;
 use crate::effects::rolling_resistance::cpu as rolling_resistance;
 
@@ -98,7 +99,7 @@ impl CpuBackend {
         }
         times.add(Stage::Walls, t.elapsed());
         let t = Instant::now();
-        if neighbours::is_stale(&m.contacts, &m.particles.pos) {
+        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
             neighbours::rebuild(m);
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
@@ -161,7 +162,7 @@ impl CpuBackend {
         for w in &mut m.walls {
             w.advance(dt);
         }
-        if neighbours::is_stale(&m.contacts, &m.particles.pos) {
+        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
             // The rebuild carries each pair's state over from the rows.
             sync_rows(m, &mut self.pairs);
             self.pairs.forget_records();
@@ -268,6 +269,11 @@ impl CpuBackend {
     fn body_stage(&mut self, m: &mut Model, stage: Stage) -> Observed {
         match stage {
             Stage::Clumps => clumps::clumps(m, &self.plan, &self.damping_c),
+            Stage::Periodic => {
+                let cell = self.plan.periodic.expect("the plan has the periodic stage");
+                periodic::periodic(m, &cell);
+                Observed::default()
+            }
             _ => unreachable!("{stage} is not a body stage of this plan"),
         }
     }

@@ -22,7 +22,7 @@ pub(super) fn has_avx2() -> bool {
 }
 
 /// Runs one block of the pair pass; returns its broken bonds in pair order.
-pub(super) fn run<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+pub(super) fn run<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     block: BlockPairs,
     avx2: bool,
@@ -31,21 +31,21 @@ pub(super) fn run<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT
     if avx2 {
         // SAFETY: `avx2` comes from `has_avx2`, so this processor has the instructions the
         // function is compiled for.
-        return unsafe { run_avx2::<N, T, DASHPOT, ROT>(inp, block) };
+        return unsafe { run_avx2::<N, T, DASHPOT, ROT, PERIODIC>(inp, block) };
     }
     let _ = avx2;
-    run_block::<N, T, DASHPOT, ROT>(inp, block)
+    run_block::<N, T, DASHPOT, ROT, PERIODIC>(inp, block)
 }
 
 /// [`run_block`] compiled for AVX2 (four lanes in one instruction; no FMA, so the roundings
 /// are the scalar law's).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn run_avx2<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+unsafe fn run_avx2<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     block: BlockPairs,
 ) -> Breaks {
-    run_block::<N, T, DASHPOT, ROT>(inp, block)
+    run_block::<N, T, DASHPOT, ROT, PERIODIC>(inp, block)
 }
 
 /// Up to four pairs waiting for the law.
@@ -63,7 +63,7 @@ struct Batch {
 
 /// The block's pairs in row order, queued in fours; a last batch of fewer goes scalar.
 #[inline(always)]
-fn run_block<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+fn run_block<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     mut block: BlockPairs,
 ) -> Breaks {
@@ -81,20 +81,20 @@ fn run_block<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: boo
             (batch.i[l], batch.j[l], batch.k[l], batch.e[l]) = (i, j as usize, first_pair - base + n, first + n);
             batch.len += 1;
             if batch.len == LANES {
-                four_pairs::<N, T, DASHPOT, ROT>(inp, &batch, &mut block, &mut breaks);
+                four_pairs::<N, T, DASHPOT, ROT, PERIODIC>(inp, &batch, &mut block, &mut breaks);
                 batch.len = 0;
             }
         }
     }
     for l in 0..batch.len {
-        scalar_pair::<N, T, DASHPOT>(inp, &batch, l, &mut block, &mut breaks);
+        scalar_pair::<N, T, DASHPOT, PERIODIC>(inp, &batch, l, &mut block, &mut breaks);
     }
     breaks
 }
 
 /// Lane `l`'s pair through the scalar law.
 #[inline(always)]
-fn scalar_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
+fn scalar_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     b: &Batch,
     l: usize,
@@ -102,7 +102,7 @@ fn scalar_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
     breaks: &mut Breaks,
 ) {
     let st = block.state(b.k[l], b.e[l]);
-    let (record, td, broke) = one_pair::<N, T, DASHPOT>(inp, b.i[l], b.j[l], st);
+    let (record, td, broke) = one_pair::<N, T, DASHPOT, PERIODIC>(inp, b.i[l], b.j[l], st);
     block.store::<T>(b.k[l], record, td);
     if let Some(kind) = broke {
         breaks.0.push((b.i[l] as u32, b.j[l] as u32, kind));
@@ -112,7 +112,7 @@ fn scalar_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
 /// Four pairs: the lanes that are unbonded and in contact through the lane law, the others
 /// one by one through the scalar law, in lane order (so breaks stay in pair order).
 #[inline(always)]
-fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool>(
+fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     b: &Batch,
     block: &mut BlockPairs,
@@ -120,7 +120,11 @@ fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bo
 ) {
     let st: [PairState; LANES] = std::array::from_fn(|l| block.state(b.k[l], b.e[l]));
     let (ri, rj) = (X4::lanes(|l| inp.radius[b.i[l]]), X4::lanes(|l| inp.radius[b.j[l]]));
-    let d = V4::lanes(|l| inp.pos[b.j[l]]) - V4::lanes(|l| inp.pos[b.i[l]]);
+    let d = if PERIODIC {
+        V4::lanes(|l| inp.separation::<true>(b.i[l], b.j[l]))
+    } else {
+        V4::lanes(|l| inp.pos[b.j[l]]) - V4::lanes(|l| inp.pos[b.i[l]])
+    };
     let touch = ri + rj;
     let dist2 = d.norm_squared();
     let dist = dist2.sqrt();
@@ -155,7 +159,7 @@ fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bo
     }
     for l in 0..LANES {
         if !fast.0[l] {
-            scalar_pair::<N, T, DASHPOT>(inp, b, l, block, breaks);
+            scalar_pair::<N, T, DASHPOT, PERIODIC>(inp, b, l, block, breaks);
         }
     }
 }
@@ -356,7 +360,7 @@ mod tests {
             let (first_pair, end) = (c.pair_start[i] as usize, c.row_start[i + 1] as usize);
             let first = end - (c.pair_start[i + 1] as usize - first_pair);
             for (n, &j) in c.other[first..end].iter().enumerate() {
-                expected[first_pair + n] = one_pair::<N, T, DASHPOT>(&inp, i, j as usize, c.state[first + n]);
+                expected[first_pair + n] = one_pair::<N, T, DASHPOT, false>(&inp, i, j as usize, c.state[first + n]);
             }
         }
         for avx2 in [false, has_avx2()] {
@@ -369,7 +373,7 @@ mod tests {
                 out: &mut out,
                 dashpots: Some(&mut dashpots[..]).filter(|_| T::DAMPED),
             };
-            let breaks = run::<N, T, DASHPOT, ROT>(&inp, block, avx2);
+            let breaks = run::<N, T, DASHPOT, ROT, false>(&inp, block, avx2);
             let expected_breaks: Vec<_> = (0..p.len())
                 .flat_map(|i| {
                     let (first_pair, end) = (c.pair_start[i] as usize, c.row_start[i + 1] as usize);

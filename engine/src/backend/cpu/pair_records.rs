@@ -3,6 +3,7 @@
 //! its four-lane batches (pair_batch.rs) work on these.
 
 use super::blocks::Reduce;
+use crate::effects::periodic::setting::Image;
 use crate::model::Model;
 use crate::physics::contact_law::{
     contact, contact_opened, BreakKind, ContactGeometry, NormalLaw, PairState, TangentialLaw,
@@ -50,6 +51,23 @@ pub(super) struct PairInputs<'a> {
     pub ang_vel: Option<&'a [Vec3]>,
     pub plan: &'a StepPlan,
     pub dt: f64,
+    /// The periodic cell's image arithmetic (a scene with periodic boundaries); the pass
+    /// reads it only in its periodic instance.
+    pub image: Image,
+    pub periodic: bool,
+}
+
+impl PairInputs<'_> {
+    /// From i to j: through the nearest image in a periodic cell.
+    #[inline(always)]
+    pub fn separation<const PERIODIC: bool>(&self, i: usize, j: usize) -> Vec3 {
+        let d = self.pos[j] - self.pos[i];
+        if PERIODIC {
+            self.image.nearest(d)
+        } else {
+            d
+        }
+    }
 }
 
 /// The neighbour rows the pair pass walks.
@@ -75,6 +93,8 @@ impl<'a> PairInputs<'a> {
             ang_vel: p.rotation.as_ref().filter(|_| rotation).map(|r| &r.ang_vel[..]),
             plan,
             dt: m.clock.dt,
+            image: m.settings.periodic.map(|c| c.image()).unwrap_or_default(),
+            periodic: m.settings.periodic.is_some(),
         }
     }
 }
@@ -123,14 +143,14 @@ impl BlockPairs<'_, '_> {
 /// One pair `i` < `j` through the law, whatever its state, from the state `st` it began the
 /// step with: its record, its tangential dashpot force, and the kind of break if its bond broke.
 #[inline(always)]
-pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool>(
+pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const PERIODIC: bool>(
     inp: &PairInputs,
     i: usize,
     j: usize,
     mut st: PairState,
 ) -> (PairOut, Vec3, Option<BreakKind>) {
-    let (xi, ri, vi) = (inp.pos[i], inp.radius[i], inp.vel[i]);
-    let d = inp.pos[j] - xi;
+    let (ri, vi) = (inp.radius[i], inp.vel[i]);
+    let d = inp.separation::<PERIODIC>(i, j);
     let rj = inp.radius[j];
     let touch = ri + rj;
     let dist2 = d.norm_squared();

@@ -42,6 +42,10 @@ pub struct Params {
     /// [`super::walls::blocks`] of the wall-load partials: 0 when they are summed directly.
     pub wall_blocks: u32,
     pub pad: [f32; 2],
+    /// A periodic cell's spans, their inverses and its lower faces (zeros without one).
+    pub period: [f32; 4],
+    pub period_inv: [f32; 4],
+    pub period_lo: [f32; 4],
 }
 
 /// A wall (`Wall` in common.wgsl).

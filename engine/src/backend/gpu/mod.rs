@@ -55,6 +55,7 @@ use crate::effects::confining_pressure::gpu as confining_pressure;
 use crate::effects::heat_ledger::gpu as heat_ledger;
 use crate::effects::moisture::gpu as moisture;
 use crate::effects::parallel_bond::gpu as parallel_bond;
+use crate::effects::periodic::gpu as periodic;
 use crate::effects::pore_flow::gpu as pore_flow;
 use crate::effects::rolling_resistance::gpu as rolling_resistance;
 
@@ -65,6 +66,7 @@ use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
 use crate::physics::contact_law::BreakKind;
+use crate::physics::Vec3;
 use crate::plan::{Role, Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
@@ -79,7 +81,7 @@ pub use device::{select, BackendChoice, Compute};
 
 /// Every WGSL stage, the core's and the effects', for validation without a device
 /// (`shaders.rs`'s tests).
-pub const SHADERS: [&shaders::Shader; 20] = [
+pub const SHADERS: [&shaders::Shader; 21] = [
     &shaders::NEIGHBOURS,
     &shaders::CELL_LIST,
     &shaders::SCAN,
@@ -96,6 +98,7 @@ pub const SHADERS: [&shaders::Shader; 20] = [
     &confining_pressure::SHADER,
     &buoyancy::SHADER,
     &clumps::SHADER,
+    &periodic::SHADER,
     &conduction::SHADER,
     &moisture::SHADER,
     &pore_flow::SHADER,
@@ -223,6 +226,8 @@ struct Session {
     pores: Option<pore_flow::PoreSession>,
     /// The clumps' bodies and members, when the plan has them.
     clumps: Option<clumps::Session>,
+    /// The periodic cell's crossings, when the plan has one.
+    periodic: Option<periodic::Session>,
 }
 
 impl Session {
@@ -410,7 +415,7 @@ impl GpuBackend {
     /// Brings the model to what an upload needs: rows that cover it, the lanes the plan's
     /// stages read.
     fn ready(&self, m: &mut Model) {
-        if is_stale(&m.contacts, &m.particles.pos) {
+        if is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
             rebuild(m);
         }
         if self.plan.rotation && m.particles.rotation.is_none() {
@@ -471,6 +476,8 @@ impl GpuBackend {
         let wall_groups = wall_forces::partial_groups(n);
         let r_max = m.particles.radius.iter().copied().fold(0.0, f64::max);
         let skin = m.contacts.skin;
+        let image = m.settings.periodic.map(|c| c.image()).unwrap_or_default();
+        let v4 = |v: &Vec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
         let params = Params {
             n: n as u32,
             nw: m.walls.len() as u32,
@@ -489,6 +496,9 @@ impl GpuBackend {
             one: 1.0,
             wall_blocks: walls::blocks(wall_groups) as u32,
             pad: [0.0; 2],
+            period: v4(&image.len),
+            period_inv: v4(&image.inv),
+            period_lo: v4(&Vec3::from_fn(|k, _| m.settings.periodic.and_then(|c| c.axes[k]).map_or(0.0, |a| a[0]))),
         };
         let limit = limits.binding.min(limits.buffer);
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
@@ -562,8 +572,13 @@ impl GpuBackend {
             Some(_) => Some(clumps::Session::upload(&self.ctx, &self.constants, m, &lanes)?),
             None => None,
         };
+        let cell = match self.plan.periodic {
+            Some(_) => Some(periodic::Session::upload(&self.ctx, &self.constants, m, &lanes)?),
+            None => None,
+        };
         self.device_bytes = lanes.bytes
             + rigid.as_ref().map_or(0, |c| c.bytes)
+            + cell.as_ref().map_or(0, |c| c.bytes)
             + bonds.as_ref().map_or(0, |b| b.bytes)
             + thermal.as_ref().map_or(0, |t| t.bytes)
             + moist.as_ref().map_or(0, |w| w.bytes)
@@ -584,6 +599,7 @@ impl GpuBackend {
             water: moist,
             pores,
             clumps: rigid,
+            periodic: cell,
         })
     }
 
@@ -655,6 +671,7 @@ impl GpuBackend {
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
                 Stage::Clumps => StageWork::Kernels(vec![s.clumps.as_ref()?.kernel()?]),
+                Stage::Periodic => StageWork::Kernels(vec![s.periodic.as_ref()?.kernel()?]),
                 Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
                     StageWork::Conduction(kr.conduction.as_ref()?)
                 }
@@ -741,6 +758,9 @@ impl GpuBackend {
             f.download(&self.ctx, m)?;
         }
         if let Some(c) = &s.clumps {
+            c.download(&self.ctx, m)?;
+        }
+        if let Some(c) = &s.periodic {
             c.download(&self.ctx, m)?;
         }
         self.ledger.fold(&self.ctx, &s.lanes, m)?;

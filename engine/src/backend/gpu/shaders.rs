@@ -22,13 +22,21 @@ pub struct Shader {
 
 pub const NEIGHBOURS: Shader = Shader {
     name: "neighbours",
-    source: include_str!("../../../../shaders/neighbours.wgsl"),
+    source: concat!(
+        include_str!("../../../../shaders/periodic_image.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/neighbours.wgsl")
+    ),
     bindings: Bindings(&[&[uniform(PARAMS), read(DISP), read(BUILT), read(VEL), read_write(COUNTERS)]]),
 };
 
 pub const CELL_LIST: Shader = Shader {
     name: "cell_list",
-    source: include_str!("../../../../shaders/cell_list.wgsl"),
+    source: concat!(
+        include_str!("../../../../shaders/periodic_image.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/cell_list.wgsl")
+    ),
     bindings: Bindings(&[&[
         uniform(PARAMS),
         read(ORIGIN),
@@ -47,7 +55,11 @@ pub const SCAN: Shader = Shader {
 
 pub const ROWS: Shader = Shader {
     name: "rows",
-    source: include_str!("../../../../shaders/rows.wgsl"),
+    source: concat!(
+        include_str!("../../../../shaders/periodic_image.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/rows.wgsl")
+    ),
     bindings: Bindings(&[&[
         uniform(PARAMS),
         read(ORIGIN),
@@ -69,7 +81,11 @@ pub const ROWS: Shader = Shader {
 
 pub const CONTACT_FORCES: Shader = Shader {
     name: "contact_forces",
-    source: include_str!("../../../../shaders/contact_forces.wgsl"),
+    source: concat!(
+        include_str!("../../../../shaders/periodic_image.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/contact_forces.wgsl")
+    ),
     bindings: Bindings(&[&[
         uniform(PARAMS),
         read(ORIGIN),
@@ -159,7 +175,11 @@ pub const INTEGRATE: Shader = Shader {
 
 pub const GUARD: Shader = Shader {
     name: "guard",
-    source: include_str!("../../../../shaders/guard.wgsl"),
+    source: concat!(
+        include_str!("../../../../shaders/periodic_image.wgsl"),
+        "\n",
+        include_str!("../../../../shaders/guard.wgsl")
+    ),
     bindings: Bindings(&[&[
         uniform(PARAMS),
         read(ORIGIN),
@@ -200,6 +220,7 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
         ("ROLLING_SPRING", flag(plan.rolling.is_some_and(|r| r.model == RollingModel::Epsd))),
         ("PLANAR", flag(plan.planar.is_some())),
         ("CLUMPS", flag(plan.clumps.is_some())),
+        ("PERIODIC", flag(plan.periodic.is_some())),
     ])
     .collect()
 }

@@ -1,0 +1,132 @@
+//! Periodic boundaries (issue 34 item 2; MatDEM 5's `addPeriodBoundary`): along any of x, y, z
+//! the model repeats with a span L, so an element near one face touches the elements near the
+//! other through their images. Pairs interact through the nearest image (the minimum-image
+//! convention, exact while L exceeds twice the largest pair distance, which [`Model::periodic`]
+//! checks): the neighbour search wraps its cells round the periodic axes, the pair pass measures
+//! each pair through its nearest image, and so does everything that measures a pair (energies,
+//! guard, bonding, contact lists). A bond or a pair's shear spring is a pair's, whichever image
+//! it acts through, so it is carried across a face as it is anywhere else.
+//!
+//! The `periodic` stage, right after the move, puts each element that left the cell back in
+//! through the opposite face (its displacement's origin moves with it, so displacement fields
+//! stay continuous); velocity, spin and every other lane are untouched, to the bit.
+//!
+//! An optional stage: a scene without periodic axes has no pass, and its pair loop no test for
+//! it (the pair pass is compiled once with the image and once without, and picks per pass).
+//!
+//! The effect's folder: the cell and its arithmetic (`setting.rs`, part of
+//! [`crate::model::Settings`]), the CPU pass (`cpu.rs`) and the GPU kernel (`gpu.rs`,
+//! `shaders/periodic.wgsl`).
+
+pub mod cpu;
+#[cfg(feature = "gpu")]
+pub mod gpu;
+pub mod setting;
+
+pub use setting::{Image, Periodic};
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::physics::Vec3;
+
+impl Model {
+    /// Makes the axes with a span periodic (`axes[k] = Some([lo, hi])`), replacing any earlier
+    /// cell; every element is put into the cell. Each span must be at least three cell-list
+    /// cells, 3·(2·r_max + skin), so that the nearest image of every pair in reach is its only
+    /// one in reach; effects whose pairs do not yet measure through images are refused.
+    pub fn periodic(&mut self, axes: [Option<[f64; 2]>; 3]) -> Result<()> {
+        if axes.iter().all(Option::is_none) {
+            return Err(Error::InvalidScene("periodic: give at least one axis, e.g. #{ x: [x0, x1] }".into()));
+        }
+        if self.contacts.skin <= 0.0 && !self.is_empty() {
+            self.contacts.skin = self.settings.skin_ratio * self.mean_radius();
+        }
+        let r_max = self.particles.radius.iter().copied().fold(0.0, f64::max);
+        let least = 3.0 * (2.0 * r_max + self.contacts.skin);
+        for (name, axis) in ["x", "y", "z"].iter().zip(&axes) {
+            let Some([lo, hi]) = *axis else { continue };
+            if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+                return Err(Error::InvalidScene(format!(
+                    "periodic: {name} = [{lo}, {hi}] must be two finite coordinates, the first below the second (m)"
+                )));
+            }
+            if hi - lo < least {
+                return Err(Error::InvalidScene(format!(
+                    "periodic: the span of {name}, {:.4e} m, must be at least 3·(2·r_max + skin) = {least:.4e} m \
+                     (three neighbour cells, so that a pair meets through one image only); widen the cell or use \
+                     smaller elements",
+                    hi - lo
+                )));
+            }
+        }
+        if self.settings.planar.is_some() && axes[1].is_some() {
+            return Err(Error::InvalidScene(
+                "periodic: a 2D model lies in the x–z plane; make x or z periodic, not y".into(),
+            ));
+        }
+        let cell = Periodic { axes };
+        check_effects(self, &cell)?;
+        let p = &mut self.particles;
+        for i in 0..p.len() {
+            let shift = cell.wrap(&mut p.pos[i]);
+            p.origin[i] += shift;
+        }
+        self.settings.periodic = Some(cell);
+        self.contacts.stale = true;
+        crate::neighbours::rebuild(self);
+        self.touch();
+        Ok(())
+    }
+
+    /// Makes every axis non-periodic again (elements stay where the cell put them).
+    pub fn unperiodic(&mut self) {
+        if self.settings.periodic.take().is_some() {
+            self.contacts.stale = true;
+            self.touch();
+        }
+    }
+
+    /// From element i to element j, through the nearest image in a periodic cell.
+    pub fn separation(&self, i: usize, j: usize) -> Vec3 {
+        let d = self.particles.pos[j] - self.particles.pos[i];
+        match &self.settings.periodic {
+            Some(c) => c.image().nearest(d),
+            None => d,
+        }
+    }
+}
+
+/// The effects whose pairs or geometry do not yet measure through a periodic cell's images.
+fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
+    let _ = cell;
+    let s = &m.settings;
+    let blocked = [
+        (s.rolling.is_some(), "rolling resistance"),
+        (!m.parallel_bonds.other.is_empty(), "parallel bonds"),
+        (s.pores.enabled, "pore flow"),
+        (s.heat.enabled, "heat conduction"),
+        (s.moisture.enabled, "moisture"),
+        (s.confinement.is_some(), "a confining pressure"),
+        (!m.clumps.is_empty(), "clumps"),
+    ];
+    match blocked.iter().find(|(on, _)| *on) {
+        Some((_, what)) => Err(Error::InvalidScene(format!(
+            "periodic boundaries do not yet work with {what}: run the scene without one of them"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a run whose scene has periodic axes and an effect that does not work with them yet
+/// (switched on after the cell was made).
+pub fn check_scene(m: &Model) -> Result<()> {
+    match &m.settings.periodic {
+        Some(cell) => check_effects(m, cell),
+        None => Ok(()),
+    }
+}
+
+/// What a plan with the `periodic` stage runs.
+pub fn words(cell: &Periodic) -> String {
+    cell.words()
+}

@@ -1,0 +1,273 @@
+//! Periodic boundaries (the `periodic` stage and the nearest image) against exact answers and
+//! conservation: an FCC lattice filling a periodic cell, strained uniformly, carries the stress
+//! of the infinite lattice (the closed-form sum over its bonds) to 1e-9; a ball crossing a face
+//! keeps its velocity and spin to the bit and its displacement continuous; a collision across a
+//! face is the collision inside the cell; a periodic gas with friction keeps its momentum to
+//! round-off; the GPU agrees; a checkpoint carries the cell; bad cells are refused.
+
+use crate::common::material;
+use matdem_engine::analysis::contact_list::contact_list;
+use matdem_engine::backend::RunControl;
+use matdem_engine::checkpoint::{decode, encode};
+use matdem_engine::plan::Stage;
+use matdem_engine::{Model, Simulation, StepPlan, Vec3};
+use nalgebra::Matrix3;
+
+const R: f64 = 1e-3;
+const KN: f64 = 1e5;
+
+fn run(sim: &mut Simulation, steps: u64) {
+    sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
+}
+
+fn cube(a: [f64; 2]) -> [Option<[f64; 2]>; 3] {
+    [Some(a), Some(a), Some(a)]
+}
+
+/// The 12 nearest neighbours of an FCC site, for cubic cell a.
+fn fcc_neighbours(a: f64) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+        for s in [-1.0, 1.0] {
+            for t in [-1.0, 1.0] {
+                let mut v = Vec3::zeros();
+                v[p] = s * a / 2.0;
+                v[q] = t * a / 2.0;
+                out.push(v);
+            }
+        }
+    }
+    out
+}
+
+/// n³ cubic cells of FCC spheres of radius R touching (a = 2√2·R), compressed along x by `eps`.
+fn strained_fcc(n: usize, eps: f64) -> (Model, f64) {
+    let a = 2.0 * 2f64.sqrt() * R;
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e7, 0.2)).unwrap();
+    let basis = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+    let squeeze = Vec3::new(1.0 - eps, 1.0, 1.0);
+    for (x, y, z) in (0..n).flat_map(|x| (0..n).flat_map(move |y| (0..n).map(move |z| (x, y, z)))) {
+        for b in basis {
+            let p = Vec3::new(x as f64 + b[0] + 0.25, y as f64 + b[1] + 0.25, z as f64 + b[2] + 0.25) * a;
+            m.add_particle(p.component_mul(&squeeze), R, k).unwrap();
+        }
+    }
+    let span = n as f64 * a;
+    m.periodic([Some([0.0, span * (1.0 - eps)]), Some([0.0, span]), Some([0.0, span])]).unwrap();
+    (m, a)
+}
+
+/// σ = −(1/V)·Σ f ⊗ l over the cell's contacts (compression positive).
+fn cell_stress(m: &Model, volume: f64) -> Matrix3<f64> {
+    let list = contact_list(m, &StepPlan::build(m));
+    let mut s = Matrix3::zeros();
+    for c in list.rows.iter().filter(|c| c.j().is_some()) {
+        s -= c.force * c.branch.transpose();
+    }
+    s / volume
+}
+
+#[test]
+fn a_strained_periodic_fcc_lattice_carries_the_infinite_lattices_stress() {
+    let (n, eps) = (4, 1e-3);
+    let (m, a) = strained_fcc(n, eps);
+    let volume = (n as f64 * a).powi(3) * (1.0 - eps);
+    let got = cell_stress(&m, volume);
+    // The infinite lattice: per site six bonds (each of the 12 neighbours shared), a site per
+    // a³/4 of volume; a bond of branch l presses with KN·(2R − |l|) along it.
+    let squeeze = Vec3::new(1.0 - eps, 1.0, 1.0);
+    let mut want = Matrix3::zeros();
+    for l in fcc_neighbours(a).iter().map(|v| v.component_mul(&squeeze)) {
+        let f = KN * (2.0 * R - l.norm());
+        want += 0.5 * f * (l * l.transpose()) / l.norm();
+    }
+    want *= 4.0 / (a * a * a * (1.0 - eps));
+    eprintln!("cell {got}\ninfinite {want}");
+    assert!(want[(0, 0)] > 0.0);
+    assert!((got - want).norm() < 1e-9 * want.norm(), "cell {got} against {want}");
+    // Without the images the boundary's bonds are missing: the same lattice, not periodic.
+    let mut open = m.clone();
+    open.unperiodic();
+    matdem_engine::neighbours::rebuild(&mut open);
+    let short = cell_stress(&open, volume);
+    assert!((short - want).norm() > 0.1 * want.norm(), "the open block misses its boundary bonds");
+}
+
+fn ball(v: Vec3, w: Vec3) -> Model {
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e7, 0.2)).unwrap();
+    m.add_particle(Vec3::new(9.5, 5.0, 5.0) * R, R, k).unwrap();
+    m.particles.vel[0] = v;
+    m.settings.rotation = true;
+    m.particles.enable_rotation();
+    m.particles.rotation.as_mut().unwrap().ang_vel[0] = w;
+    m.periodic([Some([0.0, 10.0 * R]), None, None]).unwrap();
+    m.set_dt(1e-5).unwrap();
+    m
+}
+
+/// `f32`: the device holds velocities in f32, so "to the bit" is to the f32 it was given;
+/// positions to 1e-4 of a radius there (an f32 ulp at 1 cm is 1e-9 m), 1e-6 on the CPU.
+fn check_crossing(sim: &mut Simulation, f32: bool) {
+    let round = |v: Vec3| if f32 { v.map(|x| f64::from(x as f32)) } else { v };
+    let (v, w) = (round(sim.model.particles.vel[0]), round(sim.model.particles.rotation.as_ref().unwrap().ang_vel[0]));
+    let tol = if f32 { 1e-4 * R } else { 1e-6 * R };
+    let (x0, o0) = (sim.model.particles.pos[0], sim.model.particles.origin[0]);
+    run(sim, 300);
+    let p = &sim.model.particles;
+    let r = p.rotation.as_ref().unwrap();
+    assert_eq!((p.vel[0], r.ang_vel[0]), (v, w), "velocity and spin to the bit");
+    let travelled = v * 300.0 * 1e-5;
+    assert!(p.pos[0].x < 5.0 * R, "crossed and came back in: x = {}", p.pos[0].x);
+    assert!((p.pos[0] - (x0 + travelled - Vec3::x() * 10.0 * R)).norm() < tol, "{:?}", p.pos[0]);
+    assert!(((p.pos[0] - p.origin[0]) - (x0 - o0 + travelled)).norm() < tol, "the displacement is continuous");
+}
+
+#[test]
+fn a_ball_crossing_a_periodic_face_keeps_its_velocity_and_spin_bitwise() {
+    let m = ball(Vec3::new(1.0, 0.2, 0.0), Vec3::new(1.0, 2.0, 3.0));
+    let plan = StepPlan::build(&m);
+    assert!(plan.has(Stage::Periodic) && plan.to_string().contains("periodic(x ∈ [0.0000e0, 1.0000e-2))"), "{plan}");
+    check_crossing(&mut Simulation::new(m), false);
+}
+
+#[test]
+fn a_ball_crossing_a_periodic_face_on_the_gpu_keeps_its_velocity_and_spin_bitwise() {
+    let Some(ctx) = crate::common::gpu("periodic_crossing") else { return };
+    check_crossing(&mut Simulation::with_gpu(ball(Vec3::new(1.0, 0.2, 0.0), Vec3::new(1.0, 2.0, 3.0)), ctx), true);
+}
+
+/// Two balls meeting head-on at `x` (their contact point), in a periodic cell [0, 10R) in x;
+/// the gap closes 103.7 steps after the start, so a position's last bit cannot move the
+/// contact's first step (which would change the discrete restitution by a few per cent).
+fn head_on(x: f64) -> Model {
+    let mut m = Model::new();
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    mat.restitution = 0.6;
+    let k = m.add_material(mat).unwrap();
+    for (side, v) in [(-1.0, 0.5), (1.0, -0.5)] {
+        let c = Vec3::new(x + side * 1.051_85 * R, 5.0 * R, 5.0 * R);
+        let i = m.add_particle(c, R, k).unwrap();
+        m.particles.vel[i] = Vec3::new(v, 0.01, 0.0);
+    }
+    m.periodic([Some([0.0, 10.0 * R]), None, None]).unwrap();
+    m.set_dt(1e-6).unwrap();
+    m
+}
+
+#[test]
+fn a_collision_across_a_face_is_the_collision_inside_the_cell() {
+    let (mut across, mut inside) = (Simulation::new(head_on(0.0)), Simulation::new(head_on(5.0 * R)));
+    run(&mut across, 3000);
+    run(&mut inside, 3000);
+    let (a, b) = (&across.model.particles, &inside.model.particles);
+    eprintln!("across {:?} {:?}; inside {:?} {:?}", a.vel[0], a.vel[1], b.vel[0], b.vel[1]);
+    assert!(b.vel[0].x < -0.1, "the inside pair bounced");
+    for i in 0..2 {
+        assert!((a.vel[i] - b.vel[i]).norm() < 1e-9, "{i}: {:?} against {:?}", a.vel[i], b.vel[i]);
+    }
+}
+
+/// A gas of 216 frictional balls in a fully periodic cube, random velocities of zero mean, no
+/// gravity, no damping but the contacts'.
+fn gas() -> Model {
+    let mut m = Model::new();
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    (mat.ks, mat.mu_p, mat.restitution) = (4e4, 0.5, 0.7);
+    let k = m.add_material(mat).unwrap();
+    let mut seed = 12345u64;
+    let mut uniform = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for (x, y, z) in (0..6).flat_map(|x| (0..6).flat_map(move |y| (0..6).map(move |z| (x, y, z)))) {
+        // The last layer 0.05 R inside the upper faces: it crosses within the first steps.
+        let c = Vec3::new(x as f64, y as f64, z as f64) * 2.4 * R + Vec3::repeat(2.35 * R);
+        let i = m.add_particle(c, R * (0.9 + 0.1 * uniform()), k).unwrap();
+        m.particles.vel[i] = Vec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5);
+    }
+    let mean = m.particles.vel.iter().sum::<Vec3>() / m.len() as f64;
+    m.particles.vel.iter_mut().for_each(|v| *v -= mean);
+    m.settings.rotation = true;
+    m.periodic(cube([0.0, 6.0 * 2.4 * R])).unwrap();
+    m.set_standard_dt().unwrap();
+    m
+}
+
+fn momentum(m: &Model) -> (Vec3, f64) {
+    let p = &m.particles;
+    let total = (0..p.len()).map(|i| p.vel[i] * p.mass[i]).sum::<Vec3>();
+    let scale = (0..p.len()).map(|i| p.vel[i].norm() * p.mass[i]).sum::<f64>();
+    (total, scale)
+}
+
+#[test]
+fn a_periodic_gas_keeps_its_momentum_to_round_off() {
+    let mut sim = Simulation::new(gas());
+    let (p0, scale) = momentum(&sim.model);
+    let mut touched = 0;
+    for _ in 0..40 {
+        run(&mut sim, 100);
+        touched = touched.max(sim.contact_stats().contacts);
+    }
+    let (p1, _) = momentum(&sim.model);
+    let crossed =
+        sim.model.particles.pos.iter().zip(&sim.model.particles.origin).filter(|(x, o)| (*x - *o).norm() > 0.0);
+    eprintln!("momentum {p0:?} -> {p1:?} (scale {scale:e}); {} moved", crossed.count());
+    assert!((p1 - p0).norm() < 1e-12 * scale, "momentum {p0:?} -> {p1:?}");
+    assert!(touched > 0, "the gas collides");
+}
+
+#[test]
+fn a_periodic_gas_runs_alike_on_the_cpu_and_the_gpu() {
+    let Some(ctx) = crate::common::gpu("periodic_gas") else { return };
+    let (mut cpu, mut gpu) = (Simulation::new(gas()), Simulation::with_gpu(gas(), ctx));
+    // A horizon the collisions' amplification of f32's round-off allows (at 1500 steps the
+    // positions differ by 4e-3 of the largest move: the gas is chaotic).
+    run(&mut cpu, 300);
+    run(&mut gpu, 300);
+    let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+    let moved = (0..a.len()).map(|i| (a.pos[i] - a.origin[i]).norm()).fold(0.0, f64::max);
+    let worst = (0..a.len()).map(|i| (a.pos[i] - b.pos[i]).norm()).fold(0.0, f64::max);
+    let disp = (0..a.len()).map(|i| ((a.pos[i] - a.origin[i]) - (b.pos[i] - b.origin[i])).norm()).fold(0.0, f64::max);
+    let start = gas();
+    let crossed = (0..a.len()).filter(|&i| a.origin[i] != start.particles.origin[i]).count();
+    let crossed_gpu = (0..a.len()).filter(|&i| b.origin[i] != start.particles.origin[i]).count();
+    assert!(crossed > 0 && crossed == crossed_gpu, "{crossed} crossed a face on the CPU, {crossed_gpu} on the GPU");
+    eprintln!("after 300 steps ({crossed} crossed a face): positions {worst:.3e} m, displacements {disp:.3e} m, of {moved:.3e} m moved");
+    // f32 positions near 1.4 cm (an ulp of 9e-10 m) resolve the impacts' overlaps of ~1e-5 m
+    // to ~1e-4: measured 3.7e-4 of the largest move on lavapipe.
+    assert!(worst < 1e-3 * moved && disp < 1e-3 * moved, "{worst:e} / {disp:e} against {moved:e}");
+    let (pa, scale) = momentum(&cpu.model);
+    let (pb, _) = momentum(&gpu.model);
+    assert!((pa - pb).norm() < 1e-5 * scale, "momentum {pa:?} against {pb:?}");
+}
+
+#[test]
+fn a_checkpoint_carries_the_periodic_cell() {
+    let mut sim = Simulation::new(gas());
+    run(&mut sim, 300);
+    let mut back = Simulation::new(decode(&encode(&sim.model, b"")).unwrap().model);
+    assert_eq!(back.model.settings.periodic, sim.model.settings.periodic);
+    run(&mut sim, 300);
+    run(&mut back, 300);
+    assert_eq!(back.model.particles.pos, sim.model.particles.pos);
+}
+
+#[test]
+fn bad_periodic_cells_are_refused_with_what_to_do() {
+    let mut m = gas();
+    let e = m.periodic([Some([0.0, 3.0 * R]), None, None]).unwrap_err().to_string();
+    assert!(e.contains("at least 3·(2·r_max + skin)") && e.contains("widen the cell"), "{e}");
+    let e = m.periodic([Some([1.0, 0.0]), None, None]).unwrap_err().to_string();
+    assert!(e.contains("the first below the second"), "{e}");
+    assert!(m.periodic([None, None, None]).is_err());
+    m.settings.rolling = Some(matdem_engine::effects::rolling_resistance::physics::RollingResistance {
+        model: matdem_engine::effects::rolling_resistance::physics::RollingModel::Cdt,
+        mu_r: 0.1,
+        damping: 0.0,
+    });
+    let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
+    assert!(e.contains("do not yet work with rolling resistance"), "{e}");
+}

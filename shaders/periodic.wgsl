@@ -1,0 +1,32 @@
+// The `periodic` stage on the GPU, right after the move: an element that left the cell comes
+// back through the opposite face (its displacement shifted by the span, its crossings counted,
+// so that a download shifts its displacement's origin on the host). CPU twin:
+// effects/periodic/cpu.rs.
+
+// Bindings: generated from this stage's list in engine/src/effects/periodic/gpu.rs.
+
+@compute @workgroup_size(64)
+fn periodic(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if i >= params.n {
+        return;
+    }
+    let x = origin[i].xyz + disp[i].xyz;
+    var u = disp[i].xyz;
+    var k = crossings[i];
+    for (var a = 0; a < 3; a++) {
+        let span = params.period[a];
+        if span > 0.0 {
+            let lo = params.period_lo[a];
+            if x[a] < lo {
+                u[a] += span;
+                k[a] += 1;
+            } else if x[a] >= lo + span {
+                u[a] -= span;
+                k[a] -= 1;
+            }
+        }
+    }
+    disp[i] = vec4<f32>(u, 0.0);
+    crossings[i] = k;
+}
