@@ -40,6 +40,7 @@ mod movie_cli;
 mod oedometer_seeds;
 mod packages;
 mod parallel_bond_cli;
+mod periodic_script;
 mod planar_script;
 mod pore_flow_script;
 mod porosity_and_statistics;
