@@ -8,6 +8,7 @@
 //! wall contact — so that a step too long for the loaded sample stops (or warns once) with
 //! the contact named, instead of finishing with wrong physics.
 
+use crate::effects::periodic::Separations;
 use crate::error::{Error, Instability, Result, Suggestion};
 use crate::model::Model;
 use crate::physics::contact_law::PairParams;
@@ -112,12 +113,12 @@ pub fn check_state(m: &Model) -> Result<()> {
             ));
         }
     }
-    let c = &m.contacts;
+    let (c, sep) = (&m.contacts, m.separations());
     let ratio = m.settings.max_overlap_ratio;
     for i in 0..p.len() {
         for k in c.row(i) {
             let j = c.other[k] as usize;
-            let share = overlap_share(m, i, j);
+            let share = overlap_share(m, &sep, i, j);
             if share > ratio {
                 let what = format!("overlaps particle {j} by {:.0}% of the smaller radius", 100.0 * share);
                 return Err(with_load_fix(m, unstable(m, i, what), &[i, j]));
@@ -135,9 +136,10 @@ pub fn check_state(m: &Model) -> Result<()> {
 
 /// The overlap of particles i and j as a share of the smaller radius (negative apart): what
 /// the guard holds below `max_overlap_ratio`.
-fn overlap_share(m: &Model, i: usize, j: usize) -> f64 {
+#[inline(always)]
+fn overlap_share(m: &Model, sep: &Separations, i: usize, j: usize) -> f64 {
     let p = &m.particles;
-    let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
+    let overlap = p.radius[i] + p.radius[j] - sep.between(&p.pos, i, j).norm();
     overlap / p.radius[i].min(p.radius[j])
 }
 
@@ -155,12 +157,12 @@ pub struct DeepestOverlap {
 /// it are pressed deeper than a linear spring means anything (examples/cpt). The rows must
 /// be current, as after any step.
 pub fn deepest_overlap(m: &Model) -> Option<DeepestOverlap> {
-    let c = &m.contacts;
+    let (c, sep) = (&m.contacts, m.separations());
     let mut deepest: Option<DeepestOverlap> = None;
     for i in 0..m.len() {
         for k in c.row(i) {
             let j = c.other[k] as usize;
-            let share = overlap_share(m, i, j);
+            let share = overlap_share(m, &sep, i, j);
             if share > 0.0 && deepest.is_none_or(|d| share > d.share) {
                 deepest = Some(DeepestOverlap { share, i: i.min(j), j: i.max(j) });
             }
@@ -295,6 +297,7 @@ pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
     use rayon::prelude::*;
     let p = &m.particles;
     let c = &m.contacts;
+    let sep = m.separations();
     let rows = p.len().min(c.row_start.len().saturating_sub(1));
     let near = |i: usize| if c.wall_near.len() == p.len() { c.wall_near[i] } else { u8::MAX };
     let best = (0..p.len())
@@ -316,7 +319,7 @@ pub fn stiffest_contact(m: &Model, plan: &StepPlan) -> Option<StiffContact> {
                 if j < i || !(free_i || free_j) {
                     continue;
                 }
-                let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
+                let overlap = p.radius[i] + p.radius[j] - sep.between(&p.pos, i, j).norm();
                 if overlap <= 0.0 && !c.state[e].bonded {
                     continue;
                 }

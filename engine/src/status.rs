@@ -97,7 +97,7 @@ pub fn potential_energies(m: &Model, plan: &StepPlan) -> Energies {
 }
 
 fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -> Energies {
-    let (p, c) = (&m.particles, &m.contacts);
+    let (p, c, sep) = (&m.particles, &m.contacts, m.separations());
     let mut e = Energies::default();
     for i in 0..p.len() {
         for k in c.row(i) {
@@ -106,7 +106,7 @@ fn spring_energies<N: NormalLaw, T: TangentialLaw>(m: &Model, plan: &StepPlan) -
                 continue;
             }
             let st = &c.state[k];
-            let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
+            let overlap = p.radius[i] + p.radius[j] - sep.between(&p.pos, i, j).norm();
             if overlap <= 0.0 && !st.bonded {
                 continue;
             }
@@ -176,7 +176,7 @@ pub struct ContactStats {
 }
 
 pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
-    let (p, c) = (&m.particles, &m.contacts);
+    let (p, c, sep) = (&m.particles, &m.contacts, m.separations());
     let mut s = ContactStats::default();
     let mut f_sum = 0.0;
     let mut touching = 0usize;
@@ -186,7 +186,7 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
             if j < i {
                 continue;
             }
-            let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
+            let overlap = p.radius[i] + p.radius[j] - sep.between(&p.pos, i, j).norm();
             let bonded = c.state[k].bonded;
             if bonded {
                 s.bonds += 1;
@@ -256,11 +256,11 @@ pub struct Coordination {
 }
 
 pub fn coordination_without_rattlers(m: &Model) -> Coordination {
-    let (p, c) = (&m.particles, &m.contacts);
+    let (p, c, sep) = (&m.particles, &m.contacts, m.separations());
     let n = p.len();
     let touching = |i: usize, k: usize| {
         let j = c.other[k] as usize;
-        c.state[k].bonded || m.separation(i, j).norm() < p.radius[i] + p.radius[j]
+        c.state[k].bonded || sep.between(&p.pos, i, j).norm() < p.radius[i] + p.radius[j]
     };
     let rows = c.row_start.len().saturating_sub(1).min(n);
     let mut count: Vec<usize> = (0..n)
@@ -332,13 +332,13 @@ pub fn wall_stress(m: &Model, w: usize) -> f64 {
 /// Sum of the normal contact forces each particle carries from other particles (N): the
 /// load a grain transmits, for "mean force per size class".
 pub fn contact_loads(m: &Model, plan: &StepPlan) -> Vec<f64> {
-    let (p, c) = (&m.particles, &m.contacts);
+    let (p, c, sep) = (&m.particles, &m.contacts, m.separations());
     (0..p.len())
         .map(|i| {
             c.row(i)
                 .map(|k| {
                     let j = c.other[k] as usize;
-                    let overlap = p.radius[i] + p.radius[j] - m.separation(i, j).norm();
+                    let overlap = p.radius[i] + p.radius[j] - sep.between(&p.pos, i, j).norm();
                     if overlap <= 0.0 {
                         return 0.0;
                     }

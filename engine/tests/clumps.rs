@@ -212,3 +212,36 @@ fn bad_clumps_are_refused_with_what_to_do() {
     assert!(e.contains("fixed degree of freedom") && e.contains("unfix"), "{e}");
     assert!(m.clump(&[]).is_err() && m.clump(&[99]).is_err());
 }
+
+/// The rows the device builds (rows.wgsl, behind CLUMPS) leave a clump's members out of each
+/// other's rows, as the host's do: a pile of touching dumbbells.
+#[test]
+fn device_rows_leave_a_clumps_members_apart() {
+    use matdem_engine::backend::gpu::GpuBackend;
+    let Some(ctx) = crate::common::gpu("clumps_device_rows") else { return };
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, 1e3, 1e7, 0.2)).unwrap();
+    for x in 0..4 {
+        for y in 0..4 {
+            let c = Vec3::new(x as f64 * 4.1, y as f64 * 2.05, 1.0) * R;
+            let a = m.add_particle(c, R, k).unwrap() as u32;
+            let b = m.add_particle(c + Vec3::x() * 2.0 * R, R, k).unwrap() as u32;
+            m.clump(&[a, b]).unwrap();
+        }
+    }
+    m.set_standard_dt().unwrap();
+    let mut gpu = m.clone();
+    let mut backend = GpuBackend::prepare(ctx, &gpu).unwrap();
+    backend.build_rows_once(&mut gpu).unwrap().expect("the rows fit their slots");
+    let (a, b) = (&gpu.contacts, &m.contacts);
+    let mut entries = 0;
+    for i in 0..m.len() {
+        let (mut ra, mut rb) = (a.other[a.row(i)].to_vec(), b.other[b.row(i)].to_vec());
+        ra.sort_unstable();
+        rb.sort_unstable();
+        assert_eq!(ra, rb, "row {i}");
+        assert!(ra.iter().all(|&j| m.clumps.of[j as usize] != m.clumps.of[i]), "row {i} holds its own clump");
+        entries += ra.len();
+    }
+    assert!(entries > 0, "the dumbbells touch their neighbours");
+}

@@ -271,3 +271,23 @@ fn bad_periodic_cells_are_refused_with_what_to_do() {
     let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
     assert!(e.contains("do not yet work with rolling resistance"), "{e}");
 }
+
+/// The rows the device builds (rows.wgsl and cell_list.wgsl, behind PERIODIC) are the host's:
+/// the strained FCC cell, whose boundary pairs meet through the images.
+#[test]
+fn device_rows_of_a_periodic_cell_are_the_hosts() {
+    use matdem_engine::backend::gpu::GpuBackend;
+    let Some(ctx) = crate::common::gpu("periodic_device_rows") else { return };
+    let (m, _) = strained_fcc(4, 1e-3);
+    let mut gpu = m.clone();
+    let mut backend = GpuBackend::prepare(ctx, &gpu).unwrap();
+    backend.build_rows_once(&mut gpu).unwrap().expect("the rows fit their slots");
+    let (a, b) = (&gpu.contacts, &m.contacts);
+    for i in 0..m.len() {
+        let (mut ra, mut rb) = (a.other[a.row(i)].to_vec(), b.other[b.row(i)].to_vec());
+        ra.sort_unstable();
+        rb.sort_unstable();
+        assert_eq!(ra, rb, "row {i}");
+        assert_eq!(ra.len(), 12, "row {i}: an FCC site's twelve neighbours, through the faces too");
+    }
+}

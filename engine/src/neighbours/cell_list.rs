@@ -101,7 +101,8 @@ pub(super) fn find_pairs(
                     true => (at - k, at + k),
                     false => ((at - k).max(0), (at + k).min(d - 1)),
                 };
-                (first..=last).map(move |x| x.rem_euclid(d) as usize)
+                let wrap = wraps[a];
+                (first..=last).map(move |x| if wrap { x.rem_euclid(d) as usize } else { x as usize })
             };
             for cz in range(2) {
                 for cy in range(1) {

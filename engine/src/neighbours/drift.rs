@@ -13,17 +13,24 @@ pub fn is_stale(c: &Contacts, pos: &[Vec3], cell: Option<&Periodic>) -> bool {
         return true;
     }
     let limit = 0.25 * c.skin * c.skin;
-    // In a periodic cell an element that crossed a face has moved by its drift, not the span.
-    let image = cell.map(Periodic::image);
-    let moved = |(a, b): (&Vec3, &Vec3)| match &image {
-        Some(im) => im.nearest(a - b).norm_squared() > limit,
-        None => (a - b).norm_squared() > limit,
-    };
+    match cell {
+        // In a periodic cell an element that crossed a face has moved by its drift, not the span.
+        Some(cell) => {
+            let image = cell.image();
+            drifted(pos, &c.built_at, |a, b| image.nearest(a - b).norm_squared() > limit)
+        }
+        None => drifted(pos, &c.built_at, |a, b| (a - b).norm_squared() > limit),
+    }
+}
+
+/// Whether any element has `moved` from where the rows were built.
+#[inline(always)]
+fn drifted(pos: &[Vec3], built: &[Vec3], moved: impl Fn(&Vec3, &Vec3) -> bool + Sync) -> bool {
     // Small models: waking the thread pool every step costs more than the check.
     if pos.len() < 16_384 {
-        return pos.iter().zip(&c.built_at).any(moved);
+        return pos.iter().zip(built).any(|(a, b)| moved(a, b));
     }
-    pos.par_iter().zip(c.built_at.par_iter()).with_min_len(4096).any(moved)
+    pos.par_iter().zip(built.par_iter()).with_min_len(4096).any(|(a, b)| moved(a, b))
 }
 
 /// Whether the wall mask no longer covers the walls: one was added, removed, reshaped, or

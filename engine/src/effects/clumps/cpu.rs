@@ -1,8 +1,8 @@
 //! The `clumps` stage on the CPU, right after the move (which leaves the members alone): each
 //! clump's members' forces and torques summed about its centre, in member order, the body
-//! advanced a step (`physics.rs`) and its members placed where it carries them. Clumps are
-//! independent, so each is one task; a member is in one clump, so each lane entry is written
-//! once. CPU twin of `gpu.rs`.
+//! advanced a step (`physics.rs`) and its members placed where it carries them. Serial, in clump
+//! order (a scene's clumps are few beside its pairs); a member is in one clump, so each lane
+//! entry is written once. CPU twin of `gpu.rs`.
 
 use crate::backend::cpu::integrate::Observed;
 use crate::effects::clumps::lanes::Body;

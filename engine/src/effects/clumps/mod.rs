@@ -82,6 +82,12 @@ impl Model {
                 "clump: clumps in a 2D model are not supported yet; build the clumps in a 3D model".into(),
             ));
         }
+        if self.settings.periodic.is_some() {
+            return Err(Error::InvalidScene(
+                "clump: clumps with periodic boundaries are not supported yet (a clump's members would wrap one by                  one); make the clumps in a model without d.periodic"
+                    .into(),
+            ));
+        }
         for &i in &ids {
             let i = i as usize;
             if self.clumps.clump_of(i).is_some() {

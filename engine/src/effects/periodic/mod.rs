@@ -88,9 +88,27 @@ impl Model {
 
     /// From element i to element j, through the nearest image in a periodic cell.
     pub fn separation(&self, i: usize, j: usize) -> Vec3 {
-        let d = self.particles.pos[j] - self.particles.pos[i];
-        match &self.settings.periodic {
-            Some(c) => c.image().nearest(d),
+        self.separations().between(&self.particles.pos, i, j)
+    }
+
+    /// The model's pair separation, for a loop over many pairs (the cell's image worked out
+    /// once).
+    pub fn separations(&self) -> Separations {
+        Separations(self.settings.periodic.map(|c| c.image()))
+    }
+}
+
+/// Pair separations in a model: through the nearest image when it has a periodic cell.
+#[derive(Debug, Clone, Copy)]
+pub struct Separations(Option<Image>);
+
+impl Separations {
+    /// From `pos[i]` to `pos[j]`.
+    #[inline(always)]
+    pub fn between(&self, pos: &[Vec3], i: usize, j: usize) -> Vec3 {
+        let d = pos[j] - pos[i];
+        match &self.0 {
+            Some(image) => image.nearest(d),
             None => d,
         }
     }
