@@ -41,6 +41,7 @@ mod oedometer_seeds;
 mod packages;
 mod parallel_bond_cli;
 mod periodic_script;
+mod periodic_shear_cli;
 mod planar_script;
 mod pore_flow_script;
 mod porosity_and_statistics;

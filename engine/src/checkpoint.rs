@@ -330,7 +330,12 @@ impl Section {
                 m.clumps = clumps;
             }
             Section::Periodic { cell } => {
-                let sound = cell.axes.iter().flatten().all(|[lo, hi]| lo.is_finite() && hi.is_finite() && hi > lo);
+                let sound = cell.axes.iter().flatten().all(|[lo, hi]| lo.is_finite() && hi.is_finite() && hi > lo)
+                    && cell.shear.is_none_or(|s| {
+                        [s.rate, s.offset, s.offset_at_build].iter().all(|v| v.is_finite())
+                            && cell.axes[0].is_some()
+                            && cell.axes[2].is_some()
+                    });
                 if !sound || cell.axes.iter().all(Option::is_none) {
                     return Err("the periodic cell's spans are not finite [lo, hi) with lo < hi".into());
                 }

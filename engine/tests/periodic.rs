@@ -291,3 +291,129 @@ fn device_rows_of_a_periodic_cell_are_the_hosts() {
         assert_eq!(ra.len(), 12, "row {i}: an FCC site's twelve neighbours, through the faces too");
     }
 }
+
+/// Two bonded balls flying apart at 2 m/s each: across a face the bond stretches and
+/// breaks at the step it breaks inside the cell, and pulls as hard (its state is the pair's,
+/// whichever image the pair meets through).
+fn bonded_pair(x: f64) -> Model {
+    let mut m = Model::new();
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    (mat.ks, mat.xb, mat.fs0) = (4e4, 2e-5, 1.0);
+    let k = m.add_material(mat).unwrap();
+    for (side, v) in [(-1.0, -2.0), (1.0, 2.0)] {
+        let i = m.add_particle(Vec3::new(x + side * R, 5.0 * R, 5.0 * R), R, k).unwrap();
+        m.particles.vel[i] = Vec3::new(v, 0.0, 0.0);
+    }
+    m.periodic([Some([0.0, 10.0 * R]), None, None]).unwrap();
+    assert_eq!(m.connect(None, 1e-9).unwrap(), 1);
+    m.set_dt(1e-7).unwrap();
+    m
+}
+
+#[test]
+fn a_bond_across_a_face_stretches_and_breaks_as_inside_the_cell() {
+    let (mut across, mut inside) = (Simulation::new(bonded_pair(0.0)), Simulation::new(bonded_pair(5.0 * R)));
+    for _ in 0..40 {
+        run(&mut across, 10);
+        run(&mut inside, 10);
+        let (a, b) = (&across.model.particles, &inside.model.particles);
+        assert!((a.vel[0] - b.vel[0]).norm() < 1e-9, "{:?} against {:?}", a.vel[0], b.vel[0]);
+        assert!((a.force[1] - b.force[1]).norm() < 1e-9 * KN * R, "{:?} against {:?}", a.force[1], b.force[1]);
+    }
+    let (a, b) = (&across.model.breakages, &inside.model.breakages);
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert_eq!(a.len(), 1, "the bond broke");
+    assert_eq!(a[0].step, b[0].step, "at the same step");
+}
+
+/// The gas sheared by Lees–Edwards images (x along z at γ̇ = 20/s), started in the streaming
+/// profile with no net momentum. A crossing of a z face changes v_x by ∓γ̇·L_z and z by ∓L_z
+/// together, and the pair forces (their relative velocities through the sliding images
+/// included) are equal and opposite, so the peculiar momentum Σ m·(v − γ̇·z·e_x) stays as it was
+/// to round-off while the elements stream through the faces.
+fn sheared_gas(rate: f64) -> Model {
+    let mut m = gas();
+    let p = &mut m.particles;
+    let mass: f64 = p.mass.iter().sum();
+    let mean = (0..p.len()).map(|i| p.vel[i] * p.mass[i]).sum::<Vec3>() / mass;
+    let z_mid = 0.5 * 6.0 * 2.4 * R;
+    for i in 0..p.len() {
+        p.vel[i] -= mean;
+        p.vel[i].x += rate * (p.pos[i].z - z_mid);
+    }
+    m.lees_edwards(rate).unwrap();
+    m
+}
+
+fn peculiar_momentum(m: &Model, rate: f64) -> Vec3 {
+    let p = &m.particles;
+    (0..p.len()).map(|i| (p.vel[i] - Vec3::x() * rate * p.pos[i].z) * p.mass[i]).sum()
+}
+
+#[test]
+fn lees_edwards_shear_keeps_the_peculiar_momentum_to_round_off() {
+    let rate = 20.0;
+    let mut sim = Simulation::new(sheared_gas(rate));
+    assert!(StepPlan::build(&sim.model).to_string().contains("Lees–Edwards shear γ̇ = 2.0000e1 1/s"));
+    let (p0, (_, scale)) = (peculiar_momentum(&sim.model, rate), momentum(&sim.model));
+    let start = sim.model.particles.origin.clone();
+    let mut touched = 0;
+    for _ in 0..40 {
+        run(&mut sim, 100);
+        touched = touched.max(sim.contact_stats().contacts);
+    }
+    let m = &sim.model;
+    let p1 = peculiar_momentum(m, rate);
+    let crossed_z = (0..m.len()).filter(|&i| m.particles.origin[i].z != start[i].z).count();
+    let offset = m.settings.periodic.unwrap().shear.unwrap().offset;
+    eprintln!(
+        "peculiar momentum {p0:?} -> {p1:?} (scale {scale:e}); {crossed_z} crossed a z face; offset {offset:e} m"
+    );
+    assert!(crossed_z > 0 && touched > 0, "elements stream through the z faces and collide");
+    assert!((p1 - p0).norm() < 1e-12 * scale, "peculiar momentum {p0:?} -> {p1:?}");
+    let span = 6.0 * 2.4 * R;
+    let slid = rate * span * 4000.0 * m.clock.dt;
+    assert!((offset - slid.rem_euclid(span)).abs() < 1e-12 * span, "offset {offset} against γ̇·L_z·t = {slid}");
+}
+
+/// A ball leaving through the top of a sheared cell comes in at the bottom shifted back along x
+/// by the images' offset and slower by γ̇·L_z: it continues as the image it was.
+#[test]
+fn a_ball_leaving_a_sheared_cell_continues_as_its_image() {
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e7, 0.2)).unwrap();
+    m.add_particle(Vec3::new(5.0, 5.0, 9.5) * R, R, k).unwrap();
+    m.particles.vel[0] = Vec3::new(0.3, 0.0, 1.0);
+    m.periodic([Some([0.0, 10.0 * R]), None, Some([0.0, 10.0 * R])]).unwrap();
+    m.set_dt(1e-5).unwrap();
+    let rate = 50.0;
+    m.lees_edwards(rate).unwrap();
+    let mut sim = Simulation::new(m);
+    run(&mut sim, 100);
+    let m = &sim.model;
+    let (p, v) = (m.particles.pos[0], m.particles.vel[0]);
+    let offset = m.settings.periodic.unwrap().shear.unwrap().offset;
+    let slide = rate * 10.0 * R;
+    assert_eq!(v.z, 1.0);
+    assert!((v.x - (0.3 - slide)).abs() < 1e-15, "v_x {} against {}", v.x, 0.3 - slide);
+    // z: 9.5R + 1 mm − 10R; x: 5R + 0.3 mm, less the offset at the crossing, then at v_x − slide.
+    assert!((p.z - 0.5e-3).abs() < 1e-12, "z {}", p.z);
+    assert!(
+        p.x > 0.0 && p.x < 10.0 * R && (p.x - 5.0 * R - 0.3e-3).abs() > 1e-5,
+        "moved along x by the offset: {}",
+        p.x
+    );
+    let _ = offset;
+}
+
+#[test]
+fn lees_edwards_shear_is_refused_on_the_gpu_and_without_x_and_z_periodic() {
+    let mut m = gas();
+    m.unperiodic();
+    assert!(m.lees_edwards(1.0).unwrap_err().to_string().contains("make x and z periodic first"));
+    m.periodic([Some([0.0, 6.0 * 2.4 * R]), None, None]).unwrap();
+    assert!(m.lees_edwards(1.0).unwrap_err().to_string().contains("both x and z must be periodic"));
+    let Some(ctx) = crate::common::gpu("periodic_lees_edwards_gpu") else { return };
+    let e = Simulation::with_gpu(sheared_gas(5.0), ctx).run(10, &RunControl::default(), &mut |_| {}).unwrap_err();
+    assert!(e.to_string().contains("CPU backend only"), "{e}");
+}

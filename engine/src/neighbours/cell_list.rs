@@ -33,6 +33,7 @@ pub(super) fn find_pairs(
         }
     }
     let image = cell.map(Periodic::image);
+    let sheared = cell.is_some_and(|c| c.shear.is_some());
     let r_mean = radius.iter().sum::<f64>() / n as f64;
     // Cells sized for the typical particle; bounded so a sparse scene stays small.
     let mut h = 2.0 * r_mean + skin;
@@ -94,19 +95,27 @@ pub(super) fn find_pairs(
             let c = cell_of(&xi);
             // The cells within reach along axis a: clamped to the grid, or round it where the
             // axis is periodic (each cell once, however far the reach).
-            let range = |a: usize| {
+            // The cells within reach along axis a: clamped to the grid, or round it where the
+            // axis is periodic (each cell once, however far the reach); every cell when `all`.
+            let range = |a: usize, all: bool| {
                 let (d, k, at) = (dims[a] as isize, (reach / width[a]).ceil() as isize, c[a] as isize);
                 let (first, last) = match wraps[a] {
-                    true if 2 * k + 1 >= d => (0, d - 1),
+                    true if all || 2 * k + 1 >= d => (0, d - 1),
                     true => (at - k, at + k),
                     false => ((at - k).max(0), (at + k).min(d - 1)),
                 };
                 let wrap = wraps[a];
                 (first..=last).map(move |x| if wrap { x.rem_euclid(d) as usize } else { x as usize })
             };
-            for cz in range(2) {
-                for cy in range(1) {
-                    for cx in range(0) {
+            let (z_at, z_reach) = (c[2] as isize, (reach / width[2]).ceil() as isize);
+            let z_all = 2 * z_reach + 1 >= dims[2] as isize;
+            for cz in range(2, false) {
+                // Under Lees–Edwards shear the cells across a z face hold the images slid along
+                // x by the offset: look along the whole row there (a visited cell farther than
+                // the reach from i's own was reached round the face).
+                let across = sheared && (z_all || (cz as isize - z_at).abs() > z_reach);
+                for cy in range(1, false) {
+                    for cx in range(0, across) {
                         let cell = flat([cx, cy, cz]);
                         for &j in &items[cell_start[cell] as usize..cell_start[cell + 1] as usize] {
                             let j = j as usize;

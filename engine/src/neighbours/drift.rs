@@ -14,9 +14,15 @@ pub fn is_stale(c: &Contacts, pos: &[Vec3], cell: Option<&Periodic>) -> bool {
     }
     let limit = 0.25 * c.skin * c.skin;
     match cell {
-        // In a periodic cell an element that crossed a face has moved by its drift, not the span.
+        // In a periodic cell an element that crossed a face has moved by its drift, not the span;
+        // under Lees–Edwards shear the images across the z faces have slid too, so each element
+        // may drift only half of what the slide left of the skin.
         Some(cell) => {
-            let image = cell.image();
+            let slack = c.skin - cell.slip_since_build();
+            if slack <= 0.0 {
+                return true;
+            }
+            let (image, limit) = (cell.image(), 0.25 * slack * slack);
             drifted(pos, &c.built_at, |a, b| image.nearest(a - b).norm_squared() > limit)
         }
         None => drifted(pos, &c.built_at, |a, b| (a - b).norm_squared() > limit),

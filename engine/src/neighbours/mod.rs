@@ -119,6 +119,9 @@ pub fn rebuild(m: &mut Model) {
         stale: false,
         rolling,
     };
+    if let Some(s) = m.settings.periodic.as_mut().and_then(|c| c.shear.as_mut()) {
+        s.offset_at_build = s.offset;
+    }
     rebuild_wall_mask(m);
 }
 

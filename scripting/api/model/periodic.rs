@@ -3,16 +3,28 @@
 
 use super::*;
 
-/// `d.periodic(#{ x: [x0, x1], y: [y0, y1], z: [z0, z1] })`: any of the three.
+/// `d.periodic(#{ x: [x0, x1], y: [y0, y1], z: [z0, z1], shear_rate })`: any of the three axes,
+/// and Lees–Edwards shear with x and z.
 fn periodic(d: &mut ModelHandle, axes: Map) -> RhaiResult<()> {
     let what = "d.periodic";
     let mut spans = [None; 3];
+    let mut shear = None;
     for (k, v) in &axes {
         let a = match k.as_str() {
             "x" => 0,
             "y" => 1,
             "z" => 2,
-            other => return Err(raise(matdem_engine::Error::unknown("periodic axis", other, &["x", "y", "z"]))),
+            "shear_rate" => {
+                shear = Some(number(v).ok_or_else(|| err(format!("{what}: `shear_rate` is γ̇ (1/s), a number")))?);
+                continue;
+            }
+            other => {
+                return Err(raise(matdem_engine::Error::unknown(
+                    "periodic axis",
+                    other,
+                    &["x", "y", "z", "shear_rate"],
+                )))
+            }
         };
         let n = to_numbers(v, what)?;
         let [lo, hi] = n[..] else {
@@ -20,7 +32,12 @@ fn periodic(d: &mut ModelHandle, axes: Map) -> RhaiResult<()> {
         };
         spans[a] = Some([lo, hi]);
     }
-    d.model().periodic(spans).map_err(raise)
+    let mut m = d.model();
+    m.periodic(spans).map_err(raise)?;
+    match shear {
+        Some(rate) => m.lees_edwards(rate).map_err(raise),
+        None => Ok(()),
+    }
 }
 
 /// The periodic cell as a map of its axes' spans (an empty map without one).
@@ -40,5 +57,9 @@ pub(super) fn register(engine: &mut Engine) {
     engine
         .register_fn("periodic", periodic)
         .register_fn("periodic_cell", periodic_cell)
+        .register_fn("lees_edwards", |d: &mut ModelHandle, rate: Dynamic| -> RhaiResult<()> {
+            let rate = number(&rate).ok_or_else(|| err("d.lees_edwards: the shear rate γ̇ (1/s) is a number"))?;
+            d.model().lees_edwards(rate).map_err(raise)
+        })
         .register_fn("unperiodic", |d: &mut ModelHandle| d.model().unperiodic());
 }

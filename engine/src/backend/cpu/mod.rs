@@ -270,8 +270,7 @@ impl CpuBackend {
         match stage {
             Stage::Clumps => clumps::clumps(m, &self.plan, &self.damping_c),
             Stage::Periodic => {
-                let cell = self.plan.periodic.expect("the plan has the periodic stage");
-                periodic::periodic(m, &cell);
+                periodic::periodic(m);
                 Observed::default()
             }
             _ => unreachable!("{stage} is not a body stage of this plan"),

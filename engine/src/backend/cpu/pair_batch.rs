@@ -12,6 +12,7 @@
 use super::lanes::{LANES, M4, V4, X4};
 use super::pair_records::{one_pair, BlockPairs, Breaks, PairInputs, PairOut};
 use crate::physics::contact_law::{NormalLaw, PairParams, PairState, TangentialLaw};
+use crate::physics::Vec3;
 
 /// Whether this processor runs the AVX2 build of the pass (checked once a pass).
 pub(super) fn has_avx2() -> bool {
@@ -120,10 +121,11 @@ fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bo
 ) {
     let st: [PairState; LANES] = std::array::from_fn(|l| block.state(b.k[l], b.e[l]));
     let (ri, rj) = (X4::lanes(|l| inp.radius[b.i[l]]), X4::lanes(|l| inp.radius[b.j[l]]));
-    let d = if PERIODIC {
-        V4::lanes(|l| inp.separation::<true>(b.i[l], b.j[l]))
+    let (d, slide) = if PERIODIC {
+        let s: [(Vec3, f64); LANES] = std::array::from_fn(|l| inp.separation::<true>(b.i[l], b.j[l]));
+        (V4::lanes(|l| s[l].0), X4::lanes(|l| s[l].1))
     } else {
-        V4::lanes(|l| inp.pos[b.j[l]]) - V4::lanes(|l| inp.pos[b.i[l]])
+        (V4::lanes(|l| inp.pos[b.j[l]]) - V4::lanes(|l| inp.pos[b.i[l]]), X4::lanes(|_| 0.0))
     };
     let touch = ri + rj;
     let dist2 = d.norm_squared();
@@ -137,6 +139,9 @@ fn four_pairs<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, const ROT: bo
             std::array::from_fn(|l| inp.plan.pair(inp.material[b.i[l]], inp.material[b.j[l]]));
         let nrm = d / dist;
         let mut v_rel = V4::lanes(|l| inp.vel[b.i[l]]) - V4::lanes(|l| inp.vel[b.j[l]]);
+        if PERIODIC {
+            v_rel.x = v_rel.x + slide;
+        }
         if let (true, Some(w)) = (ROT, inp.ang_vel) {
             let (wi, wj) = (V4::lanes(|l| w[b.i[l]]), V4::lanes(|l| w[b.j[l]]));
             v_rel = v_rel + (wi.cross(&(nrm * ri)) - wj.cross(&(nrm * -rj)));

@@ -58,14 +58,15 @@ pub(super) struct PairInputs<'a> {
 }
 
 impl PairInputs<'_> {
-    /// From i to j: through the nearest image in a periodic cell.
+    /// From i to j: through the nearest image in a periodic cell; and what that image's x
+    /// velocity adds to v_i − v_j under Lees–Edwards shear (0 otherwise).
     #[inline(always)]
-    pub fn separation<const PERIODIC: bool>(&self, i: usize, j: usize) -> Vec3 {
+    pub fn separation<const PERIODIC: bool>(&self, i: usize, j: usize) -> (Vec3, f64) {
         let d = self.pos[j] - self.pos[i];
         if PERIODIC {
-            self.image.nearest(d)
+            self.image.nearest_sliding(d)
         } else {
-            d
+            (d, 0.0)
         }
     }
 }
@@ -150,7 +151,7 @@ pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, cons
     mut st: PairState,
 ) -> (PairOut, Vec3, Option<BreakKind>) {
     let (ri, vi) = (inp.radius[i], inp.vel[i]);
-    let d = inp.separation::<PERIODIC>(i, j);
+    let (d, slide) = inp.separation::<PERIODIC>(i, j);
     let rj = inp.radius[j];
     let touch = ri + rj;
     let dist2 = d.norm_squared();
@@ -159,6 +160,9 @@ pub(super) fn one_pair<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, cons
     // The contact points' relative velocity along the normal `n`.
     let v_rel = |n: &Vec3| {
         let mut v_rel = vi - inp.vel[j];
+        if PERIODIC {
+            v_rel.x += slide;
+        }
         if let Some(w) = inp.ang_vel {
             v_rel += w[i].cross(&(n * ri)) - w[j].cross(&(n * -rj));
         }

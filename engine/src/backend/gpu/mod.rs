@@ -446,6 +446,13 @@ impl GpuBackend {
     /// Puts the model on the device (rows rebuilt first if they do not cover it).
     fn upload(&mut self, m: &mut Model) -> Result<Session> {
         self.ready(m);
+        if m.settings.periodic.is_some_and(|c| c.shear.is_some()) {
+            return Err(Error::InvalidScene(
+                "Lees–Edwards shear runs on the CPU backend only, for now: run with --backend cpu (the GPU's \
+                 periodic cell has no sliding images yet)"
+                    .into(),
+            ));
+        }
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }

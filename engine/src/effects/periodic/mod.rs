@@ -11,6 +11,11 @@
 //! through the opposite face (its displacement's origin moves with it, so displacement fields
 //! stay continuous); velocity, spin and every other lane are untouched, to the bit.
 //!
+//! With x and z periodic the cell may shear by Lees–Edwards images ([`Model::lees_edwards`]):
+//! the image one span up slides along x at γ̇·L_z, a pair across a z face measures through the
+//! slid image and gains its velocity, and an element crossing a z face continues as that image
+//! (`setting.rs`). CPU backend only, for now.
+//!
 //! An optional stage: a scene without periodic axes has no pass, and its pair loop no test for
 //! it (the pair pass is compiled once with the image and once without, and picks per pass).
 //!
@@ -64,7 +69,7 @@ impl Model {
                 "periodic: a 2D model lies in the x–z plane; make x or z periodic, not y".into(),
             ));
         }
-        let cell = Periodic { axes };
+        let cell = Periodic { axes, shear: None };
         check_effects(self, &cell)?;
         let p = &mut self.particles;
         for i in 0..p.len() {
@@ -74,6 +79,32 @@ impl Model {
         self.settings.periodic = Some(cell);
         self.contacts.stale = true;
         crate::neighbours::rebuild(self);
+        self.touch();
+        Ok(())
+    }
+
+    /// Shears the periodic cell at γ̇ = `rate` (1/s) by Lees–Edwards' images: x flows along z,
+    /// the image one cell up sliding along x at γ̇·L_z, so the packing shears homogeneously with
+    /// no wall. Both x and z must be periodic. The elements keep their velocities: give them the
+    /// streaming profile v_x = γ̇·(z − z_mid) to start in steady shear. A rate of 0 stops the
+    /// slide where it is (the images stay offset). CPU backend only, for now.
+    pub fn lees_edwards(&mut self, rate: f64) -> Result<()> {
+        let Some(cell) = self.settings.periodic.as_mut() else {
+            return Err(Error::InvalidScene(
+                "Lees–Edwards shear slides a periodic cell's images: make x and z periodic first (d.periodic)".into(),
+            ));
+        };
+        if cell.axes[0].is_none() || cell.axes[2].is_none() {
+            return Err(Error::InvalidScene(
+                "Lees–Edwards shear: x flows along z, so both x and z must be periodic (d.periodic(#{ x: …, z: … }))"
+                    .into(),
+            ));
+        }
+        if !rate.is_finite() {
+            return Err(Error::InvalidScene(format!("Lees–Edwards shear: the rate {rate} must be a finite γ̇ (1/s)")));
+        }
+        let (offset, offset_at_build) = cell.shear.map_or((0.0, 0.0), |s| (s.offset, s.offset_at_build));
+        cell.shear = Some(setting::Shear { rate, offset, offset_at_build });
         self.touch();
         Ok(())
     }

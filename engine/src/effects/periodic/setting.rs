@@ -10,6 +10,21 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Periodic {
     pub axes: [Option<[f64; 2]>; 3],
+    /// Lees–Edwards shear of the cell (x and z periodic): x flows, z is the gradient.
+    pub shear: Option<Shear>,
+}
+
+/// Lees–Edwards simple shear: the cell's image above (z + L_z) slides along x at γ̇·L_z, so a
+/// periodic packing shears homogeneously at γ̇ with no walls at all.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Shear {
+    /// γ̇ (1/s).
+    pub rate: f64,
+    /// How far the image above has slid along x (m), in [0, L_x).
+    pub offset: f64,
+    /// The offset when the rows were last built: how far it may move before they must be
+    /// built again (a pair across the z faces is brought closer by the slide).
+    pub offset_at_build: f64,
 }
 
 impl Periodic {
@@ -18,7 +33,20 @@ impl Periodic {
         let span = |k: usize| self.axes[k].map_or(0.0, |[lo, hi]| hi - lo);
         let len = Vec3::new(span(0), span(1), span(2));
         let inv = len.map(|l| if l > 0.0 { 1.0 / l } else { 0.0 });
-        Image { len, inv }
+        let (shift, slide) = self.shear.map_or((0.0, 0.0), |s| (s.offset, s.rate * len.z));
+        Image { len, inv, shift, slide }
+    }
+
+    /// How far the slide has moved the images across the z faces since the rows were built
+    /// (m; 0 without shear).
+    pub fn slip_since_build(&self) -> f64 {
+        match (self.shear, self.axes[0]) {
+            (Some(s), Some([lo, hi])) => {
+                let d = (s.offset - s.offset_at_build).rem_euclid(hi - lo);
+                d.min(hi - lo - d)
+            }
+            _ => 0.0,
+        }
     }
 
     /// The axes' letters and spans, as the plan words them.
@@ -28,23 +56,41 @@ impl Periodic {
             .zip(&self.axes)
             .filter_map(|(n, a)| a.map(|[lo, hi]| format!("{n} ∈ [{lo:.4e}, {hi:.4e})")))
             .collect();
-        format!("periodic({})", axes.join(", "))
+        match self.shear {
+            Some(s) => format!("periodic({}; Lees–Edwards shear γ̇ = {:.4e} 1/s, x along z)", axes.join(", "), s.rate),
+            None => format!("periodic({})", axes.join(", ")),
+        }
     }
 }
 
 /// Minimum-image arithmetic: spans `len` (0 on an axis that does not repeat) and their
-/// inverses (0 there too), so that one expression serves every axis without a branch.
+/// inverses (0 there too), so that one expression serves every axis without a branch; with
+/// Lees–Edwards shear, the images across the z faces shifted along x by `shift` and moving
+/// along x at `slide` = γ̇·L_z (both 0 without).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Image {
     pub len: Vec3,
     pub inv: Vec3,
+    pub shift: f64,
+    pub slide: f64,
 }
 
 impl Image {
-    /// The shortest of the separations `d + k·len` (k whole): the one a pair interacts through.
+    /// The shortest of the separations from i to the images of j: the one a pair interacts
+    /// through.
     #[inline(always)]
     pub fn nearest(&self, d: Vec3) -> Vec3 {
-        d - self.len.component_mul(&d.component_mul(&self.inv).map(f64::round))
+        self.nearest_sliding(d).0
+    }
+
+    /// The nearest separation `d` and the x velocity the image it goes to has beyond j's own
+    /// (−k·γ̇·L_z for the image k cells down): a pair's relative velocity v_i − v_j gains its
+    /// negative, k·γ̇·L_z.
+    #[inline(always)]
+    pub fn nearest_sliding(&self, mut d: Vec3) -> (Vec3, f64) {
+        let k = (d.z * self.inv.z).round();
+        d.x -= k * self.shift;
+        (d - self.len.component_mul(&d.component_mul(&self.inv).map(f64::round)), k * self.slide)
     }
 }
 
@@ -54,19 +100,51 @@ impl Periodic {
     /// once, so an element that crosses a face keeps its offset from the face to round-off.
     #[inline]
     pub fn wrap(&self, x: &mut Vec3) -> Vec3 {
+        self.wrap_sliding(x).0
+    }
+
+    /// [`wrap`](Self::wrap) under Lees–Edwards shear: an element that crosses a z face also
+    /// moves along x by the images' offset and changes its x velocity by their slide (returned,
+    /// to add to it), so that it continues as the image it was.
+    #[inline]
+    pub fn wrap_sliding(&self, x: &mut Vec3) -> (Vec3, f64) {
         let mut shift = Vec3::zeros();
+        let mut kick = 0.0;
+        if let (Some(s), Some([lo, hi])) = (self.shear, self.axes[2]) {
+            let l = hi - lo;
+            // Whole cells crossed downwards (negative: upwards).
+            let k = if x.z < lo {
+                ((lo - x.z) / l).ceil()
+            } else if x.z >= hi {
+                -((x.z - hi) / l + 1.0).floor()
+            } else {
+                0.0
+            };
+            if k != 0.0 {
+                shift.z = k * l;
+                shift.x = k * s.offset;
+                kick = k * s.rate * l;
+                x.z += shift.z;
+                x.x += shift.x;
+            }
+        }
         for (k, axis) in self.axes.iter().enumerate() {
             if let Some([lo, hi]) = *axis {
                 let l = hi - lo;
-                if x[k] < lo {
-                    shift[k] = l * ((lo - x[k]) / l).ceil();
+                let s = if x[k] < lo {
+                    l * ((lo - x[k]) / l).ceil()
                 } else if x[k] >= hi {
-                    shift[k] = -l * ((x[k] - hi) / l + 1.0).floor();
+                    -l * ((x[k] - hi) / l + 1.0).floor()
+                } else {
+                    0.0
+                };
+                if s != 0.0 {
+                    x[k] += s;
+                    shift[k] += s;
                 }
-                x[k] += shift[k];
             }
         }
-        shift
+        (shift, kick)
     }
 }
 
@@ -75,7 +153,7 @@ mod tests {
     use super::*;
 
     fn cell() -> Periodic {
-        Periodic { axes: [Some([0.0, 1.0]), None, Some([-2.0, 2.0])] }
+        Periodic { axes: [Some([0.0, 1.0]), None, Some([-2.0, 2.0])], shear: None }
     }
 
     #[test]
@@ -83,6 +161,24 @@ mod tests {
         let im = cell().image();
         let d = im.nearest(Vec3::new(0.9, 5.0, -3.5));
         assert!((d - Vec3::new(-0.1, 5.0, 0.5)).norm() < 1e-15, "{d:?}");
+    }
+
+    /// Under shear, the image one cell up sits `offset` further along x and moves `γ̇·L_z`
+    /// faster; an element leaving through the top re-enters at the bottom as that image's twin.
+    #[test]
+    fn the_sheared_images_are_shifted_and_sliding() {
+        let p = Periodic { shear: Some(Shear { rate: 2.0, offset: 0.25, offset_at_build: 0.0 }), ..cell() };
+        let im = p.image();
+        // j 3.9 above i: its image one cell down (k = 1) is 0.25 back along x, moving 8 slower.
+        let (d, dv) = im.nearest_sliding(Vec3::new(0.1, 0.0, 3.9));
+        assert!((d - Vec3::new(-0.15, 0.0, -0.1)).norm() < 1e-15, "{d:?}");
+        assert_eq!(dv, 8.0);
+        let mut x = Vec3::new(0.5, 0.0, 2.1);
+        let (shift, kick) = p.wrap_sliding(&mut x);
+        assert!((x - Vec3::new(0.25, 0.0, -1.9)).norm() < 1e-15 && kick == -8.0, "{x:?} {shift:?} {kick}");
+        let mut below = Vec3::new(0.9, 0.0, -2.1);
+        let (_, kick) = p.wrap_sliding(&mut below);
+        assert!((below - Vec3::new(0.15, 0.0, 1.9)).norm() < 1e-15 && kick == 8.0, "{below:?}");
     }
 
     #[test]
