@@ -79,7 +79,7 @@ fn rolling_resistance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     for (var e = local; e < end; e += slab.count) {
         let j = other[e];
         // Both parts of the position differ little between neighbours: subtract each first.
-        let d = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+        let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui));
         let rj = origin[j].w;
         let touch = ri + rj;
         let dist2 = dot(d, d);

@@ -263,13 +263,9 @@ fn bad_periodic_cells_are_refused_with_what_to_do() {
     let e = m.periodic([Some([1.0, 0.0]), None, None]).unwrap_err().to_string();
     assert!(e.contains("the first below the second"), "{e}");
     assert!(m.periodic([None, None, None]).is_err());
-    m.settings.rolling = Some(matdem_engine::effects::rolling_resistance::physics::RollingResistance {
-        model: matdem_engine::effects::rolling_resistance::physics::RollingModel::Cdt,
-        mu_r: 0.1,
-        damping: 0.0,
-    });
+    m.settings.moisture.enabled = true;
     let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(e.contains("do not yet work with rolling resistance"), "{e}");
+    assert!(e.contains("do not yet work with moisture"), "{e}");
 }
 
 /// The rows the device builds (rows.wgsl and cell_list.wgsl, behind PERIODIC) are the host's:
@@ -416,4 +412,58 @@ fn lees_edwards_shear_is_refused_on_the_gpu_and_without_x_and_z_periodic() {
     let Some(ctx) = crate::common::gpu("periodic_lees_edwards_gpu") else { return };
     let e = Simulation::with_gpu(sheared_gas(5.0), ctx).run(10, &RunControl::default(), &mut |_| {}).unwrap_err();
     assert!(e.to_string().contains("CPU backend only"), "{e}");
+}
+
+/// Two balls pressed together, one spinning, with epsd rolling resistance: across a face the
+/// rolling spring winds up and brakes the spin as it does inside the cell (CPU to 1e-9 rad/s;
+/// the GPU's across against its own inside, f32).
+fn rolling_pair(x: f64) -> Model {
+    use matdem_engine::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
+    let mut m = Model::new();
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    (mat.ks, mat.mu_p) = (4e4, 0.5);
+    let k = m.add_material(mat).unwrap();
+    for side in [-1.0, 1.0] {
+        m.add_particle(Vec3::new(x + side * 0.99 * R, 5.0 * R, 5.0 * R), R, k).unwrap();
+    }
+    m.settings.rotation = true;
+    m.particles.enable_rotation();
+    m.particles.rotation.as_mut().unwrap().ang_vel[0] = Vec3::new(0.0, 0.0, 50.0);
+    m.periodic([Some([0.0, 10.0 * R]), None, None]).unwrap();
+    m.settings.rolling = Some(RollingResistance { model: RollingModel::Epsd, mu_r: 0.3, damping: 0.3 });
+    m.set_dt(1e-7).unwrap();
+    m
+}
+
+fn spins(sim: &Simulation) -> [Vec3; 2] {
+    let w = &sim.model.particles.rotation.as_ref().unwrap().ang_vel;
+    [w[0], w[1]]
+}
+
+#[test]
+fn rolling_resistance_across_a_face_brakes_as_inside_the_cell() {
+    let (mut across, mut inside) = (Simulation::new(rolling_pair(0.0)), Simulation::new(rolling_pair(5.0 * R)));
+    run(&mut across, 2000);
+    run(&mut inside, 2000);
+    let (a, b) = (spins(&across), spins(&inside));
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert!(b[0].z < 49.0, "the rolling resistance brakes the spin: {:?}", b[0]);
+    for k in 0..2 {
+        assert!((a[k] - b[k]).norm() < 1e-9, "{k}: {:?} against {:?}", a[k], b[k]);
+    }
+}
+
+#[test]
+fn rolling_resistance_across_a_face_brakes_as_inside_the_cell_on_the_gpu() {
+    let Some(ctx) = crate::common::gpu("periodic_rolling_gpu") else { return };
+    let mut across = Simulation::with_gpu(rolling_pair(0.0), ctx.clone());
+    let mut inside = Simulation::with_gpu(rolling_pair(5.0 * R), ctx);
+    run(&mut across, 2000);
+    run(&mut inside, 2000);
+    let (a, b) = (spins(&across), spins(&inside));
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert!(b[0].z < 49.0, "the rolling resistance brakes the spin: {:?}", b[0]);
+    for k in 0..2 {
+        assert!((a[k] - b[k]).norm() < 1e-3 * 50.0, "{k}: {:?} against {:?}", a[k], b[k]);
+    }
 }

@@ -150,7 +150,6 @@ fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
     let _ = cell;
     let s = &m.settings;
     let blocked = [
-        (s.rolling.is_some(), "rolling resistance"),
         (!m.parallel_bonds.other.is_empty(), "parallel bonds"),
         (s.pores.enabled, "pore flow"),
         (s.heat.enabled, "heat conduction"),

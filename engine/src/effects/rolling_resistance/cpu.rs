@@ -55,6 +55,7 @@ fn rolling_loop<N: NormalLaw, T: TangentialLaw, const EPSD: bool>(
     let dt = m.clock.dt;
     let n = m.len();
     let nw = m.walls.len();
+    let sep = m.separations();
     let Model { particles: p, contacts, walls, wall_rolling, .. } = m;
     let Contacts { row_start, other, wall_near, rolling, .. } = contacts;
     if row_start.len() != n + 1 {
@@ -90,7 +91,8 @@ fn rolling_loop<N: NormalLaw, T: TangentialLaw, const EPSD: bool>(
             let (mut pair_heat, mut wall_heat) = (0.0, 0.0);
             for e in row_start[i] as usize..row_start[i + 1] as usize {
                 let j = other[e] as usize;
-                let d = pos[j] - xi;
+                // Through the nearest image in a periodic cell.
+                let d = sep.between(pos, i, j);
                 let rj = radius[j];
                 let touch = ri + rj;
                 let dist2 = d.norm_squared();

@@ -22,7 +22,11 @@ mod shader {
 
     pub const SHADER: Shader = Shader {
         name: "rolling_resistance",
-        source: include_str!("../../../../shaders/rolling_resistance.wgsl"),
+        source: concat!(
+            include_str!("../../../../shaders/periodic_image.wgsl"),
+            "\n",
+            include_str!("../../../../shaders/rolling_resistance.wgsl")
+        ),
         bindings: Bindings(&[&[
             uniform(PARAMS),
             read(ORIGIN),
