@@ -98,7 +98,7 @@ fn update(lo: u32, hi: u32, b: ptr<function, Bond>) -> BondLoad {
     let r0 = origin[lo].w;
     let r1 = origin[hi].w;
     // Both parts of the position differ little between the two ends: subtract each first.
-    let d = (origin[hi].xyz - origin[lo].xyz) + (disp[hi].xyz - disp[lo].xyz);
+    let d = nearest_image((origin[hi].xyz - origin[lo].xyz) + (disp[hi].xyz - disp[lo].xyz));
     let dist = length(d);
     let n = d / dist;
     let rb = bp.lambda * min(r0, r1);

@@ -467,3 +467,50 @@ fn rolling_resistance_across_a_face_brakes_as_inside_the_cell_on_the_gpu() {
         assert!((a[k] - b[k]).norm() < 1e-3 * 50.0, "{k}: {:?} against {:?}", a[k], b[k]);
     }
 }
+
+/// A parallel-bonded pair flying apart at 2 m/s each: across a face the bond (which joins one
+/// end to the other's nearest image) stretches and breaks at the step it does inside the cell.
+fn parallel_bonded_pair(x: f64) -> Model {
+    use matdem_engine::effects::parallel_bond::physics::ParallelBondParams;
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e8, 0.3)).unwrap();
+    for (side, v) in [(-1.0, -2.0), (1.0, 2.0)] {
+        let i = m.add_particle(Vec3::new(x + side * R, 5.0 * R, 5.0 * R), R, k).unwrap();
+        m.particles.vel[i] = Vec3::new(v, 0.3 * side, 0.0);
+    }
+    m.periodic([Some([0.0, 10.0 * R]), None, None]).unwrap();
+    assert_eq!(m.connect(None, 1e-9).unwrap(), 1);
+    let p = ParallelBondParams { lambda: 1.0, e_star: 1e9, k_ratio: 2.0, sigma_c: 1e6, cohesion: 1e6, phi: 0.5 };
+    assert_eq!(m.bond_parallel(p).unwrap(), 1);
+    m.set_dt(1e-8).unwrap();
+    m
+}
+
+#[test]
+fn a_parallel_bond_across_a_face_breaks_as_inside_the_cell() {
+    let (mut across, mut inside) =
+        (Simulation::new(parallel_bonded_pair(0.0)), Simulation::new(parallel_bonded_pair(5.0 * R)));
+    for _ in 0..40 {
+        run(&mut across, 10);
+        run(&mut inside, 10);
+        let (a, b) = (&across.model.particles, &inside.model.particles);
+        assert!((a.vel[1] - b.vel[1]).norm() < 1e-9, "{:?} against {:?}", a.vel[1], b.vel[1]);
+    }
+    let (a, b) = (&across.model.breakages, &inside.model.breakages);
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert_eq!((a.len(), b.len()), (1, 1), "the bond broke");
+    assert_eq!(a[0].step, b[0].step, "at the same step");
+}
+
+#[test]
+fn a_parallel_bond_across_a_face_breaks_as_inside_the_cell_on_the_gpu() {
+    let Some(ctx) = crate::common::gpu("periodic_parallel_bond_gpu") else { return };
+    let mut across = Simulation::with_gpu(parallel_bonded_pair(0.0), ctx.clone());
+    let mut inside = Simulation::with_gpu(parallel_bonded_pair(5.0 * R), ctx);
+    run(&mut across, 400);
+    run(&mut inside, 400);
+    let (a, b) = (&across.model.breakages, &inside.model.breakages);
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert_eq!((a.len(), b.len()), (1, 1), "the bond broke");
+    assert!(a[0].step.abs_diff(b[0].step) <= 1, "within a step: {} and {}", a[0].step, b[0].step);
+}

@@ -22,6 +22,7 @@ pub fn parallel_bond(m: &mut Model, plan: &StepPlan) -> Breaks {
     let dt = m.clock.dt;
     let n = m.particles.len();
     m.parallel_bonds.fit(n);
+    let sep = m.separations();
     let Model { particles: p, parallel_bonds: b, .. } = m;
     if b.row_start.is_empty() {
         return Breaks::default();
@@ -49,9 +50,18 @@ pub fn parallel_bond(m: &mut Model, plan: &StepPlan) -> Breaks {
                     }
                     let j = other[e] as usize;
                     let (lo, hi) = if i < j { (i, j) } else { (j, i) };
+                    // In a periodic cell the bond joins lo to hi's nearest image (moving with
+                    // the image's velocity under Lees–Edwards shear).
+                    let (far, far_vel) = match sep.periodic() {
+                        true => {
+                            let (d, image_vx) = sep.between_sliding(pos, lo, hi);
+                            (pos[lo] + d, vel[hi] + Vec3::x() * image_vx)
+                        }
+                        false => (pos[hi], vel[hi]),
+                    };
                     let ends = Ends {
-                        pos: [pos[lo], pos[hi]],
-                        vel: [vel[lo], vel[hi]],
+                        pos: [pos[lo], far],
+                        vel: [vel[lo], far_vel],
                         ang_vel: [ang_vel[lo], ang_vel[hi]],
                         radius: [radius[lo], radius[hi]],
                     };

@@ -43,7 +43,11 @@ mod shader {
 
     pub const SHADER: Shader = Shader {
         name: "parallel_bond",
-        source: include_str!("../../../../shaders/parallel_bond.wgsl"),
+        source: concat!(
+            include_str!("../../../../shaders/periodic_image.wgsl"),
+            "\n",
+            include_str!("../../../../shaders/parallel_bond.wgsl")
+        ),
         bindings: Bindings(&[&[
             uniform(PARAMS),
             uniform(pb::PARAMS),

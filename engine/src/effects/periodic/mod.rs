@@ -134,6 +134,25 @@ impl Model {
 pub struct Separations(Option<Image>);
 
 impl Separations {
+    /// Whether the model has a periodic cell (else every separation is `pos[j] − pos[i]`).
+    pub fn periodic(&self) -> bool {
+        self.0.is_some()
+    }
+
+    /// From `pos[i]` to `pos[j]`, and the x velocity j's nearest image has beyond j's own under
+    /// Lees–Edwards shear (0 otherwise; see [`Image::nearest_sliding`]).
+    #[inline(always)]
+    pub fn between_sliding(&self, pos: &[Vec3], i: usize, j: usize) -> (Vec3, f64) {
+        let d = pos[j] - pos[i];
+        match &self.0 {
+            Some(image) => {
+                let (d, slide) = image.nearest_sliding(d);
+                (d, -slide)
+            }
+            None => (d, 0.0),
+        }
+    }
+
     /// From `pos[i]` to `pos[j]`.
     #[inline(always)]
     pub fn between(&self, pos: &[Vec3], i: usize, j: usize) -> Vec3 {
@@ -150,7 +169,6 @@ fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
     let _ = cell;
     let s = &m.settings;
     let blocked = [
-        (!m.parallel_bonds.other.is_empty(), "parallel bonds"),
         (s.pores.enabled, "pore flow"),
         (s.heat.enabled, "heat conduction"),
         (s.moisture.enabled, "moisture"),
