@@ -87,6 +87,12 @@ fn clumps(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         t += cross(arm, force[j].xyz) + torque[j].xyz;
         c_sum += body[j].y * body[j].x;
     }
+    if PLANAR {
+        // A 2D clump is held in y and in spin about x and z, as a 2D model's elements are.
+        f.y = 0.0;
+        t.x = 0.0;
+        t.z = 0.0;
+    }
     let q0 = b.q;
     let v0 = b.vel.xyz;
     let l0 = b.ang_mom.xyz;

@@ -245,3 +245,62 @@ fn device_rows_leave_a_clumps_members_apart() {
     }
     assert!(entries > 0, "the dumbbells touch their neighbours");
 }
+
+/// A 2D clump (issue 34 items 1 and 3): discs A (0, 0) and B (2r, 0) on the floor of a 2D model
+/// and C on top of B overlapping it. It turns about y alone, its members stay in the plane to
+/// the bit, and its feet carry F_B = W·X/2r, F_A = W − F_B.
+fn planar_clump() -> Model {
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, 1e3, 1e7, 0.2)).unwrap();
+    for (x, z) in [(0.0, 1.0), (2.0, 1.0), (2.0, 2.6)] {
+        m.add_particle(Vec3::new(x, 0.0, z) * R, R, k).unwrap();
+    }
+    m.make_planar(Some(2.0 * R)).unwrap();
+    m.add_wall(Wall::plane("floor", Vec3::zeros(), Vec3::z(), 1e-4).unwrap()).unwrap();
+    m.settings.gravity = Vec3::new(0.0, 0.0, -9.81);
+    m.settings.local_damping = 0.7;
+    m.set_standard_dt().unwrap();
+    m.clump(&[0, 1, 2]).unwrap();
+    // Dropped from 0.2 r, turning.
+    m.clumps.bodies[0].pos.z += 0.2 * R;
+    m.clumps.bodies[0].ang_mom = Vec3::new(0.0, 1e-10, 0.0);
+    matdem_engine::effects::clumps::cpu::place_members(&mut m, 0);
+    m
+}
+
+fn check_planar_clump(sim: &mut Simulation, tol: f64) {
+    run(sim, 20_000);
+    let m = &sim.model;
+    let p = &m.particles;
+    let w = p.rotation.as_ref().unwrap();
+    for i in 0..3 {
+        assert_eq!(
+            (p.pos[i].y, p.vel[i].y, w.ang_vel[i].x, w.ang_vel[i].z),
+            (0.0, 0.0, 0.0, 0.0),
+            "member {i} in the plane"
+        );
+    }
+    let info = m.clump_info(0).unwrap();
+    let weight = info.mass * 9.81;
+    let b = weight * info.centre.x / (2.0 * R);
+    let want = [weight - b, b, 0.0];
+    let got: Vec<f64> = (0..3).map(|i| p.force[i].z).collect();
+    eprintln!("feet {got:?} N, statics {want:?} N");
+    for (g, e) in got.iter().zip(want) {
+        assert!((g - e).abs() < tol * weight, "feet {got:?}, statics {want:?}");
+    }
+}
+
+#[test]
+fn a_2d_clump_turns_in_its_plane_and_rests_on_its_feet() {
+    let m = planar_clump();
+    let q = m.clump_info(0).unwrap().orientation;
+    assert_eq!((q[1], q[3]), (0.0, 0.0), "its frame is a turn about y");
+    check_planar_clump(&mut Simulation::new(m), 2e-5);
+}
+
+#[test]
+fn a_2d_clump_turns_in_its_plane_and_rests_on_its_feet_on_the_gpu() {
+    let Some(ctx) = crate::common::gpu("clumps_planar") else { return };
+    check_planar_clump(&mut Simulation::with_gpu(planar_clump(), ctx), 1e-2);
+}

@@ -16,6 +16,7 @@ use crate::plan::StepPlan;
 /// the heat their damping released, for an observed step's energies.
 pub fn clumps(m: &mut Model, plan: &StepPlan, damping_c: &[f64]) -> Observed {
     let (dt, alpha, gravity) = (m.clock.dt, m.settings.local_damping, m.settings.gravity);
+    let planar = m.settings.planar.is_some();
     let mut obs = Observed::default();
     let p = &mut m.particles;
     let (force, pos) = (&p.force, &p.pos);
@@ -39,6 +40,10 @@ pub fn clumps(m: &mut Model, plan: &StepPlan, damping_c: &[f64]) -> Observed {
             if !damping_c.is_empty() {
                 c_sum += damping_c[j];
             }
+        }
+        if planar {
+            // A 2D clump is held in y and in spin about x and z, as a 2D model's elements are.
+            (f.y, t.x, t.z) = (0.0, 0.0, 0.0);
         }
         let h = step_body(b, f, t, alpha, c_sum, dt);
         obs.kinetic += h.kinetic;

@@ -13,6 +13,10 @@
 //! Cundall's local damping on each component of its force and torque; global viscous damping as
 //! the members' dashpots summed (the same rate on its angular momentum).
 //!
+//! In a 2D model a clump turns about y alone: its frame is an exact turn about y and the stage
+//! holds its force along y and torque about x and z at zero, as the integration holds a 2D
+//! model's elements (`physics::principal_axes_in_plane`).
+//!
 //! An optional stage: a scene without clumps has no pass, no pipeline and no lanes; the
 //! members' mark is a bit of the `fixed` lane the integration already reads.
 //!
@@ -27,7 +31,7 @@ pub mod physics;
 pub mod template;
 
 use crate::effects::clumps::lanes::{Body, Clumps, NONE};
-use crate::effects::clumps::physics::{mass_properties, principal_axes, Sphere};
+use crate::effects::clumps::physics::{mass_properties, principal_axes, principal_axes_in_plane, Sphere};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::physics::Vec3;
@@ -59,7 +63,8 @@ pub struct ClumpInfo {
     pub velocity: Vec3,
     pub ang_vel: Vec3,
     pub ang_mom: Vec3,
-    /// Principal moments (kg·m²), ascending at creation.
+    /// Principal moments (kg·m²): ascending at creation in 3D; about body x, y (the model's y),
+    /// z in 2D.
     pub inertia: Vec3,
     pub orientation: [f64; 4],
 }
@@ -77,11 +82,6 @@ impl Model {
         if ids.is_empty() {
             return Err(Error::InvalidScene("clump: give at least one element".into()));
         }
-        if self.settings.planar.is_some() {
-            return Err(Error::InvalidScene(
-                "clump: clumps in a 2D model are not supported yet; build the clumps in a 3D model".into(),
-            ));
-        }
         if self.settings.periodic.is_some() {
             return Err(Error::InvalidScene(
                 "clump: clumps with periodic boundaries are not supported yet (a clump's members would wrap one by                  one); make the clumps in a model without d.periodic"
@@ -96,7 +96,9 @@ impl Model {
                     self.clumps.of[i]
                 )));
             }
-            if self.particles.fixed[i] != 0 {
+            // A 2D model's elements are held in y and in spin about x and z: so is its clump.
+            let held = if self.settings.planar.is_some() { crate::planar::HELD } else { 0 };
+            if self.particles.fixed[i] & !held != 0 {
                 return Err(Error::InvalidScene(format!(
                     "clump: element {i} is killed or has a fixed degree of freedom; clump free elements (unfix them first)"
                 )));
@@ -114,8 +116,15 @@ impl Model {
                 }
             })
             .collect();
-        let props = mass_properties(&spheres);
-        let (inertia, q) = principal_axes(&props.inertia);
+        let mut props = mass_properties(&spheres);
+        if self.settings.planar.is_some() {
+            // The voxels' sums leave round-off off the plane: a 2D clump's centre is on it.
+            props.centre.y = 0.0;
+        }
+        let (inertia, q) = match self.settings.planar {
+            Some(_) => principal_axes_in_plane(&props.inertia),
+            None => principal_axes(&props.inertia),
+        };
         let c = props.centre;
         // The members' momentum and angular momentum about the centre, taken over by the body.
         let member_mass: f64 = ids.iter().map(|&i| p.mass[i as usize]).sum();

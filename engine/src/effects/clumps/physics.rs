@@ -130,6 +130,23 @@ pub fn principal_axes(inertia: &Matrix3<f64>) -> (Vec3, UnitQuaternion<f64>) {
     (moments, UnitQuaternion::from_rotation_matrix(&rotation))
 }
 
+/// The principal frame of a clump whose spheres all lie in the plane y = 0 (a 2D model): y is
+/// a principal axis there, and the frame is a rotation about it built exactly (its quaternion's
+/// x and z parts are zeros), so that the clump turns about y alone and its members stay in the
+/// plane to the bit. Moments in the order body x, y, z.
+pub fn principal_axes_in_plane(inertia: &Matrix3<f64>) -> (Vec3, UnitQuaternion<f64>) {
+    let (ixx, izz, ixz) = (inertia[(0, 0)], inertia[(2, 2)], inertia[(0, 2)]);
+    // The in-plane tensor's principal direction: body x = (cos φ, 0, −sin φ) for a turn φ
+    // about y.
+    let phi = -0.5 * (2.0 * ixz).atan2(ixx - izz);
+    let q = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), phi);
+    let moments = Vec3::from_fn(|k, _| {
+        let e = q.transform_vector(&unit(k));
+        (e.transpose() * inertia * e)[0]
+    });
+    (moments, q)
+}
+
 /// Turns `q` (body → world) by a step `dt` of the free rotation with world angular momentum
 /// `l` and principal moments `inertia`, in the five exact sub-rotations of the splitting.
 pub fn free_rotation(q: UnitQuaternion<f64>, l: &Vec3, inertia: &Vec3, dt: f64) -> UnitQuaternion<f64> {
@@ -202,6 +219,22 @@ mod tests {
         let exact = 2650.0 * (2.0 * 4.0 / 3.0 * PI * r * r * r - lens);
         assert!((p.mass / exact - 1.0).abs() < 5e-3, "mass {} vs {exact}", p.mass);
         assert!((p.centre.x - 0.5 * d).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_planar_clumps_frame_turns_about_y_alone_and_diagonalises_its_tensor() {
+        let p = mass_properties(&[ball(0.0, 0.0, 0.0, 0.4), ball(1.0, 0.0, 0.5, 0.3), ball(-0.2, 0.0, 1.1, 0.2)]);
+        let (moments, q) = principal_axes_in_plane(&p.inertia);
+        let c = q.quaternion().coords;
+        assert_eq!((c.x, c.z), (0.0, 0.0), "a turn about y exactly");
+        let r = q.to_rotation_matrix();
+        let body = r.matrix().transpose() * p.inertia * r.matrix();
+        for a in 0..3 {
+            for b in 0..3 {
+                let want = if a == b { moments[a] } else { 0.0 };
+                assert!((body[(a, b)] - want).abs() < 1e-9 * moments.max(), "{body}");
+            }
+        }
     }
 
     #[test]

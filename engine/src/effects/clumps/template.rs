@@ -25,11 +25,17 @@ impl Model {
                 "replace_with_clumps: give a template of spheres [x, y, z, r] with finite centres and radii > 0".into(),
             ));
         }
+        if self.settings.planar.is_some() && template.iter().any(|s| s[1] != 0.0) {
+            return Err(Error::InvalidScene(
+                "replace_with_clumps: the model is 2D (x–z plane); give a template of discs [x, 0, z, r]".into(),
+            ));
+        }
         let mut ids = ids.to_vec();
         ids.sort_unstable();
         ids.dedup();
         for &i in &ids {
-            if self.particles.fixed[i as usize] != 0 {
+            let held = if self.settings.planar.is_some() { crate::planar::HELD } else { 0 };
+            if self.particles.fixed[i as usize] & !held != 0 {
                 return Err(Error::InvalidScene(format!(
                     "replace_with_clumps: element {i} is killed, fixed or in a clump; replace free elements"
                 )));
@@ -45,7 +51,13 @@ impl Model {
             let i = i as usize;
             let (x, r, v, mat) =
                 (self.particles.pos[i], self.particles.radius[i], self.particles.vel[i], self.particles.material[i]);
-            let turn = random_rotation(&mut rng);
+            // A 2D model's clumps turn in its plane only.
+            let turn = match self.settings.planar {
+                Some(_) => {
+                    nalgebra::UnitQuaternion::from_axis_angle(&Vec3::y_axis(), std::f64::consts::TAU * rng.uniform())
+                }
+                None => random_rotation(&mut rng),
+            };
             let scale = r / reach;
             let first = self.len() as u32;
             for s in template {
