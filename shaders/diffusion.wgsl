@@ -29,7 +29,7 @@ fn row_exchange(i: u32, local: u32, ui: f32, own: Exchange) -> Exchange {
         if field_sealed(j) {
             continue;
         }
-        let d = (origin[j].xyz - oi) + (disp[j].xyz - di);
+        let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - di));
         let g = field_pair(i, j, ri, origin[j].w, length(d), state[e].w != 0.0);
         x.q += g * (field_value(j) - ui);
         x.g += g;

@@ -1,5 +1,5 @@
 // A periodic cell's arithmetic for the stages that measure pairs or bin positions (rows,
-// cell_list, contact_forces, guard, neighbours, rolling_resistance, parallel_bond): `params.period` holds each axis's span (0 on an
+// cell_list, contact_forces, guard, neighbours, rolling_resistance, parallel_bond, diffusion): `params.period` holds each axis's span (0 on an
 // axis that does not repeat), `params.period_inv` its inverse (0 there too) and
 // `params.period_lo` its lower face. CPU twin: effects/periodic/setting.rs and the cell list's
 // wrap (neighbours/cell_list.rs).

@@ -10,6 +10,7 @@
 //! element exchanges nothing with any neighbour, and a neighbour exchanges nothing with it.
 //! The backends' passes call [`substep`] (the CPU) or mirror it (the WGSL twins).
 
+use crate::effects::periodic::setting::Separations;
 use crate::physics::Vec3;
 use crate::state::contacts::Contacts;
 
@@ -33,7 +34,15 @@ pub trait Exchange: Sync {
 
 /// One element's inflow Q_i and ΣG_i over its row (nothing through a sealed end).
 #[inline(always)]
-pub fn row_exchange<X: Exchange>(x: &X, pos: &[Vec3], c: &Contacts, u: &[f64], mode: &[u8], i: usize) -> (f64, f64) {
+pub fn row_exchange<X: Exchange>(
+    x: &X,
+    pos: &[Vec3],
+    sep: &Separations,
+    c: &Contacts,
+    u: &[f64],
+    mode: &[u8],
+    i: usize,
+) -> (f64, f64) {
     let (mut q, mut sum) = x.own(i, u[i]);
     if mode[i] != SEALED {
         for e in c.row(i) {
@@ -41,7 +50,8 @@ pub fn row_exchange<X: Exchange>(x: &X, pos: &[Vec3], c: &Contacts, u: &[f64], m
             if mode[j] == SEALED {
                 continue;
             }
-            let d = (pos[j] - pos[i]).norm();
+            // Through the nearest image in a periodic cell.
+            let d = sep.between(pos, i, j).norm();
             let g = x.pair(i, j, d, c.state[e].bonded);
             q += g * (u[j] - u[i]);
             sum += g;
@@ -56,6 +66,7 @@ pub fn row_exchange<X: Exchange>(x: &X, pos: &[Vec3], c: &Contacts, u: &[f64], m
 pub fn substep<X: Exchange>(
     x: &X,
     pos: &[Vec3],
+    sep: &Separations,
     c: &Contacts,
     u: &[f64],
     capacity: &[f64],
@@ -67,7 +78,7 @@ pub fn substep<X: Exchange>(
 ) {
     for i in range.clone() {
         let k = i - range.start;
-        let (q, g) = row_exchange(x, pos, c, u, mode, i);
+        let (q, g) = row_exchange(x, pos, sep, c, u, mode, i);
         sum[k] = g;
         next[k] = if mode[i] == FIXED { u[i] } else { u[i] + dt * q / capacity[i] };
     }
@@ -79,6 +90,7 @@ pub fn substep<X: Exchange>(
 pub fn unstable_element<X: Exchange>(
     x: &X,
     pos: &[Vec3],
+    sep: &Separations,
     c: &Contacts,
     u: &[f64],
     capacity: &[f64],
@@ -86,7 +98,7 @@ pub fn unstable_element<X: Exchange>(
     dt: f64,
 ) -> Option<(usize, f64, f64)> {
     (0..pos.len()).filter(|&i| mode[i] != FIXED).find_map(|i| {
-        let (_, g) = row_exchange(x, pos, c, u, mode, i);
+        let (_, g) = row_exchange(x, pos, sep, c, u, mode, i);
         let limit = capacity[i] / g;
         (g > 0.0 && dt >= limit).then_some((i, g, limit))
     })

@@ -514,3 +514,58 @@ fn a_parallel_bond_across_a_face_breaks_as_inside_the_cell_on_the_gpu() {
     assert_eq!((a.len(), b.len()), (1, 1), "the bond broke");
     assert!(a[0].step.abs_diff(b[0].step) <= 1, "within a step: {} and {}", a[0].step, b[0].step);
 }
+
+/// Heat conduction across a face: four bonded elements in a row straddling the face, held in
+/// place, at 0, 0, 1, 1 K, exchange heat through the face as they do mid-cell (CPU to 1e-12 K;
+/// the GPU's across against its own mid-cell, f32). Moisture runs the same diffusion core.
+fn warm_row(x: f64) -> Model {
+    use matdem_engine::effects::conduction::ThermalProps;
+    use matdem_engine::state::particles::dof;
+    let mut m = Model::new();
+    let k = m.add_material(material("rod", 1000.0, 1.0, 1.0, 0.0)).unwrap();
+    for i in 0..4 {
+        // Pressed a little together: a touching pair's conductance is its contact's.
+        m.add_particle(Vec3::new(x + (2.0 * i as f64 - 3.0) * 0.99 * R, 5.0 * R, 5.0 * R), R, k).unwrap();
+    }
+    m.periodic([Some([0.0, 12.0 * R]), None, None]).unwrap();
+    m.connect(None, 1e-9).unwrap();
+    m.fix(&[0, 1, 2, 3], dof::ALL, true).unwrap();
+    m.settings.heat.reference = 0.0;
+    m.enable_heat();
+    m.set_thermal_material("rod", ThermalProps { conductivity: 1.0, specific_heat: 1.0, expansion: 0.0 }).unwrap();
+    m.set_temperatures(&[0.0, 0.0, 1.0, 1.0]).unwrap();
+    m.clock.dt = 1e-4;
+    m
+}
+
+fn temperatures(sim: &Simulation) -> Vec<f64> {
+    sim.model.particles.thermal.temperature.clone()
+}
+
+#[test]
+fn heat_flows_across_a_face_as_inside_the_cell() {
+    let (mut across, mut inside) = (Simulation::new(warm_row(0.0)), Simulation::new(warm_row(6.0 * R)));
+    run(&mut across, 500);
+    run(&mut inside, 500);
+    let (a, b) = (temperatures(&across), temperatures(&inside));
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert!(b[1] > 0.01 && b[2] < 0.99, "heat flowed: {b:?}");
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-12, "{a:?} against {b:?}");
+    }
+}
+
+#[test]
+fn heat_flows_across_a_face_as_inside_the_cell_on_the_gpu() {
+    let Some(ctx) = crate::common::gpu("periodic_heat_gpu") else { return };
+    let mut across = Simulation::with_gpu(warm_row(0.0), ctx.clone());
+    let mut inside = Simulation::with_gpu(warm_row(6.0 * R), ctx);
+    run(&mut across, 500);
+    run(&mut inside, 500);
+    let (a, b) = (temperatures(&across), temperatures(&inside));
+    eprintln!("across {a:?}\ninside {b:?}");
+    assert!(b[1] > 0.01 && b[2] < 0.99, "heat flowed: {b:?}");
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-5, "{a:?} against {b:?}");
+    }
+}

@@ -63,6 +63,7 @@ impl Exchange for Heat<'_> {
 
 /// One forward-Euler sub-step: `next` gets each element's new temperature.
 fn substep(m: &mut Model, plan: &ConductionPlan, dt: f64, next: &mut [f64]) {
+    let sep = m.separations();
     let p = &mut m.particles;
     let c = &m.contacts;
     let th = &mut p.thermal;
@@ -70,7 +71,7 @@ fn substep(m: &mut Model, plan: &ConductionPlan, dt: f64, next: &mut [f64]) {
         Heat { source: &th.source, conductivity: &th.conductivity, radius: &p.radius, bond_radius: plan.bond_radius };
     let (pos, t, cap, mode) = (&p.pos, &th.temperature, &th.capacity, &th.mode);
     for_blocks(0..pos.len(), Rows::None, (&mut next[..], &mut th.conductance[..]), (), &|range, (next, g), ()| {
-        diffusion::substep(&heat, pos, c, t, cap, mode, dt, range, next, g)
+        diffusion::substep(&heat, pos, &sep, c, t, cap, mode, dt, range, next, g)
     });
 }
 

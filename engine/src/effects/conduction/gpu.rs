@@ -60,6 +60,8 @@ mod shader {
     pub const SHADER: Shader = Shader {
         name: "conduction",
         source: concat!(
+            include_str!("../../../../shaders/periodic_image.wgsl"),
+            "\n",
             include_str!("../../../../shaders/diffusion.wgsl"),
             "\n",
             include_str!("../../../../shaders/conduction.wgsl")
@@ -262,8 +264,21 @@ pub fn kernels(
     plan: &ConductionPlan,
 ) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
-    // The rows' walk reads no scene constant.
-    let walk = [ORIGIN, DISP, ROW_LEN, OTHER, STATE, SLAB, co::FIELD, co::THERMAL, co::NEXT, co::CONDUCTANCE, co::MODE];
+    // The rows' walk reads the scene's constants for a periodic cell's images only.
+    let walk = [
+        PARAMS,
+        ORIGIN,
+        DISP,
+        ROW_LEN,
+        OTHER,
+        STATE,
+        SLAB,
+        co::FIELD,
+        co::THERMAL,
+        co::NEXT,
+        co::CONDUCTANCE,
+        co::MODE,
+    ];
     let conduct = d
         .slabs
         .iter()

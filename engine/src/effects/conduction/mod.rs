@@ -296,8 +296,7 @@ impl Model {
             return Ok(());
         }
         let dt = plan.substep(self.clock.dt);
-        let p = &self.particles;
-        let c = &self.contacts;
+        let (p, c, sep) = (&self.particles, &self.contacts, self.separations());
         let rows = c.row_start.len() == n + 1 && !c.stale;
         for i in 0..n {
             if th.mode[i] == FIXED {
@@ -322,7 +321,7 @@ impl Model {
                 if th.mode[j] == INSULATED {
                     continue;
                 }
-                let d = (p.pos[j] - p.pos[i]).norm();
+                let d = sep.between(&p.pos, i, j).norm();
                 g += pair_conductance(
                     th.conductivity[i],
                     th.conductivity[j],

@@ -73,6 +73,7 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
 
 /// One forward-Euler sub-step: `next` gets each element's new water content.
 fn substep(m: &mut Model, plan: &MoisturePlan, dt: f64, next: &mut [f64]) {
+    let sep = m.separations();
     let p = &mut m.particles;
     let c = &m.contacts;
     let w = &mut p.moisture;
@@ -86,6 +87,6 @@ fn substep(m: &mut Model, plan: &MoisturePlan, dt: f64, next: &mut [f64]) {
     };
     let (u, mode) = (&w.water, &w.mode);
     for_blocks(0..pos.len(), Rows::None, (&mut next[..], &mut w.conductance[..]), (), &|range, (next, g), ()| {
-        diffusion::substep(&water, pos, c, u, mass, mode, dt, range, next, g)
+        diffusion::substep(&water, pos, &sep, c, u, mass, mode, dt, range, next, g)
     });
 }

@@ -53,6 +53,8 @@ mod shader {
     pub const SHADER: Shader = Shader {
         name: "moisture",
         source: concat!(
+            include_str!("../../../../shaders/periodic_image.wgsl"),
+            "\n",
             include_str!("../../../../shaders/diffusion.wgsl"),
             "\n",
             include_str!("../../../../shaders/moisture.wgsl")
@@ -258,8 +260,9 @@ pub fn kernels(
     thermal: Option<&crate::effects::conduction::gpu::Lanes>,
 ) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
-    // The rows' walk reads no scene constant.
+    // The rows' walk reads the scene's constants for a periodic cell's images only.
     let walk = [
+        PARAMS,
         ORIGIN,
         DISP,
         ROW_LEN,

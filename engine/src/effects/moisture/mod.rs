@@ -339,7 +339,9 @@ impl Model {
         let dt = plan.substep(self.clock.dt);
         let p = &self.particles;
         let x = WaterExchange::new(&p.radius, w, plan.bond_radius);
-        if let Some((i, g, limit)) = diffusion::unstable_element(&x, &p.pos, c, &w.water, &p.mass, &w.mode, dt) {
+        if let Some((i, g, limit)) =
+            diffusion::unstable_element(&x, &p.pos, &self.separations(), c, &w.water, &p.mass, &w.mode, dt)
+        {
             let need = (f64::from(plan.every) * self.clock.dt / limit).floor() as u64 + 1;
             return Err(Error::InvalidScene(format!(
                 "moisture diffusion is unstable at element {i} (material `{}`): its mass m = {:.3e} kg and moisture \

@@ -28,7 +28,7 @@ pub mod cpu;
 pub mod gpu;
 pub mod setting;
 
-pub use setting::{Image, Periodic};
+pub use setting::{Image, Periodic, Separations};
 
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -125,42 +125,7 @@ impl Model {
     /// The model's pair separation, for a loop over many pairs (the cell's image worked out
     /// once).
     pub fn separations(&self) -> Separations {
-        Separations(self.settings.periodic.map(|c| c.image()))
-    }
-}
-
-/// Pair separations in a model: through the nearest image when it has a periodic cell.
-#[derive(Debug, Clone, Copy)]
-pub struct Separations(Option<Image>);
-
-impl Separations {
-    /// Whether the model has a periodic cell (else every separation is `pos[j] − pos[i]`).
-    pub fn periodic(&self) -> bool {
-        self.0.is_some()
-    }
-
-    /// From `pos[i]` to `pos[j]`, and the x velocity j's nearest image has beyond j's own under
-    /// Lees–Edwards shear (0 otherwise; see [`Image::nearest_sliding`]).
-    #[inline(always)]
-    pub fn between_sliding(&self, pos: &[Vec3], i: usize, j: usize) -> (Vec3, f64) {
-        let d = pos[j] - pos[i];
-        match &self.0 {
-            Some(image) => {
-                let (d, slide) = image.nearest_sliding(d);
-                (d, -slide)
-            }
-            None => (d, 0.0),
-        }
-    }
-
-    /// From `pos[i]` to `pos[j]`.
-    #[inline(always)]
-    pub fn between(&self, pos: &[Vec3], i: usize, j: usize) -> Vec3 {
-        let d = pos[j] - pos[i];
-        match &self.0 {
-            Some(image) => image.nearest(d),
-            None => d,
-        }
+        Separations::of(self.settings.periodic.as_ref())
     }
 }
 
@@ -170,8 +135,6 @@ fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
     let s = &m.settings;
     let blocked = [
         (s.pores.enabled, "pore flow"),
-        (s.heat.enabled, "heat conduction"),
-        (s.moisture.enabled, "moisture"),
         (s.confinement.is_some(), "a confining pressure"),
         (!m.clumps.is_empty(), "clumps"),
     ];

@@ -148,6 +148,46 @@ impl Periodic {
     }
 }
 
+/// Pair separations in a model: through the nearest image when it has a periodic cell.
+#[derive(Debug, Clone, Copy)]
+pub struct Separations(Option<Image>);
+
+impl Separations {
+    /// The separations in `cell` (plain differences without one).
+    pub fn of(cell: Option<&Periodic>) -> Self {
+        Separations(cell.map(Periodic::image))
+    }
+
+    /// Whether the model has a periodic cell (else every separation is `pos[j] − pos[i]`).
+    pub fn periodic(&self) -> bool {
+        self.0.is_some()
+    }
+
+    /// From `pos[i]` to `pos[j]`, and the x velocity j's nearest image has beyond j's own under
+    /// Lees–Edwards shear (0 otherwise; see [`Image::nearest_sliding`]).
+    #[inline(always)]
+    pub fn between_sliding(&self, pos: &[Vec3], i: usize, j: usize) -> (Vec3, f64) {
+        let d = pos[j] - pos[i];
+        match &self.0 {
+            Some(image) => {
+                let (d, slide) = image.nearest_sliding(d);
+                (d, -slide)
+            }
+            None => (d, 0.0),
+        }
+    }
+
+    /// From `pos[i]` to `pos[j]`.
+    #[inline(always)]
+    pub fn between(&self, pos: &[Vec3], i: usize, j: usize) -> Vec3 {
+        let d = pos[j] - pos[i];
+        match &self.0 {
+            Some(image) => image.nearest(d),
+            None => d,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
