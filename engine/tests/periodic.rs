@@ -263,9 +263,9 @@ fn bad_periodic_cells_are_refused_with_what_to_do() {
     let e = m.periodic([Some([1.0, 0.0]), None, None]).unwrap_err().to_string();
     assert!(e.contains("the first below the second"), "{e}");
     assert!(m.periodic([None, None, None]).is_err());
-    m.settings.moisture.enabled = true;
+    m.settings.pores.enabled = true;
     let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(e.contains("do not yet work with moisture"), "{e}");
+    assert!(e.contains("do not yet work with pore flow"), "{e}");
 }
 
 /// The rows the device builds (rows.wgsl and cell_list.wgsl, behind PERIODIC) are the host's:

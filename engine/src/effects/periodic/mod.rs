@@ -70,7 +70,7 @@ impl Model {
             ));
         }
         let cell = Periodic { axes, shear: None };
-        check_effects(self, &cell)?;
+        check_effects(self)?;
         let p = &mut self.particles;
         for i in 0..p.len() {
             let shift = cell.wrap(&mut p.pos[i]);
@@ -130,8 +130,7 @@ impl Model {
 }
 
 /// The effects whose pairs or geometry do not yet measure through a periodic cell's images.
-fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
-    let _ = cell;
+fn check_effects(m: &Model) -> Result<()> {
     let s = &m.settings;
     let blocked = [
         (s.pores.enabled, "pore flow"),
@@ -149,8 +148,8 @@ fn check_effects(m: &Model, cell: &Periodic) -> Result<()> {
 /// Refuses a run whose scene has periodic axes and an effect that does not work with them yet
 /// (switched on after the cell was made).
 pub fn check_scene(m: &Model) -> Result<()> {
-    match &m.settings.periodic {
-        Some(cell) => check_effects(m, cell),
+    match m.settings.periodic {
+        Some(_) => check_effects(m),
         None => Ok(()),
     }
 }

@@ -83,9 +83,9 @@ impl Image {
         self.nearest_sliding(d).0
     }
 
-    /// The nearest separation `d` and the x velocity the image it goes to has beyond j's own
-    /// (−k·γ̇·L_z for the image k cells down): a pair's relative velocity v_i − v_j gains its
-    /// negative, k·γ̇·L_z.
+    /// The nearest separation `d`, and what a pair's relative velocity v_i − v_j gains through
+    /// that image along x: k·γ̇·L_z for the image k cells down (which moves k·γ̇·L_z slower than
+    /// j along x).
     #[inline(always)]
     pub fn nearest_sliding(&self, mut d: Vec3) -> (Vec3, f64) {
         let k = (d.z * self.inv.z).round();
