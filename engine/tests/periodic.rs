@@ -20,6 +20,24 @@ fn run(sim: &mut Simulation, steps: u64) {
     sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
 }
 
+/// A scene built straddling the face x = 0 and built mid-cell (at `mid`), both run `steps` on
+/// the CPU, or on the GPU of `ctx`: what crosses a face against what does not.
+fn across_and_inside(
+    scene: fn(f64) -> Model,
+    mid: f64,
+    steps: u64,
+    ctx: Option<&std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>>,
+) -> (Simulation, Simulation) {
+    let make = |x: f64| match ctx {
+        Some(ctx) => Simulation::with_gpu(scene(x), ctx.clone()),
+        None => Simulation::new(scene(x)),
+    };
+    let (mut across, mut inside) = (make(0.0), make(mid));
+    run(&mut across, steps);
+    run(&mut inside, steps);
+    (across, inside)
+}
+
 fn cube(a: [f64; 2]) -> [Option<[f64; 2]>; 3] {
     [Some(a), Some(a), Some(a)]
 }
@@ -158,9 +176,7 @@ fn head_on(x: f64) -> Model {
 
 #[test]
 fn a_collision_across_a_face_is_the_collision_inside_the_cell() {
-    let (mut across, mut inside) = (Simulation::new(head_on(0.0)), Simulation::new(head_on(5.0 * R)));
-    run(&mut across, 3000);
-    run(&mut inside, 3000);
+    let (across, inside) = across_and_inside(head_on, 5.0 * R, 3000, None);
     let (a, b) = (&across.model.particles, &inside.model.particles);
     eprintln!("across {:?} {:?}; inside {:?} {:?}", a.vel[0], a.vel[1], b.vel[0], b.vel[1]);
     assert!(b.vel[0].x < -0.1, "the inside pair bounced");
@@ -442,9 +458,7 @@ fn spins(sim: &Simulation) -> [Vec3; 2] {
 
 #[test]
 fn rolling_resistance_across_a_face_brakes_as_inside_the_cell() {
-    let (mut across, mut inside) = (Simulation::new(rolling_pair(0.0)), Simulation::new(rolling_pair(5.0 * R)));
-    run(&mut across, 2000);
-    run(&mut inside, 2000);
+    let (across, inside) = across_and_inside(rolling_pair, 5.0 * R, 2000, None);
     let (a, b) = (spins(&across), spins(&inside));
     eprintln!("across {a:?}\ninside {b:?}");
     assert!(b[0].z < 49.0, "the rolling resistance brakes the spin: {:?}", b[0]);
@@ -456,10 +470,7 @@ fn rolling_resistance_across_a_face_brakes_as_inside_the_cell() {
 #[test]
 fn rolling_resistance_across_a_face_brakes_as_inside_the_cell_on_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_rolling_gpu") else { return };
-    let mut across = Simulation::with_gpu(rolling_pair(0.0), ctx.clone());
-    let mut inside = Simulation::with_gpu(rolling_pair(5.0 * R), ctx);
-    run(&mut across, 2000);
-    run(&mut inside, 2000);
+    let (across, inside) = across_and_inside(rolling_pair, 5.0 * R, 2000, Some(&ctx));
     let (a, b) = (spins(&across), spins(&inside));
     eprintln!("across {a:?}\ninside {b:?}");
     assert!(b[0].z < 49.0, "the rolling resistance brakes the spin: {:?}", b[0]);
@@ -505,10 +516,7 @@ fn a_parallel_bond_across_a_face_breaks_as_inside_the_cell() {
 #[test]
 fn a_parallel_bond_across_a_face_breaks_as_inside_the_cell_on_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_parallel_bond_gpu") else { return };
-    let mut across = Simulation::with_gpu(parallel_bonded_pair(0.0), ctx.clone());
-    let mut inside = Simulation::with_gpu(parallel_bonded_pair(5.0 * R), ctx);
-    run(&mut across, 400);
-    run(&mut inside, 400);
+    let (across, inside) = across_and_inside(parallel_bonded_pair, 5.0 * R, 400, Some(&ctx));
     let (a, b) = (&across.model.breakages, &inside.model.breakages);
     eprintln!("across {a:?}\ninside {b:?}");
     assert_eq!((a.len(), b.len()), (1, 1), "the bond broke");
@@ -544,9 +552,7 @@ fn temperatures(sim: &Simulation) -> Vec<f64> {
 
 #[test]
 fn heat_flows_across_a_face_as_inside_the_cell() {
-    let (mut across, mut inside) = (Simulation::new(warm_row(0.0)), Simulation::new(warm_row(6.0 * R)));
-    run(&mut across, 500);
-    run(&mut inside, 500);
+    let (across, inside) = across_and_inside(warm_row, 6.0 * R, 500, None);
     let (a, b) = (temperatures(&across), temperatures(&inside));
     eprintln!("across {a:?}\ninside {b:?}");
     assert!(b[1] > 0.01 && b[2] < 0.99, "heat flowed: {b:?}");
@@ -558,10 +564,7 @@ fn heat_flows_across_a_face_as_inside_the_cell() {
 #[test]
 fn heat_flows_across_a_face_as_inside_the_cell_on_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_heat_gpu") else { return };
-    let mut across = Simulation::with_gpu(warm_row(0.0), ctx.clone());
-    let mut inside = Simulation::with_gpu(warm_row(6.0 * R), ctx);
-    run(&mut across, 500);
-    run(&mut inside, 500);
+    let (across, inside) = across_and_inside(warm_row, 6.0 * R, 500, Some(&ctx));
     let (a, b) = (temperatures(&across), temperatures(&inside));
     eprintln!("across {a:?}\ninside {b:?}");
     assert!(b[1] > 0.01 && b[2] < 0.99, "heat flowed: {b:?}");
