@@ -47,6 +47,31 @@ fn run(script: &Path, out: &Path) -> std::process::Output {
     bin().arg("run").arg(script).arg("--out").arg(out).output().unwrap()
 }
 
+/// `matdem-rs run SCRIPT --out OUT` in the background, its stderr piped.
+fn spawn_run(script: &Path, out: &Path, stdout: Stdio) -> Running {
+    Running(bin().arg("run").arg(script).arg("--out").arg(out).stdout(stdout).stderr(Stdio::piped()).spawn().unwrap())
+}
+
+/// Sends SIGTERM and waits: the exit status and what the run said on stderr.
+fn interrupt(child: &mut Running) -> (std::process::ExitStatus, String) {
+    assert!(Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap().success());
+    let status = child.0.wait().unwrap();
+    let mut err = String::new();
+    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (status, err)
+}
+
+/// Resumes the run in `out` to its end; each of `files` must then equal the uninterrupted run's
+/// in `straight`, byte for byte.
+fn resume_matches(script: &Path, out: &Path, straight: &Path, files: &[&str]) {
+    let resumed = bin().arg("run").arg(script).arg("--resume").arg(out).output().unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    for file in files {
+        let (a, b) = (std::fs::read(straight.join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
+        assert!(a == b, "{file} of the resumed run differs from the uninterrupted run's");
+    }
+}
+
 #[test]
 fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
     let dir = temp_dir("resume_sigterm");
@@ -57,28 +82,14 @@ fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
     assert!(straight.status.success(), "{}", stderr(&straight));
 
     let out = dir.join("cut");
-    let mut child = Running(
-        bin()
-            .arg("run")
-            .arg(&script)
-            .arg("--out")
-            .arg(&out)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
+    let mut child = spawn_run(&script, &out, Stdio::null());
     // Interrupt once the first stage's table is written: well inside the run.
     let start = Instant::now();
     while !out.join("progress.csv").exists() {
         assert!(start.elapsed() < Duration::from_secs(60), "the run never wrote its first table");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let kill = Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap();
-    assert!(kill.success());
-    let status = child.0.wait().unwrap();
-    let mut err = String::new();
-    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let (status, err) = interrupt(&mut child);
     assert_eq!(status.code(), Some(130), "an interrupted run exits with 130: {err}");
     assert!(err.contains("--resume") && err.contains("stopped after"), "says how to continue: {err}");
     assert!(out.join("resume/journal.ron").is_file() && out.join("resume/model_0.mdem").is_file());
@@ -94,12 +105,7 @@ fn sigterm_mid_run_then_resume_ends_with_the_uninterrupted_outputs_bitwise() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("has changed since the run was interrupted"), "{}", stderr(&o));
 
-    let resumed = bin().arg("run").arg(&script).arg("--resume").arg(&out).output().unwrap();
-    assert!(resumed.status.success(), "{}", stderr(&resumed));
-    for file in ["final.csv", "progress.csv", "settled.mdem"] {
-        let (a, b) = (std::fs::read(dir.join("straight").join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
-        assert!(a == b, "{file} of the resumed run differs from the uninterrupted run's");
-    }
+    resume_matches(&script, &out, &dir.join("straight"), &["final.csv", "progress.csv", "settled.mdem"]);
     assert!(!out.join("resume").exists(), "a finished run leaves nothing to resume");
     let record = std::fs::read_to_string(out.join("run.ron")).unwrap();
     assert!(record.contains("status: \"ok\"") && record.contains("resumed_from: Some("), "{record}");
@@ -174,34 +180,16 @@ d.save("settled");
     assert!(straight.status.success(), "{}", stderr(&straight));
 
     let out = dir.join("cut");
-    let mut child = Running(
-        bin()
-            .arg("run")
-            .arg(&script)
-            .arg("--out")
-            .arg(&out)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
+    let mut child = spawn_run(&script, &out, Stdio::piped());
     // The loop after "between" takes tens of milliseconds: the signal lands in it (or, on a
     // slow day, in the run after it, which saves a resume point as before).
     let mut line = [0u8; 8];
     child.0.stdout.take().unwrap().read_exact(&mut line).unwrap();
     assert_eq!(&line, b"between\n");
-    assert!(Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status().unwrap().success());
-    let status = child.0.wait().unwrap();
-    let mut err = String::new();
-    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let (status, err) = interrupt(&mut child);
     assert_eq!(status.code(), Some(130), "{err}");
     assert!(out.join("resume/journal.ron").is_file(), "a resume point is saved: {err}");
     assert!(!out.join("final.csv").exists(), "the interruption must land before the end of the run");
 
-    let resumed = bin().arg("run").arg(&script).arg("--resume").arg(&out).output().unwrap();
-    assert!(resumed.status.success(), "{}", stderr(&resumed));
-    for file in ["final.csv", "settled.mdem"] {
-        let (a, b) = (std::fs::read(dir.join("straight").join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
-        assert!(a == b, "{file} of the resumed run differs from the uninterrupted run's");
-    }
+    resume_matches(&script, &out, &dir.join("straight"), &["final.csv", "settled.mdem"]);
 }

@@ -61,6 +61,7 @@ impl Session {
         let crossings = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("periodic crossings"),
             contents: &vec![0u8; 16 * n],
+            // COPY_DST: a download clears it on the device.
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         });
         let cell = m.settings.periodic.expect("the plan has the periodic stage");
@@ -85,7 +86,9 @@ impl Session {
                 o[a] += f64::from(c[a]) * span[a];
             }
         }
-        ctx.queue.write_buffer(&self.crossings, 0, &vec![0u8; 16 * self.n]);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&self.crossings, 0, None);
+        ctx.submit(enc);
         Ok(())
     }
 }
