@@ -76,3 +76,111 @@ r.curve.save("stress.csv");
     let ea = csv_column(&csv, "axial_strain");
     assert!(ea.windows(2).all(|w| w[1] > w[0]), "the sample shortens: {ea:?}");
 }
+
+/// The quick sand cylinder of the stress-controlled test, consolidated and saturated (drained
+/// through the platens) at σ3 = 50 kPa: `d` for the pore-fluid tests, `fluid` the pore fluid
+/// (1000 × water's viscosity: the flow's stable sub-step then fits the step ~14 times).
+const SATURATED: &str = r#"
+let b = new_box("t");
+b.sample_r = 0.003; b.sample_h = 0.006;
+b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
+b.set_type("top_platen");
+let d = b.build_initial_model();
+d.set_group_mat("sample", material_micro("sand", #{ kn: 2e5, ks: 8e4, mu_p: 0.5, r: 0.4e-3, restitution: 0.5, density: 2650.0 }));
+d.set_standard_dt();
+sediment(d, #{ accel: 30.0, tolerance: 0.05 });
+d.fluid = #{ bulk_modulus: 4e7, viscosity: 1.0 };
+"#;
+
+// The effective stress principle, drained: a saturated sample under an isotropic increment of
+// the cell pressure (50 → 60 kPa) first carries part of it in its pore fluid, which drains
+// through the platens, and ends where the same sample dry does. Measured: u 122 Pa after 2,000
+// steps, 1.0 Pa at the end (pores the drained network does not reach); ε_v 2.678e-4 wet
+// against 2.698e-4 dry (0.7 %).
+#[test]
+fn a_drained_saturated_sample_settles_where_the_dry_one_does() {
+    let dir = temp_dir("triaxial_drained_increment");
+    let script = format!(
+        "{SATURATED}{}",
+        r#"
+triaxial(d, #{ confining: 50e3, stages: [], tolerance: 0.05, pore_fluid: "drained" });
+d.save("consolidated");
+let rows = new_table();
+for wet in [false, true] {
+    let t = load_model("consolidated");
+    if !wet { t.disable("pore_flow"); }
+    let v0 = t.membrane().volume;
+    let h = t.boundary("top_platen").position[2] - t.boundary("bottom").position[2];
+    t.confine(#{ pressure: 60e3, bottom: "bottom", top: "top_platen" });
+    t.set_platen_stress("top_platen", 60e3 * v0 / h / t.boundary("top_platen").area);
+    for k in 0..12 {
+        t.run(2000);
+        let u = if wet { t.pore_network.mean_pressure } else { 0.0 };
+        rows.add_row(#{ wet: if wet { 1.0 } else { 0.0 }, volumetric_strain: (v0 - t.membrane().volume) / v0, u: u });
+    }
+}
+rows.save("increment.csv");
+"#
+    );
+    let o = run_script(&dir, "increment.rhai", &script, &["--backend", "cpu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = dir.join("out/increment.csv");
+    let (wet, ev, u) = (csv_column(&csv, "wet"), csv_column(&csv, "volumetric_strain"), csv_column(&csv, "u"));
+    let dry_end = ev[11];
+    let (wet_u, wet_end) = (&u[12..], ev[23]);
+    assert!(wet[..12].iter().all(|&w| w == 0.0) && wet[12..].iter().all(|&w| w == 1.0));
+    eprintln!("drained increment: u {wet_u:?}; ε_v dry {dry_end:e}, wet {wet_end:e}");
+    // The fluid took part of the 10 kPa at first, and drained to under 0.1 % of it.
+    assert!(wet_u[0] > 20.0, "the increment raised no pore pressure: {wet_u:?}");
+    assert!(wet_u[11].abs() < 10.0, "the pore pressure did not drain: {wet_u:?}");
+    // Drained, the skeleton carries the whole increment: the dry sample's strain within 2 %.
+    assert!(dry_end > 1e-4, "the increment compressed the dry sample by only {dry_end:e}");
+    assert!((wet_end - dry_end).abs() < 0.02 * dry_end, "ε_v wet {wet_end:e}, dry {dry_end:e}");
+}
+
+// Sheared faster than the pore fluid drains, the rows carry the excess pore pressure and the
+// effective mean stress p' = (σ1 + 2σ3)/3 − u, and the procedure says the test was not drained.
+// An undrained test is refused before any work, with the reason.
+#[test]
+fn a_saturated_triaxial_test_reports_its_pore_pressure() {
+    let dir = temp_dir("triaxial_drained_shear");
+    let script = format!(
+        "{SATURATED}{}",
+        r#"
+let r = triaxial(d, #{ confining: 50e3, strain: 0.01, points: 4, tolerance: 0.05, pore_fluid: "drained" });
+r.curve.save("wet.csv");
+report("phi_eff", r.phi_eff);
+report("u_max", r.pore_pressure_max);
+"#
+    );
+    let o = run_script(&dir, "wet.rhai", &script, &["--backend", "cpu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let log = stdout(&o) + stderr(&o).as_str();
+    let csv = dir.join("out/wet.csv");
+    let (s1, u, p) = (csv_column(&csv, "sigma1"), csv_column(&csv, "pore_pressure"), csv_column(&csv, "p_eff"));
+    eprintln!("drained shear: u {u:?}");
+    for k in 0..u.len() {
+        assert!(
+            (p[k] - ((s1[k] + 1e5) / 3.0 - u[k])).abs() < 1e-6 * p[k],
+            "row {k}: p' {} σ1 {} u {}",
+            p[k],
+            s1[k],
+            u[k]
+        );
+    }
+    // Measured 3.3 kPa at 0.25 % strain with this fluid (407 Pa with a tenth of its viscosity).
+    let u_max = metrics(&dir.join("out"))["u_max"];
+    assert!(u_max > 0.05 * 50e3 && u_max < 50e3, "u_max {u_max} Pa");
+    assert!(log.contains("not drained at this rate"), "{log}");
+
+    let refused = run_script(
+        &dir,
+        "undrained.rhai",
+        r#"let b = new_box("t"); b.sample_r = 0.003; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
+let d = b.build_initial_model();
+triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
+        &["--backend", "cpu"],
+    );
+    assert!(!refused.status.success());
+    assert!(stderr(&refused).contains("an undrained test is not available"), "{}", stderr(&refused));
+}

@@ -281,6 +281,8 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 out.insert("critical_pore".into(), int(pore));
                 let max = f.pressure.iter().cloned().fold(f64::MIN, f64::max);
                 out.insert("max_pressure".into(), Dynamic::from_float(max));
+                out.insert("mean_pressure".into(), Dynamic::from_float(f.mean_pressure()));
+                out.insert("pore_volume".into(), Dynamic::from_float(f.pore_volume()));
                 let floats = |v: &[f64]| v.iter().map(|&x| Dynamic::from_float(x)).collect::<Array>();
                 out.insert("region_mass".into(), Dynamic::from_array(floats(&f.region_mass)));
                 out.insert("region_heat".into(), Dynamic::from_array(floats(&f.region_heat)));

@@ -396,6 +396,19 @@ impl PoreFlow {
         self.mass.iter().sum()
     }
 
+    /// The network's pore volume, Σ V_p (m³).
+    pub fn pore_volume(&self) -> f64 {
+        self.network.volume.iter().sum()
+    }
+
+    /// The fluid's mean gauge pressure over the network, each pore weighted by its volume
+    /// (Pa): what a pore-pressure transducer in a drained cell's line reads once the fluid is at
+    /// rest, and the u of effective stress σ' = σ − u.
+    pub fn mean_pressure(&self) -> f64 {
+        let v = &self.network.volume;
+        self.pressure.iter().zip(v).map(|(p, v)| p * v).sum::<f64>() / self.pore_volume()
+    }
+
     /// The flow's critical step and the pore that sets it: min over pores not held at a
     /// pressure of V_i / (K_f·Σ_j g_ij); infinite when no pore is connected.
     pub fn critical_dt(&self) -> (usize, f64) {
