@@ -16,7 +16,8 @@ override VISCOUS: bool = false;
 override LOCAL: bool = false;
 // The epsd rolling resistance model: rows carry a rolling spring per entry (rolling_resistance.wgsl).
 override ROLLING_SPRING: bool = false;
-// A 2D model (every centre at y = 0): the neighbour search visits one layer of cells.
+// A 2D model (every centre at y = 0): the neighbour search visits one layer of cells, and
+// the contact pass reads its vectors through `in_plane` and `about_y`.
 override PLANAR: bool = false;
 // Clumps exist: the neighbour search leaves out pairs within one clump (its `clump_of` lane).
 override CLUMPS: bool = false;
@@ -526,4 +527,22 @@ fn contact_opened(p: Pair, r_star: f32, shear_in: vec3<f32>, dashpot_in: f32, n:
     let s_prev = rotate_into_plane(shear_in, n);
     let trial = s_prev - (v_rel - n * vn) * (kt * dt);
     return vec2<f32>(released(trial, vec3<f32>(0.0), s_prev, kt), 0.5 * dashpot_in * vn * dt);
+}
+
+// A 2D model's positions, velocities and springs lie in the x–z plane and its spins point
+// along y: read through these, the components that are zero there become the literal 0.0
+// once the pipeline is built, so the compiler can drop their arithmetic from the pair loop.
+// (For a 3D model they are the identity.)
+fn in_plane(v: vec3<f32>) -> vec3<f32> {
+    if PLANAR {
+        return vec3<f32>(v.x, 0.0, v.z);
+    }
+    return v;
+}
+
+fn about_y(w: vec3<f32>) -> vec3<f32> {
+    if PLANAR {
+        return vec3<f32>(0.0, w.y, 0.0);
+    }
+    return w;
 }

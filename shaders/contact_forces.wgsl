@@ -1,7 +1,9 @@
 // The `contact_forces` stage on the GPU: particle–particle contact forces. One invocation per
 // particle walks its own neighbour row, evaluates every contact from its side, updates the row's
 // pair state and writes its summed force (and torque): no atomics on floats, so the sums are
-// deterministic. Runs once per slab of rows. CPU twin: backend/cpu/contact_forces.rs.
+// deterministic. Runs once per slab of rows. In a 2D model its vectors are read in the plane
+// (`in_plane`, `about_y`): no y arithmetic after specialisation. CPU twin:
+// backend/cpu/contact_forces.rs.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
 
@@ -16,12 +18,12 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
     let oi = origin[i].xyz;
     let ri = origin[i].w;
     let ui = disp[i].xyz;
-    let vi = vel[i].xyz;
+    let vi = in_plane(vel[i].xyz);
     let mi = body[i].x;
     let mati = kind[i] & 0xffffu;
     var wi = vec3<f32>(0.0);
     if ROTATION {
-        wi = ang_vel[i].xyz;
+        wi = about_y(ang_vel[i].xyz);
     }
     let dt = params.dt;
     var f = vec3<f32>(0.0);
@@ -34,7 +36,7 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let st = state[e];
         let bonded = st.w != 0.0;
         // Both parts of the position differ little between neighbours: subtract each first.
-        let d = nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui));
+        let d = in_plane(nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui)));
         let rj = origin[j].w;
         let touch = ri + rj;
         let dist2 = dot(d, d);
@@ -48,10 +50,10 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         }
         let dist = sqrt(dist2);
         let n = d / dist;
-        var v_rel = vi - vel[j].xyz;
+        var v_rel = vi - in_plane(vel[j].xyz);
         if ROTATION {
             // Grouped so that the other row computes exactly the opposite vector.
-            v_rel = v_rel + (cross(wi, n * ri) - cross(ang_vel[j].xyz, n * -rj));
+            v_rel = v_rel + (cross(wi, n * ri) - cross(about_y(ang_vel[j].xyz), n * -rj));
         }
         let mj = body[j].x;
         var p = pairs[mati * params.nmat + (kind[j] & 0xffffu)];
@@ -60,7 +62,7 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
             p.breaking_force *= st.w;
             p.fs0 *= st.w;
         }
-        let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, st.xyz, bonded,
+        let c = contact(n, touch - dist, v_rel, ri * rj / touch, mi * mj / (mi + mj), p, in_plane(st.xyz), bonded,
                         dashpot_of(e), dt);
         f += c.force;
         h += vec3<f32>(c.heat_damping, c.heat_friction, c.heat_breakage);

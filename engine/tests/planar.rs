@@ -234,6 +234,7 @@ fn a_2d_box_deposits_in_its_plane_to_the_bit_and_measures_porosity_by_area() {
     assert!(sim.model.planar().is_some());
     let plan = sim.plan().to_string();
     assert!(plan.contains("one layer of cells: 2D") && plan.contains("2D: y and spin about x, z held"), "{plan}");
+    assert!(plan.contains("2D: in the x–z plane)"), "the contacts' 2D arithmetic: {plan}");
     sim.run(100_000, &RunControl::default(), &mut |_| {}).unwrap();
     assert_in_plane(&sim.model, "cpu");
     // Towards rest under viscous damping (local damping holds creeping grains with forces the

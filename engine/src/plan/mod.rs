@@ -474,6 +474,10 @@ impl StepPlan {
         if self.rotation {
             c.push_str(", torques");
         }
+        if self.planar.is_some() {
+            // The pair arithmetic in the x–z plane: two components (CPU lanes, GPU constants).
+            c.push_str("; 2D: in the x–z plane");
+        }
         c.push(')');
         stages.push(c);
         // The force stages, in step order, before the body forces and the move.

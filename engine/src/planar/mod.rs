@@ -6,7 +6,11 @@
 //!   script cannot free): both backends' integration keep those components as they are, zero,
 //!   so a 2D model stays in its plane to the bit (the forces of spheres whose centres lie at
 //!   y = 0 have no y component, and their torques only one about y);
-//! - the neighbour search finds one layer of cells (the packing has no extent in y);
+//! - the neighbour search finds one layer of cells (the packing has no extent in y), and the
+//!   contact pass computes in the plane: the CPU's pair lanes carry x and z only (`V4<true>`),
+//!   the GPU's contact kernel reads its vectors with y a literal zero (`in_plane`), so a 2D
+//!   scene does not pay for a third component there (the scalar law of bonded pairs, the
+//!   gather and the integration still compute in 3D with zeros);
 //! - the model is a plate of `thickness` (by default the mean element diameter): stresses are
 //!   forces over length × thickness, porosity is by area in the plane ([`area`]);
 //! - materials convert with the hexagonal lattice's formulas ([`conversion`]).

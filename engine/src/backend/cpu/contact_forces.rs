@@ -148,15 +148,16 @@ pub(super) fn pair_pass<N: NormalLaw, T: TangentialLaw, const DASHPOT: bool, con
     let dashpots = Some(&mut scratch.dashpot[..]).filter(|_| T::DAMPED);
     let outs = (&mut scratch.out[..], dashpots);
     let avx2 = super::pair_batch::has_avx2();
-    // A periodic cell's pairs measure through the nearest image: decided once a pass, so the
-    // pair loop of a scene without one carries no test for it.
-    let periodic = inputs.periodic;
+    // A periodic cell's pairs measure through the nearest image, a 2D model's in the plane:
+    // decided once a pass, so the pair loop of a plain 3D scene carries no test for either.
+    // (A periodic 2D model takes the periodic instance, in three components.)
+    let (periodic, planar) = (inputs.periodic, inputs.planar);
     for_blocks(0..m.particles.len(), Rows::Csr(&m.contacts.pair_start), (), outs, &|range, (), (out, dashpots)| {
         let block = BlockPairs { range, rows: &rows, from_records, out, dashpots };
-        if periodic {
-            super::pair_batch::run::<N, T, DASHPOT, ROT, true>(&inputs, block, avx2)
-        } else {
-            super::pair_batch::run::<N, T, DASHPOT, ROT, false>(&inputs, block, avx2)
+        match (periodic, planar) {
+            (true, _) => super::pair_batch::run::<N, T, DASHPOT, ROT, true, false>(&inputs, block, avx2),
+            (false, true) => super::pair_batch::run::<N, T, DASHPOT, ROT, false, true>(&inputs, block, avx2),
+            (false, false) => super::pair_batch::run::<N, T, DASHPOT, ROT, false, false>(&inputs, block, avx2),
         }
     })
 }

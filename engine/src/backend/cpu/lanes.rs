@@ -71,8 +71,9 @@ impl M4 {
 
     /// [`select`](Self::select) for vectors.
     #[inline(always)]
-    pub fn select_v(self, a: V4, b: V4) -> V4 {
-        V4 { x: self.select(a.x, b.x), y: self.select(a.y, b.y), z: self.select(a.z, b.z) }
+    pub fn select_v<const P: bool>(self, a: V4<P>, b: V4<P>) -> V4<P> {
+        let y = if P { a.y } else { self.select(a.y, b.y) };
+        V4 { x: self.select(a.x, b.x), y, z: self.select(a.z, b.z) }
     }
 
     #[inline(always)]
@@ -105,26 +106,30 @@ impl Neg for X4 {
     }
 }
 
-/// Four 3-vectors, one per lane, as three lanes of components.
+/// Four 3-vectors, one per lane, as three lanes of components. `P` (planar): every vector
+/// lies in the x–z plane of a 2D model, its y lanes zero and never computed, so a 2D scene's
+/// pairs pay for two components, not three; a planar operation gives the 3D one's bits (the
+/// terms it skips are exact zeros) but for the sign of a zero result.
 #[derive(Clone, Copy, Debug)]
-pub struct V4 {
+pub struct V4<const P: bool = false> {
     pub x: X4,
     pub y: X4,
     pub z: X4,
 }
 
-impl V4 {
+impl<const P: bool> V4<P> {
     #[inline(always)]
-    pub fn zeros() -> V4 {
+    pub fn zeros() -> Self {
         let z = X4::splat(0.0);
         V4 { x: z, y: z, z }
     }
 
-    /// Each lane's vector `f(lane)`.
+    /// Each lane's vector `f(lane)` (planar: its y is not read).
     #[inline(always)]
-    pub fn lanes(mut f: impl FnMut(usize) -> Vec3) -> V4 {
+    pub fn lanes(mut f: impl FnMut(usize) -> Vec3) -> Self {
         let v: [Vec3; LANES] = from_fn(&mut f);
-        V4 { x: X4(from_fn(|l| v[l].x)), y: X4(from_fn(|l| v[l].y)), z: X4(from_fn(|l| v[l].z)) }
+        let y = if P { X4::splat(0.0) } else { X4(from_fn(|l| v[l].y)) };
+        V4 { x: X4(from_fn(|l| v[l].x)), y, z: X4(from_fn(|l| v[l].z)) }
     }
 
     /// Lane `l`'s vector.
@@ -135,8 +140,12 @@ impl V4 {
 
     /// nalgebra's order: (x·x' + y·y') + z·z'.
     #[inline(always)]
-    pub fn dot(&self, o: &V4) -> X4 {
-        self.x * o.x + self.y * o.y + self.z * o.z
+    pub fn dot(&self, o: &Self) -> X4 {
+        if P {
+            self.x * o.x + self.z * o.z
+        } else {
+            self.x * o.x + self.y * o.y + self.z * o.z
+        }
     }
 
     #[inline(always)]
@@ -144,44 +153,59 @@ impl V4 {
         self.dot(self)
     }
 
+    /// `w × self` for spins `w` about y (a 2D model's, whose x and z are zero): in the plane,
+    /// as the full cross product computes it, (0 − w·z … ) order kept.
+    #[inline(always)]
+    pub fn spun_by(&self, w: &V4) -> Self {
+        if P {
+            let zero = X4::splat(0.0);
+            V4 { x: w.y * self.z - zero, y: zero, z: zero - w.y * self.x }
+        } else {
+            let c = w.cross(&V4 { x: self.x, y: self.y, z: self.z });
+            V4 { x: c.x, y: c.y, z: c.z }
+        }
+    }
+}
+
+impl V4 {
     #[inline(always)]
     pub fn cross(&self, o: &V4) -> V4 {
         V4 { x: self.y * o.z - self.z * o.y, y: self.z * o.x - self.x * o.z, z: self.x * o.y - self.y * o.x }
     }
 }
 
-impl Add for V4 {
-    type Output = V4;
+impl<const P: bool> Add for V4<P> {
+    type Output = Self;
     #[inline(always)]
-    fn add(self, o: V4) -> V4 {
-        V4 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    fn add(self, o: Self) -> Self {
+        V4 { x: self.x + o.x, y: if P { self.y } else { self.y + o.y }, z: self.z + o.z }
     }
 }
 
-impl Sub for V4 {
-    type Output = V4;
+impl<const P: bool> Sub for V4<P> {
+    type Output = Self;
     #[inline(always)]
-    fn sub(self, o: V4) -> V4 {
-        V4 { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    fn sub(self, o: Self) -> Self {
+        V4 { x: self.x - o.x, y: if P { self.y } else { self.y - o.y }, z: self.z - o.z }
     }
 }
 
 /// Each component times the lane's scalar (nalgebra's `v * s`).
-impl Mul<X4> for V4 {
-    type Output = V4;
+impl<const P: bool> Mul<X4> for V4<P> {
+    type Output = Self;
     #[inline(always)]
-    fn mul(self, s: X4) -> V4 {
-        V4 { x: self.x * s, y: self.y * s, z: self.z * s }
+    fn mul(self, s: X4) -> Self {
+        V4 { x: self.x * s, y: if P { self.y } else { self.y * s }, z: self.z * s }
     }
 }
 
 /// Each component divided by the lane's scalar (nalgebra's `v / s`: a division, not a
 /// multiplication by the reciprocal).
-impl Div<X4> for V4 {
-    type Output = V4;
+impl<const P: bool> Div<X4> for V4<P> {
+    type Output = Self;
     #[inline(always)]
-    fn div(self, s: X4) -> V4 {
-        V4 { x: self.x / s, y: self.y / s, z: self.z / s }
+    fn div(self, s: X4) -> Self {
+        V4 { x: self.x / s, y: if P { self.y } else { self.y / s }, z: self.z / s }
     }
 }
 
@@ -197,7 +221,7 @@ mod tests {
             from_fn(|l| Vec3::new(0.1 + l as f64, -1e-17 * (l as f64 + 1.0), 3.3e5 / (l as f64 + 7.0)));
         let b: [Vec3; LANES] = from_fn(|l| Vec3::new(1.0 / 3.0 + l as f64, 7e16, -2.2 / (l as f64 + 1.5)));
         let s = X4::lanes(|l| 0.7 + l as f64 / 9.0);
-        let (va, vb) = (V4::lanes(|l| a[l]), V4::lanes(|l| b[l]));
+        let (va, vb): (V4, V4) = (V4::lanes(|l| a[l]), V4::lanes(|l| b[l]));
         let bits = |v: Vec3| v.map(f64::to_bits);
         for l in 0..LANES {
             assert_eq!(va.dot(&vb).0[l].to_bits(), a[l].dot(&b[l]).to_bits());

@@ -55,6 +55,9 @@ pub(super) struct PairInputs<'a> {
     /// reads it only in its periodic instance.
     pub image: Image,
     pub periodic: bool,
+    /// A 2D model (every centre, velocity and the spins' axis held in the x–z plane): the
+    /// pass's lanes compute two components (`V4<true>`).
+    pub planar: bool,
 }
 
 impl PairInputs<'_> {
@@ -96,6 +99,7 @@ impl<'a> PairInputs<'a> {
             dt: m.clock.dt,
             image: m.settings.periodic.map(|c| c.image()).unwrap_or_default(),
             periodic: m.settings.periodic.is_some(),
+            planar: m.settings.planar.is_some(),
         }
     }
 }
