@@ -6,7 +6,7 @@
 // `confine_pick` lowers the cell's id to the lowest grain at that reach, `confine_share` gives
 // each empty cell's patch to the touched cell beside it whose grain reaches farthest (a count
 // per cell), and `confine_apply` pushes each picked grain towards the axis with
-// σ·(ρ + r)·Δθ·Δz times its cell's patches. A cell is three words: the reach's bits, the id, the
+// σ·(ρ + r)·Δθ·Δz times its cell's patches (a 2D model: σ·t·Δz on the grains of each side). A cell is three words: the reach's bits, the id, the
 // shares; the apply pass runs over the cells, not the grains. Integer atomics only: the picks and shares, and so the forces, are the same whatever
 // order the invocations run in. Killed elements are in no cell.
 // CPU twin: effects/confining_pressure/cpu.rs.
@@ -20,6 +20,8 @@ struct Confine {
     bottom: u32,
     top: u32,
     cells: u32,
+    // A 2D model's plate thickness (PLANAR): the membrane is the two sides, left and right.
+    thickness: f32,
 }
 
 const TAU: f32 = 6.28318530717959;
@@ -44,9 +46,18 @@ fn membrane_place(i: u32) -> Place {
     let dtheta = TAU / f32(confine.sectors);
     let o = origin[i];
     let p = o.xyz + disp[i].xyz;
+    let band_of = min(u32(max(floor((p.z - z0) / dz), 0.0)), confine.bands - 1u);
+    if PLANAR {
+        // Sector 0 left of the axis, 1 right; the patch t·Δz whatever the reach (area per
+        // unit reach, as the 3D cells').
+        let dx = p.x - confine.cx;
+        let reach = abs(dx) + o.w;
+        return Place(band_of * 2u + select(0u, 1u, dx >= 0.0), reach, vec2<f32>(sign(dx), 0.0),
+                     confine.thickness * dz / reach);
+    }
     let d = vec2<f32>(p.x - confine.cx, p.y - confine.cy);
     let rho = length(d);
-    let band = min(u32(max(floor((p.z - z0) / dz), 0.0)), confine.bands - 1u);
+    let band = band_of;
     let sector = min(u32(max(floor((atan2(d.y, d.x) + HALF_TURN) / dtheta), 0.0)), confine.sectors - 1u);
     var out = vec2<f32>(0.0, 0.0);
     if rho > 0.0 {
@@ -101,10 +112,11 @@ fn confine_share(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let band = c / s;
     let sector = c % s;
     var beside = array<u32, 4>(NO_GRAIN, NO_GRAIN, NO_GRAIN, NO_GRAIN);
-    if s > 1u {
+    // A 2D model's two sides do not touch.
+    if s > 1u && !PLANAR {
         beside[0] = band * s + (sector + s - 1u) % s;
     }
-    if s > 2u {
+    if s > 2u && !PLANAR {
         beside[1] = band * s + (sector + 1u) % s;
     }
     if band > 0u {

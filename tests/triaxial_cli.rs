@@ -184,3 +184,53 @@ triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
     assert!(!refused.status.success());
     assert!(stderr(&refused).contains("an undrained test is not available"), "{}", stderr(&refused));
 }
+
+// MatDEM's 2D biaxial test (`biaxial`, the membrane as the plate's two sides): a 2D box of 334
+// discs, its side walls removed once the membrane holds it, consolidated and sheared to 5 %.
+// Every row: σ3 on the sides within 2 %, every cell touched or covered, quasi-static; q starts
+// near 0 and rises. Measured: peak q 67 kPa at 1.5 % (σ3 50 kPa), φ 23.7°, 5 s.
+#[test]
+fn a_2d_biaxial_test_holds_the_cell_pressure_on_the_plates_sides() {
+    let dir = temp_dir("biaxial");
+    let script = r#"
+let b = new_box("t");
+b.sample_w = 0.012; b.sample_l = 0.0; b.sample_h = 0.024;
+b.ball_r = 0.4e-3; b.distri_rate = 0.3; b.seed = 7;
+b.set_type("top_platen");
+let d = b.build_initial_model();
+d.set_group_mat("sample", material_micro("sand", #{ kn: 2e5, ks: 8e4, mu_p: 0.5, r: 0.4e-3, restitution: 0.5, density: 2650.0 }));
+d.enable("rotation");
+d.set_standard_dt();
+sediment(d, #{ accel: 30.0, tolerance: 0.05 });
+let r = biaxial(d, #{ confining: 50e3, strain: 0.05, points: 20, tolerance: 0.05 });
+r.curve.save("biaxial.csv");
+report("walls", d.boundaries.len());
+report("peak_q", r.peak_q);
+print(d.plan());
+"#;
+    let o = run_script(&dir, "biaxial.rhai", script, &["--backend", "cpu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = dir.join("out/biaxial.csv");
+    for side in csv_column(&csv, "side_stress") {
+        assert!((side - 50e3).abs() < 0.02 * 50e3, "side stress {side} Pa");
+    }
+    assert!(csv_column(&csv, "covered").iter().all(|&c| c > 0.98));
+    assert!(csv_column(&csv, "unbalanced_ratio").iter().skip(1).all(|&u| u < 0.15));
+    let q = csv_column(&csv, "q");
+    assert!(q[0].abs() < 0.05 * 50e3, "q at the start {}", q[0]);
+    let m = metrics(&dir.join("out"));
+    assert!(m["peak_q"] > 0.2 * 50e3, "{m:?}");
+    // The side walls went; the platens stay.
+    assert_eq!(m["walls"], 2.0, "{m:?}");
+    assert!(stdout(&o).contains("24 bands × 2 sectors"), "{}", stdout(&o));
+    // A 3D model is refused by name.
+    let refused = run_script(
+        &dir,
+        "biaxial3d.rhai",
+        r#"let b = new_box("t"); b.sample_r = 0.003; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
+let d = b.build_initial_model();
+biaxial(d, #{ confining: 50e3 });"#,
+        &["--backend", "cpu"],
+    );
+    assert!(stderr(&refused).contains("for a 3D cylinder use triaxial"), "{}", stderr(&refused));
+}

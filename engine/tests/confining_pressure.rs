@@ -115,6 +115,77 @@ fn an_undamped_chain_keeps_kinetic_elastic_and_confining_energy_constant() {
     assert!(hi - lo < 1e-4 * swing, "the total moves {:e} J, σ·V {swing:e} J", hi - lo);
 }
 
+/// The 2D membrane (a biaxial test's): three discs in a row along x in a 2D model of thickness
+/// `T2`, the middle one fixed on the axis, the outer two held in z, no gravity. Each outer disc
+/// is the one its side's single band touches, pushed inwards with σ·t·Δz whatever its reach.
+const T2: f64 = 2e-3;
+
+fn chain_2d(damping: f64) -> Model {
+    use matdem_engine::state::particles::dof;
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e7, 0.2)).unwrap();
+    for x in [-2.0 * R, 0.0, 2.0 * R] {
+        m.add_particle(Vec3::new(x, 0.0, 0.0), R, k).unwrap();
+    }
+    m.make_planar(Some(T2)).unwrap();
+    for (i, f) in [dof::Z, dof::X | dof::Z, dof::Z].into_iter().enumerate() {
+        m.particles.fixed[i] |= f;
+    }
+    platens(&mut m, -0.5 * HEIGHT, 0.5 * HEIGHT);
+    m.settings.local_damping = damping;
+    m.set_standard_dt().unwrap();
+    m.confine(request(SIGMA, Some(1), None)).unwrap();
+    m
+}
+
+fn check_chain_2d_rest(sim: &mut Simulation, tol: f64) {
+    run(sim, 20_000);
+    let p = &sim.model.particles;
+    // kn·δ = σ·t·H on each side.
+    let want = SIGMA * T2 * HEIGHT / KN;
+    let d1 = 2.0 * R - (p.pos[1] - p.pos[0]).norm();
+    let d2 = 2.0 * R - (p.pos[2] - p.pos[1]).norm();
+    eprintln!("2D overlaps {d1:.6e}, {d2:.6e} m against {want:.6e} m");
+    assert!((d1 - want).abs() < tol * want && (d2 - want).abs() < tol * want, "{d1:e} {d2:e} against {want:e}");
+    let mb = sim.model.membrane().unwrap();
+    assert_eq!((mb.cells, mb.touched), (2, 2));
+    // Its side is the plate's two sides, 2·t·H, and it holds σ on them.
+    assert!((mb.stress - SIGMA).abs() < 1e-9 * SIGMA, "{mb:?}");
+}
+
+// The 2D membrane at rest: each contact carries σ·t·H, to 1e-6 on the CPU and 1e-4 on the GPU.
+#[test]
+fn a_2d_chain_rests_where_the_sides_load_meets_the_springs() {
+    check_chain_2d_rest(&mut Simulation::new(chain_2d(0.7)), 1e-6);
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn a_2d_chain_rests_alike_on_the_gpu() {
+    let Some(ctx) = crate::common::gpu("confining_pressure_chain_2d") else { return };
+    check_chain_2d_rest(&mut Simulation::with_gpu(chain_2d(0.7), ctx), 1e-4);
+}
+
+// Undamped, the 2D chain keeps kinetic + elastic + σ·V constant, V = Σ (|x − x_axis| + r)·t·Δz
+// over its sides: the 2D load is that potential's gradient (as the 3D test, a quarter step).
+#[test]
+fn an_undamped_2d_chain_keeps_kinetic_elastic_and_confining_energy_constant() {
+    let mut m = chain_2d(0.0);
+    m.set_dt(0.25 * m.clock.dt).unwrap();
+    let mut sim = Simulation::new(m);
+    let mut log: Vec<EnergySample> = Vec::new();
+    sim.run_sampled(20_000, 50, &RunControl::default(), &mut |_| {}, &mut |s| log.push(s)).unwrap();
+    let range = |f: &dyn Fn(&EnergySample) -> f64| {
+        log.iter().map(f).fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)))
+    };
+    let (lo, hi) = range(&|s| s.energies.total());
+    let (c_lo, c_hi) = range(&|s| s.energies.confining);
+    let swing = c_hi - c_lo;
+    eprintln!("2D: total {lo:.9e} .. {hi:.9e} J; σ·V swings {swing:.3e} J");
+    assert!(swing > 0.0);
+    assert!(hi - lo < 1e-4 * swing, "the total moves {:e} J, σ·V {swing:e} J", hi - lo);
+}
+
 /// A lattice column (FCC, radius 6 grains, 12 grains high) between platens touching its ends,
 /// unbonded and frictionless, no gravity, local damping 0.7; with `varied` the radii are 0.9–1
 /// of the lattice's (a golden-ratio sequence), so that no two grains of a cell reach equally far

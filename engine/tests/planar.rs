@@ -287,7 +287,7 @@ fn a_2d_model_refuses_elements_off_its_plane_and_keeps_them_held() {
     let k = m.add_particle(Vec3::new(3e-3, 0.0, 0.0), 5e-4, 0).unwrap();
     m.fix(&[0, k as u32], dof::ALL | dof::ROTATION, false).unwrap();
     assert!(m.particles.fixed.iter().all(|f| f & matdem_engine::planar::HELD == matdem_engine::planar::HELD));
-    // The 3D-only effects say so.
+    // The 3D-only effect says so; the membrane's cells in 2D are the two sides.
     let e = m.enable_pore_flow().unwrap_err().to_string();
     assert!(e.contains("2D") && e.contains("3D slice"), "{e}");
     let req = matdem_engine::effects::confining_pressure::ConfineRequest {
@@ -296,10 +296,10 @@ fn a_2d_model_refuses_elements_off_its_plane_and_keeps_them_held() {
         top: "top".into(),
         axis: [0.0, 0.0],
         bands: None,
-        sectors: None,
+        sectors: Some(8),
     };
     let e = m.confine(req).unwrap_err().to_string();
-    assert!(e.contains("2D") && e.contains("set_platen_stress"), "{e}");
+    assert!(e.contains("2D") && e.contains("two sides (2 sectors)"), "{e}");
     // A checkpoint keeps the model 2D.
     let back = matdem_engine::checkpoint::decode(&matdem_engine::checkpoint::encode(&m, b"")).unwrap();
     assert_eq!(back.model.planar(), m.planar());

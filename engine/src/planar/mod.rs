@@ -51,8 +51,8 @@ impl Model {
         }
         if self.settings.confinement.is_some() || self.pores.is_some() {
             return Err(Error::InvalidScene(
-                "the model has a confining pressure or pore flow, which need 3D: remove them (d.unconfine(), \
-                 d.disable(\"pore_flow\")) before making it 2D"
+                "the model has a confining pressure set round a 3D cylinder, or pore flow, which needs 3D: remove \
+                 them (d.unconfine(), d.disable(\"pore_flow\")) before making it 2D, then confine the 2D model again"
                     .into(),
             ));
         }

@@ -68,6 +68,9 @@ struct Confine {
     bottom: u32,
     top: u32,
     cells: u32,
+    /// A 2D model's plate thickness (m; 0 in 3D), read behind the PLANAR constant.
+    thickness: f32,
+    pad: [u32; 3],
 }
 
 /// The stage's pipelines, one per entry point.
@@ -109,6 +112,8 @@ impl Lanes {
             bottom: plan.bottom as u32,
             top: plan.top as u32,
             cells,
+            thickness: plan.thickness.unwrap_or(0.0) as f32,
+            pad: [0; 3],
         };
         let confine = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("confine"),

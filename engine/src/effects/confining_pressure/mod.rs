@@ -42,6 +42,8 @@ pub struct ConfiningPlan {
     pub top: usize,
     pub bands: u32,
     pub sectors: u32,
+    /// A 2D model's plate thickness (m): the membrane is its two sides.
+    pub thickness: Option<f64>,
 }
 
 impl ConfiningPlan {
@@ -55,18 +57,17 @@ impl ConfiningPlan {
             top: m.wall_index(&c.top).ok()?,
             bands: c.bands,
             sectors: c.sectors,
+            thickness: m.settings.planar.map(|p| p.thickness),
         })
     }
 
     /// The membrane's cells with the platens where `walls` has them now.
     pub fn cells(&self, walls: &[Wall]) -> Cells {
-        Cells::new(
-            self.bands,
-            self.sectors,
-            self.axis,
-            plane_height(&walls[self.bottom]),
-            plane_height(&walls[self.top]),
-        )
+        let (z0, z1) = (plane_height(&walls[self.bottom]), plane_height(&walls[self.top]));
+        match self.thickness {
+            Some(t) => Cells::planar(self.bands, self.axis[0], z0, z1, t),
+            None => Cells::new(self.bands, self.sectors, self.axis, z0, z1),
+        }
     }
 
     /// The stage in the plan's words.
@@ -128,12 +129,12 @@ impl Model {
     /// `confining_pressure` stage), replacing any confinement it had. Without `bands`/`sectors`
     /// the cells are about one mean grain diameter high and wide at the sample's outer radius.
     pub fn confine(&mut self, req: ConfineRequest) -> Result<()> {
-        if self.settings.planar.is_some() {
-            return Err(Error::InvalidScene(
-                "the confining pressure is a membrane round a 3D cylinder; a 2D model has none: confine it with \
-                 servo side walls (d.set_platen_stress(\"left\", σ3), d.set_platen_stress(\"right\", σ3)), a biaxial test"
-                    .into(),
-            ));
+        let planar = self.settings.planar.is_some();
+        if planar && req.sectors.is_some_and(|s| s != 2) {
+            return Err(Error::InvalidScene(format!(
+                "confining pressure: a 2D model's membrane is its two sides (2 sectors), not {}; leave sectors out",
+                req.sectors.unwrap_or_default()
+            )));
         }
         let p = req.pressure;
         if !(p.is_finite() && p > 0.0) {
@@ -176,7 +177,11 @@ impl Model {
             .map(|&i| (p_.pos[i].x - req.axis[0]).hypot(p_.pos[i].y - req.axis[1]) + p_.radius[i])
             .fold(0.0, f64::max);
         let bands = req.bands.unwrap_or(((z[1] - z[0]) / diameter).round().max(1.0) as u32);
-        let sectors = req.sectors.unwrap_or((std::f64::consts::TAU * reach / diameter).round().max(6.0) as u32);
+        let sectors = if planar {
+            2
+        } else {
+            req.sectors.unwrap_or((std::f64::consts::TAU * reach / diameter).round().max(6.0) as u32)
+        };
         if bands == 0 || sectors == 0 || bands as usize * sectors as usize > MAX_CELLS {
             return Err(Error::InvalidScene(format!(
                 "confining pressure: {bands} bands × {sectors} sectors; give at least 1 of each and at most \
@@ -212,7 +217,7 @@ impl Model {
         let height = cells.dz * f64::from(cells.bands);
         let lost = (best.len() - touched.len() - covered) as f64;
         let volume = touched.iter().map(|&(r, k)| k * cells.volume(r)).sum::<f64>() + lost * cells.volume(radius);
-        let side = std::f64::consts::TAU * radius * height;
+        let side = cells.side(radius);
         Some(Membrane {
             pressure: plan.pressure,
             cells: best.len(),

@@ -20,6 +20,11 @@
 //! cells being the volume the membrane encloses: while no grain changes cell and the platens
 //! stand still, the confining fluid is a potential σ·V (`status::Energies::confining`), and the
 //! sum of the loads is σ times the membrane's area.
+//!
+//! A 2D model (a plate of thickness t in the x–z plane: a biaxial test) has two sectors, the
+//! sides left and right of the axis; ρ = |x − x_axis|, the patch is t·Δz whatever the reach,
+//! F = −σ·t·Δz·e_x outwards-normal, and V = Σ (1 + shares)·(ρ + r)·t·Δz (again F = −∇(σ·V)). An
+//! empty cell is covered from the bands above and below on its own side only.
 
 use crate::physics::Vec3;
 use crate::state::particles::{dof, Particles};
@@ -35,6 +40,8 @@ pub struct Cells {
     pub dz: f64,
     /// A sector's angle (rad).
     pub dtheta: f64,
+    /// A 2D model's plate thickness (m): two sectors, the sides (`None` in 3D).
+    pub thickness: Option<f64>,
 }
 
 /// Where a grain sits against the membrane.
@@ -57,7 +64,14 @@ impl Cells {
             z0,
             dz: (z1 - z0) / f64::from(bands),
             dtheta: std::f64::consts::TAU / f64::from(sectors),
+            thickness: None,
         }
+    }
+
+    /// A 2D model's cells: `bands` on each side of the axis x = `axis_x`, the plate `thickness`
+    /// thick.
+    pub fn planar(bands: u32, axis_x: f64, z0: f64, z1: f64, thickness: f64) -> Self {
+        Cells { thickness: Some(thickness), ..Cells::new(bands, 2, [axis_x, 0.0], z0, z1) }
     }
 
     pub fn count(&self) -> usize {
@@ -67,11 +81,28 @@ impl Cells {
     /// The cell of a grain at `pos` with radius `r`: grains beyond a platen count in the band
     /// next to it.
     pub fn place(&self, pos: &Vec3, r: f64) -> Place {
+        let band_of = |z: f64| (((z - self.z0) / self.dz).floor().max(0.0) as u32).min(self.bands - 1);
+        if self.thickness.is_some() {
+            // Sector 0 left of the axis, 1 right of it (on it: right, pushed nowhere).
+            let dx = pos.x - self.axis[0];
+            let sector = u32::from(dx >= 0.0);
+            let out = [
+                if dx > 0.0 {
+                    1.0
+                } else if dx < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                },
+                0.0,
+            ];
+            return Place { cell: (band_of(pos.z) * 2 + sector) as usize, reach: dx.abs() + r, out };
+        }
         let (dx, dy) = (pos.x - self.axis[0], pos.y - self.axis[1]);
         // Not `hypot`: its care for overflow costs more than the rest of the placing, and a
         // sample's coordinates are far from overflowing a square.
         let rho = (dx * dx + dy * dy).sqrt();
-        let band = (((pos.z - self.z0) / self.dz).floor().max(0.0) as u32).min(self.bands - 1);
+        let band = band_of(pos.z);
         let theta = dy.atan2(dx) + std::f64::consts::PI;
         let sector = ((theta / self.dtheta).floor().max(0.0) as u32).min(self.sectors - 1);
         let out = if rho > 0.0 { [dx / rho, dy / rho] } else { [0.0, 0.0] };
@@ -80,7 +111,10 @@ impl Cells {
 
     /// The membrane's patch over a grain that reaches `reach` from the axis (m²).
     pub fn patch(&self, reach: f64) -> f64 {
-        reach * self.dtheta * self.dz
+        match self.thickness {
+            Some(t) => t * self.dz,
+            None => reach * self.dtheta * self.dz,
+        }
     }
 
     /// The membrane's load on the grain at `place` under pressure `pressure`, its cell carrying
@@ -96,9 +130,11 @@ impl Cells {
     pub fn beside(&self, cell: usize) -> impl Iterator<Item = usize> {
         let (s, b) = (self.sectors as usize, self.bands as usize);
         let (band, sector) = (cell / s, cell % s);
+        // A 2D model's two sides do not touch.
+        let around = self.thickness.is_none();
         [
-            (s > 1).then(|| band * s + (sector + s - 1) % s),
-            (s > 2).then(|| band * s + (sector + 1) % s),
+            (around && s > 1).then(|| band * s + (sector + s - 1) % s),
+            (around && s > 2).then(|| band * s + (sector + 1) % s),
             (band > 0).then(|| cell - s),
             (band + 1 < b).then(|| cell + s),
         ]
@@ -108,7 +144,20 @@ impl Cells {
 
     /// The volume a cell's patch encloses over a grain reaching `reach` (m³).
     pub fn volume(&self, reach: f64) -> f64 {
-        0.5 * reach * reach * self.dtheta * self.dz
+        match self.thickness {
+            Some(t) => reach * t * self.dz,
+            None => 0.5 * reach * reach * self.dtheta * self.dz,
+        }
+    }
+
+    /// The membrane's whole side at a mean reach `radius` (m²): the cylinder's 2π·R·H, or a 2D
+    /// plate's two sides 2·t·H.
+    pub fn side(&self, radius: f64) -> f64 {
+        let height = self.dz * f64::from(self.bands);
+        match self.thickness {
+            Some(t) => 2.0 * t * height,
+            None => std::f64::consts::TAU * radius * height,
+        }
     }
 }
 
