@@ -59,7 +59,7 @@ fn check_slide(out: &std::path::Path) {
         assert!(out.join(f).is_file(), "{f} missing");
     }
 
-    let m = metrics(&out);
+    let m = metrics(out);
     let get = |k: &str| *m.get(k).unwrap_or_else(|| panic!("metric {k} missing: {m:?}"));
     // The slope stands under its own weight (F = 1) and fails at a finite factor.
     let f = get("factor_at_failure");
