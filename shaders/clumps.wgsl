@@ -2,7 +2,8 @@
 // invocation per clump sums its members' forces and torques about its centre in member order,
 // advances the body (leapfrog translation; angular momentum kicked by the torque, the
 // orientation turned by the free rotation split into exact turns about the principal axes) and
-// places its members where the body carries them. CPU twin: effects/clumps/cpu.rs.
+// places its members where the body carries them; in a periodic cell it wraps the centre
+// (the periodic stage's part for clumps). CPU twin: effects/clumps/cpu.rs.
 
 // Bindings: generated from this stage's list in engine/src/effects/clumps/gpu.rs.
 
@@ -114,6 +115,24 @@ fn clumps(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
     b.vel = vec4<f32>(v1, 0.0);
     b.dpos = vec4<f32>(b.dpos.xyz + v1 * dt, 0.0);
+    if PERIODIC {
+        // A clump leaves the cell whole: its centre comes back through the opposite face and
+        // its members follow (the periodic stage leaves them alone; they may reach out of the
+        // cell, where pairs meet through the nearest image). The host squares their
+        // displacement origins at a download.
+        let centre = b.pos0.xyz + b.dpos.xyz;
+        for (var a = 0; a < 3; a++) {
+            let span = params.period[a];
+            if span > 0.0 {
+                let lo = params.period_lo[a];
+                if centre[a] < lo {
+                    b.dpos[a] += span;
+                } else if centre[a] >= lo + span {
+                    b.dpos[a] -= span;
+                }
+            }
+        }
+    }
     b.ang_mom = vec4<f32>(l1, 0.0);
     b.q = free_rotation(q0, l1, b.inertia.xyz, dt);
     clump_bodies[c] = b;

@@ -8,7 +8,8 @@
 @compute @workgroup_size(64)
 fn periodic(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = gid.x + gid.y * groups.x * 64u;
-    if i >= params.n {
+    // A clump's members move with its centre, which the clumps stage wraps.
+    if i >= params.n || (kind[i] & CLUMPED) != 0u {
         return;
     }
     let x = origin[i].xyz + disp[i].xyz;

@@ -58,7 +58,8 @@ pub(super) fn find_pairs(
     let width: [f64; 3] = std::array::from_fn(|k| if wraps[k] { ext[k] / dims[k] as f64 } else { h });
     let cell_of = |x: &Vec3| -> [usize; 3] {
         std::array::from_fn(|k| {
-            let c = ((x[k] - lo[k]) / width[k]) as isize;
+            // Floored: a clump's member may reach below a periodic axis's lower face.
+            let c = ((x[k] - lo[k]) / width[k]).floor() as isize;
             if wraps[k] {
                 c.rem_euclid(dims[k] as isize) as usize
             } else {

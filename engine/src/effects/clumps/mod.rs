@@ -82,12 +82,6 @@ impl Model {
         if ids.is_empty() {
             return Err(Error::InvalidScene("clump: give at least one element".into()));
         }
-        if self.settings.periodic.is_some() {
-            return Err(Error::InvalidScene(
-                "clump: clumps with periodic boundaries are not supported yet (a clump's members would wrap one by                  one); make the clumps in a model without d.periodic"
-                    .into(),
-            ));
-        }
         for &i in &ids {
             let i = i as usize;
             if self.clumps.clump_of(i).is_some() {
@@ -102,6 +96,19 @@ impl Model {
                 return Err(Error::InvalidScene(format!(
                     "clump: element {i} is killed or has a fixed degree of freedom; clump free elements (unfix them first)"
                 )));
+            }
+        }
+        // In a periodic cell the members may lie on either side of a face: each is brought to
+        // the image nearest the first, so that they are one body (the cell wraps its centre).
+        if let Some(cell) = self.settings.periodic {
+            let image = cell.image();
+            let first = self.particles.pos[ids[0] as usize];
+            let p = &mut self.particles;
+            for &i in &ids[1..] {
+                let i = i as usize;
+                let moved = first + image.nearest(p.pos[i] - first) - p.pos[i];
+                p.pos[i] += moved;
+                p.origin[i] += moved;
             }
         }
         let p = &self.particles;
@@ -161,6 +168,9 @@ impl Model {
             self.particles.enable_rotation();
         }
         cpu::place_members(self, number);
+        if let Some(cell) = self.settings.periodic {
+            crate::effects::periodic::cpu::wrap_clump(&cell, &mut self.clumps, &mut self.particles, number);
+        }
         // The members' pairs among themselves leave the rows (with any bond between them).
         self.contacts.stale = true;
         crate::neighbours::rebuild(self);

@@ -36,7 +36,13 @@ mod shader {
     pub const SHADER: Shader = Shader {
         name: "periodic",
         source: include_str!("../../../../shaders/periodic.wgsl"),
-        bindings: Bindings(&[&[uniform(PARAMS), read(ORIGIN), read_write(DISP), read_write(pl::CROSSINGS)]]),
+        bindings: Bindings(&[&[
+            uniform(PARAMS),
+            read(ORIGIN),
+            read_write(DISP),
+            read(KIND),
+            read_write(pl::CROSSINGS),
+        ]]),
     };
 }
 
@@ -80,10 +86,19 @@ impl Session {
     /// whose positions the host then holds wrapped; see the backend's `rewind`).
     pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
         let k = read::<[i32; 4]>(ctx, &self.crossings, self.n)?;
-        let span = self.cell.image().len;
-        for (o, c) in m.particles.origin.iter_mut().zip(&k) {
+        let image = self.cell.image();
+        let p = &mut m.particles;
+        for (i, (o, c)) in p.origin.iter_mut().zip(&k).enumerate() {
+            if p.fixed[i] & crate::state::particles::dof::CLUMPED != 0 {
+                // A member went where its clump's wrapped centre put it: its origin follows by
+                // whole spans, to the image nearest its position (its true displacement since
+                // the rows' build is far below half a span).
+                let d = p.pos[i] - *o;
+                *o += image.len.component_mul(&d.component_mul(&image.inv).map(f64::round));
+                continue;
+            }
             for a in 0..3 {
-                o[a] += f64::from(c[a]) * span[a];
+                o[a] += f64::from(c[a]) * image.len[a];
             }
         }
         let mut enc = ctx.device.create_command_encoder(&Default::default());

@@ -73,8 +73,13 @@ impl Model {
         check_effects(self)?;
         let p = &mut self.particles;
         for i in 0..p.len() {
-            let shift = cell.wrap(&mut p.pos[i]);
-            p.origin[i] += shift;
+            if p.fixed[i] & crate::state::particles::dof::CLUMPED == 0 {
+                let shift = cell.wrap(&mut p.pos[i]);
+                p.origin[i] += shift;
+            }
+        }
+        for c in 0..self.clumps.len() {
+            cpu::wrap_clump(&cell, &mut self.clumps, &mut self.particles, c);
         }
         self.settings.periodic = Some(cell);
         self.contacts.stale = true;
@@ -132,11 +137,7 @@ impl Model {
 /// The effects whose pairs or geometry do not yet measure through a periodic cell's images.
 fn check_effects(m: &Model) -> Result<()> {
     let s = &m.settings;
-    let blocked = [
-        (s.pores.enabled, "pore flow"),
-        (s.confinement.is_some(), "a confining pressure"),
-        (!m.clumps.is_empty(), "clumps"),
-    ];
+    let blocked = [(s.pores.enabled, "pore flow"), (s.confinement.is_some(), "a confining pressure")];
     match blocked.iter().find(|(on, _)| *on) {
         Some((_, what)) => Err(Error::InvalidScene(format!(
             "periodic boundaries do not yet work with {what}: run the scene without one of them"
