@@ -47,13 +47,9 @@ fn triaxial_quick_mode_holds_the_cell_pressure_and_fits_a_friction_envelope() {
     assert!(log.contains("confining pressure(σ3 = "), "the plan lists the stage:\n{log}");
 }
 
-// Stress control: `triaxial(d, #{ confining, stages })` holds each σ1 with the platen's servo on
-// the sample's cross-section; the rows reach each stage within 3 % (the servo's own tolerance is
-// 2 % of its nominal-area stress), the side stays at σ3 within 2 % and the sample shortens.
-#[test]
-fn a_stress_controlled_triaxial_test_reaches_each_stage() {
-    let dir = temp_dir("triaxial_stress");
-    let script = r#"
+/// A quick sand cylinder (3 mm × 6 mm, ~365 grains of 0.4 mm ± 20 %) packed under gravity in
+/// its ring, with a top platen: `d` for the scripted tests below.
+const PACKED: &str = r#"
 let b = new_box("t");
 b.sample_r = 0.003; b.sample_h = 0.006;
 b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
@@ -62,10 +58,22 @@ let d = b.build_initial_model();
 d.set_group_mat("sample", material_micro("sand", #{ kn: 2e5, ks: 8e4, mu_p: 0.5, r: 0.4e-3, restitution: 0.5, density: 2650.0 }));
 d.set_standard_dt();
 sediment(d, #{ accel: 30.0, tolerance: 0.05 });
+"#;
+
+// Stress control: `triaxial(d, #{ confining, stages })` holds each σ1 with the platen's servo on
+// the sample's cross-section; the rows reach each stage within 3 % (the servo's own tolerance is
+// 2 % of its nominal-area stress), the side stays at σ3 within 2 % and the sample shortens.
+#[test]
+fn a_stress_controlled_triaxial_test_reaches_each_stage() {
+    let dir = temp_dir("triaxial_stress");
+    let script = format!(
+        "{PACKED}{}",
+        r#"
 let r = triaxial(d, #{ confining: 50e3, stages: [75e3, 100e3, 125e3], tolerance: 0.05 });
 r.curve.save("stress.csv");
-"#;
-    let o = run_script(&dir, "stress.rhai", script, &["--backend", "cpu"]);
+"#
+    );
+    let o = run_script(&dir, "stress.rhai", &script, &["--backend", "cpu"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let csv = dir.join("out/stress.csv");
     let s1 = csv_column(&csv, "sigma1");
@@ -77,20 +85,9 @@ r.curve.save("stress.csv");
     assert!(ea.windows(2).all(|w| w[1] > w[0]), "the sample shortens: {ea:?}");
 }
 
-/// The quick sand cylinder of the stress-controlled test, consolidated and saturated (drained
-/// through the platens) at σ3 = 50 kPa: `d` for the pore-fluid tests, `fluid` the pore fluid
-/// (1000 × water's viscosity: the flow's stable sub-step then fits the step ~14 times).
-const SATURATED: &str = r#"
-let b = new_box("t");
-b.sample_r = 0.003; b.sample_h = 0.006;
-b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
-b.set_type("top_platen");
-let d = b.build_initial_model();
-d.set_group_mat("sample", material_micro("sand", #{ kn: 2e5, ks: 8e4, mu_p: 0.5, r: 0.4e-3, restitution: 0.5, density: 2650.0 }));
-d.set_standard_dt();
-sediment(d, #{ accel: 30.0, tolerance: 0.05 });
-d.fluid = #{ bulk_modulus: 4e7, viscosity: 1.0 };
-"#;
+/// The pore-fluid tests' fluid for the `PACKED` cylinder (1000 × water's viscosity: the flow's
+/// stable sub-step then fits the step ~14 times); `triaxial` saturates the sample with it.
+const FLUID: &str = "d.fluid = #{ bulk_modulus: 4e7, viscosity: 1.0 };\n";
 
 // The effective stress principle, drained: a saturated sample under an isotropic increment of
 // the cell pressure (50 → 60 kPa) first carries part of it in its pore fluid, which drains
@@ -101,7 +98,7 @@ d.fluid = #{ bulk_modulus: 4e7, viscosity: 1.0 };
 fn a_drained_saturated_sample_settles_where_the_dry_one_does() {
     let dir = temp_dir("triaxial_drained_increment");
     let script = format!(
-        "{SATURATED}{}",
+        "{PACKED}{FLUID}{}",
         r#"
 triaxial(d, #{ confining: 50e3, stages: [], tolerance: 0.05, pore_fluid: "drained" });
 d.save("consolidated");
@@ -145,7 +142,7 @@ rows.save("increment.csv");
 fn a_saturated_triaxial_test_reports_its_pore_pressure() {
     let dir = temp_dir("triaxial_drained_shear");
     let script = format!(
-        "{SATURATED}{}",
+        "{PACKED}{FLUID}{}",
         r#"
 let r = triaxial(d, #{ confining: 50e3, strain: 0.01, points: 4, tolerance: 0.05, pore_fluid: "drained" });
 r.curve.save("wet.csv");

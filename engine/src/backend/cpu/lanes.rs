@@ -153,8 +153,9 @@ impl<const P: bool> V4<P> {
         self.dot(self)
     }
 
-    /// `w × self` for spins `w` about y (a 2D model's, whose x and z are zero): in the plane,
-    /// as the full cross product computes it, (0 − w·z … ) order kept.
+    /// `w × self`. Planar, `w` is a 2D model's spin about y (its x and z zero): the full cross
+    /// product's x and z with its operations on those zeros' results, w_y·z − 0 and 0 − w_y·x,
+    /// and no y.
     #[inline(always)]
     pub fn spun_by(&self, w: &V4) -> Self {
         if P {
