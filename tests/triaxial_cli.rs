@@ -47,6 +47,33 @@ fn triaxial_quick_mode_holds_the_cell_pressure_and_fits_a_friction_envelope() {
     assert!(log.contains("confining pressure(σ3 = "), "the plan lists the stage:\n{log}");
 }
 
+// The example's 2D mode (`--set dimension=2`, MatDEM's biaxial tests): the same three cell
+// pressures on a plate of discs, σ3 held on its sides in every row, a friction envelope.
+// Measured: 334 discs, peaks 49/98/248 kPa, φ 23.7°, about 25 s.
+#[test]
+fn the_triaxial_example_runs_biaxial_tests_in_2d() {
+    let dir = temp_dir("biaxial_example");
+    let out = dir.join("out");
+    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/triaxial");
+    let o = bin()
+        .arg("run")
+        .arg(&pkg)
+        .args(["--set", "quick=true", "--set", "dimension=2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert!(stdout(&o).contains("discs in a box"), "{}", stdout(&o));
+    for kpa in [50.0, 100.0, 200.0] {
+        let curve = out.join(format!("triaxial_{kpa}kPa.csv"));
+        for side in csv_column(&curve, "side_stress") {
+            assert!((side - kpa * 1e3).abs() < 0.02 * kpa * 1e3, "{kpa} kPa: side stress {side} Pa");
+        }
+    }
+    let phi = metrics(&out)["phi_deg"];
+    assert!((10.0..45.0).contains(&phi), "φ = {phi}°");
+}
+
 /// A quick sand cylinder (3 mm × 6 mm, ~365 grains of 0.4 mm ± 20 %) packed under gravity in
 /// its ring, with a top platen: `d` for the scripted tests below.
 const PACKED: &str = r#"
