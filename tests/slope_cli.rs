@@ -23,16 +23,8 @@ fn slope_quick_mode_slides_along_the_joint_and_writes_its_charts() {
 fn the_2d_slope_fails_along_its_joint_by_strength_reduction() {
     let dir = temp_dir("slope_2d");
     let out = dir.join("out");
-    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/slope");
-    let o = bin()
-        .arg("run")
-        .arg(&pkg)
-        .args(["--set", "quick=true", "--set", "dimension=2", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    eprintln!("{}", stdout(&o));
+    let (log, wall) = run_example_quick_with("slope", &out, &["dimension=2"]);
+    eprintln!("2D slope quick mode: {wall:.1} s wall\n{log}");
     check_slide(&out);
 }
 

@@ -54,16 +54,8 @@ fn triaxial_quick_mode_holds_the_cell_pressure_and_fits_a_friction_envelope() {
 fn the_triaxial_example_runs_biaxial_tests_in_2d() {
     let dir = temp_dir("biaxial_example");
     let out = dir.join("out");
-    let pkg = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/triaxial");
-    let o = bin()
-        .arg("run")
-        .arg(&pkg)
-        .args(["--set", "quick=true", "--set", "dimension=2", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    assert!(stdout(&o).contains("discs in a box"), "{}", stdout(&o));
+    let (log, _) = run_example_quick_with("triaxial", &out, &["dimension=2"]);
+    assert!(log.contains("discs in a box"), "{log}");
     for kpa in [50.0, 100.0, 200.0] {
         let curve = out.join(format!("triaxial_{kpa}kPa.csv"));
         for side in csv_column(&curve, "side_stress") {

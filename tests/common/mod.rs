@@ -66,9 +66,19 @@ d.set_standard_dt();
 /// Runs the packaged example `examples/NAME` in quick mode with its outputs in `out`; panics
 /// with its output if it fails, and returns its stdout and wall time (s).
 pub fn run_example_quick(name: &str, out: &Path) -> (String, f64) {
+    run_example_quick_with(name, out, &[])
+}
+
+/// [`run_example_quick`] with more parameters, each `"name=value"` (`--set`).
+pub fn run_example_quick_with(name: &str, out: &Path, sets: &[&str]) -> (String, f64) {
     let start = std::time::Instant::now();
     let pkg = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name);
-    let o = bin().arg("run").arg(&pkg).args(["--set", "quick=true", "--out"]).arg(out).output().unwrap();
+    let mut cmd = bin();
+    cmd.arg("run").arg(&pkg).args(["--set", "quick=true"]);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    let o = cmd.arg("--out").arg(out).output().unwrap();
     let wall = start.elapsed().as_secs_f64();
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
     (stdout(&o), wall)
