@@ -20,7 +20,12 @@ pub fn periodic(m: &mut Model) {
         s.offset = (s.offset + s.rate * (z1 - z0) * dt).rem_euclid(x1 - x0);
     }
     let cell = *cell;
-    let p = &mut m.particles;
+    wrap_all(&cell, &mut m.particles, &mut m.clumps);
+}
+
+/// Puts every element and clump into `cell`: an element by itself, a clump's members with its
+/// centre (the stage each step, and a cell when it is made).
+pub fn wrap_all(cell: &Periodic, p: &mut Particles, clumps: &mut Clumps) {
     for i in 0..p.len() {
         // A clump's members move with its centre, below.
         if p.fixed[i] & dof::CLUMPED != 0 {
@@ -34,8 +39,8 @@ pub fn periodic(m: &mut Model) {
             p.vel[i].x += kick;
         }
     }
-    for c in 0..m.clumps.len() {
-        wrap_clump(&cell, &mut m.clumps, &mut m.particles, c);
+    for c in 0..clumps.len() {
+        wrap_clump(cell, clumps, p, c);
     }
 }
 

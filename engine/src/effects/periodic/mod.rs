@@ -71,16 +71,7 @@ impl Model {
         }
         let cell = Periodic { axes, shear: None };
         check_effects(self)?;
-        let p = &mut self.particles;
-        for i in 0..p.len() {
-            if p.fixed[i] & crate::state::particles::dof::CLUMPED == 0 {
-                let shift = cell.wrap(&mut p.pos[i]);
-                p.origin[i] += shift;
-            }
-        }
-        for c in 0..self.clumps.len() {
-            cpu::wrap_clump(&cell, &mut self.clumps, &mut self.particles, c);
-        }
+        cpu::wrap_all(&cell, &mut self.particles, &mut self.clumps);
         self.settings.periodic = Some(cell);
         self.contacts.stale = true;
         crate::neighbours::rebuild(self);
