@@ -120,7 +120,18 @@ fn clumps(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         // its members follow (the periodic stage leaves them alone; they may reach out of the
         // cell, where pairs meet through the nearest image). The host squares their
         // displacement origins at a download.
-        let centre = b.pos0.xyz + b.dpos.xyz;
+        var centre = b.pos0.xyz + b.dpos.xyz;
+        if SHEAR {
+            // Through a z face under Lees–Edwards shear it continues as the image it was:
+            // shifted along x by the offset and slower or faster by the slide (periodic.wgsl).
+            let cells = sheared_crossing(centre.z);
+            if cells != 0.0 {
+                let shift = vec3<f32>(cells * params.shear.y, 0.0, cells * params.period.z);
+                centre += shift;
+                b.dpos = vec4<f32>(b.dpos.xyz + shift, 0.0);
+                b.vel.x += cells * params.shear.z;
+            }
+        }
         for (var a = 0; a < 3; a++) {
             let span = params.period[a];
             if span > 0.0 {
@@ -142,7 +153,8 @@ fn clumps(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let j = bitcast<u32>(m.w);
         let arm = q_rotate(b.q, m.xyz);
         disp[j] = vec4<f32>((b.pos0.xyz - origin[j].xyz) + b.dpos.xyz + arm, 0.0);
-        vel[j] = vec4<f32>(v1 + cross(w1, arm), 0.0);
+        // b.vel: v1, or v1 and the slide of a crossing under Lees–Edwards shear.
+        vel[j] = vec4<f32>(b.vel.xyz + cross(w1, arm), 0.0);
         ang_vel[j] = vec4<f32>(w1, 0.0);
         angle[j] = vec4<f32>(angle[j].xyz + w1 * dt, 0.0);
     }

@@ -23,6 +23,9 @@ override PLANAR: bool = false;
 override CLUMPS: bool = false;
 // A periodic cell: pairs meet through their nearest image (periodic_image.wgsl).
 override PERIODIC: bool = false;
+// The periodic cell shears by Lees–Edwards images (x along z): the images across the z faces
+// are shifted along x and slide (periodic_image.wgsl, `params.shear`).
+override SHEAR: bool = false;
 
 const WALL_PLANE: u32 = 0u;
 const WALL_CYLINDER: u32 = 1u;
@@ -81,6 +84,10 @@ struct Params {
     period: vec4<f32>,
     period_inv: vec4<f32>,
     period_lo: vec4<f32>,
+    // Lees–Edwards shear (SHEAR): the offset of the images one cell up during this step's
+    // stages, the offset after this step's advance (the periodic stage's wrap), and their
+    // slide γ̇·L_z (m/s); a copy from the step's schedule writes it before each step.
+    shear: vec4<f32>,
 }
 
 // The particles a dispatch of a per-entry kernel covers: the per-entry lanes (rows, pair

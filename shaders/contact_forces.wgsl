@@ -36,14 +36,17 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let st = state[e];
         let bonded = st.w != 0.0;
         // Both parts of the position differ little between neighbours: subtract each first.
-        let d = in_plane(nearest_image((origin[j].xyz - oi) + (disp[j].xyz - ui)));
+        let raw = (origin[j].xyz - oi) + (disp[j].xyz - ui);
+        let d = in_plane(nearest_image(raw));
+        // v_i − v_j gains the slide of j's image under Lees–Edwards shear (0 without).
+        let slide = image_slide(raw);
         let rj = origin[j].w;
         let touch = ri + rj;
         let dist2 = dot(d, d);
         if !bonded && dist2 >= touch * touch {
             // Apart: a contact that has just opened lets its shear spring go.
             if any(st != vec4<f32>(0.0)) || dashpot_of(e) != 0.0 {
-                h += opened_heat(i, j, e, d, st.xyz);
+                h += opened_heat(i, j, e, d, st.xyz, slide);
                 state[e] = vec4<f32>(0.0);
             }
             continue;
@@ -51,6 +54,9 @@ fn compute_contact_forces(@builtin(global_invocation_id) gid: vec3<u32>,
         let dist = sqrt(dist2);
         let n = d / dist;
         var v_rel = vi - in_plane(vel[j].xyz);
+        if SHEAR {
+            v_rel.x += slide;
+        }
         if ROTATION {
             // Grouped so that the other row computes exactly the opposite vector.
             v_rel = v_rel + (cross(wi, n * ri) - cross(about_y(ang_vel[j].xyz), n * -rj));
@@ -98,13 +104,14 @@ fn dashpot_of(e: u32) -> f32 {
     return 0.0;
 }
 
-// Heat of the unbonded contact of row entry e (i with j at offset d) that opened this step;
-// clears its dashpot force.
-fn opened_heat(i: u32, j: u32, e: u32, d: vec3<f32>, shear: vec3<f32>) -> vec3<f32> {
+// Heat of the unbonded contact of row entry e (i with j at offset d, its image sliding by
+// `slide` under Lees–Edwards shear) that opened this step; clears its dashpot force.
+fn opened_heat(i: u32, j: u32, e: u32, d: vec3<f32>, shear: vec3<f32>, slide: f32) -> vec3<f32> {
     let ri = origin[i].w;
     let rj = origin[j].w;
     let n = d / length(d);
     var v_rel = vel[i].xyz - vel[j].xyz;
+    v_rel.x += slide;
     if ROTATION {
         v_rel = v_rel + (cross(ang_vel[i].xyz, n * ri) - cross(ang_vel[j].xyz, n * -rj));
     }

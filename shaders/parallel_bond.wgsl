@@ -98,7 +98,8 @@ fn update(lo: u32, hi: u32, b: ptr<function, Bond>) -> BondLoad {
     let r0 = origin[lo].w;
     let r1 = origin[hi].w;
     // Both parts of the position differ little between the two ends: subtract each first.
-    let d = nearest_image((origin[hi].xyz - origin[lo].xyz) + (disp[hi].xyz - disp[lo].xyz));
+    let raw = (origin[hi].xyz - origin[lo].xyz) + (disp[hi].xyz - disp[lo].xyz);
+    let d = nearest_image(raw);
     let dist = length(d);
     let n = d / dist;
     let rb = bp.lambda * min(r0, r1);
@@ -120,7 +121,9 @@ fn update(lo: u32, hi: u32, b: ptr<function, Bond>) -> BondLoad {
     } else {
         let w0 = ang_vel[lo].xyz;
         let w1 = ang_vel[hi].xyz;
-        let v = (vel[hi].xyz + cross(w1, arm1)) - (vel[lo].xyz + cross(w0, arm0));
+        // hi's image moves slower along x by its slide under Lees–Edwards shear (0 without).
+        let v_hi = vel[hi].xyz - vec3<f32>(image_slide(raw), 0.0, 0.0);
+        let v = (v_hi + cross(w1, arm1)) - (vel[lo].xyz + cross(w0, arm0));
         let dd = v * params.dt;
         let dn = dot(dd, n);
         let ds = dd - n * dn;

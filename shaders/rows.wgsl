@@ -115,12 +115,18 @@ fn build_row(local: u32) -> vec2<u32> {
     // A 2D model's centres share one layer of cells: its neighbours are in the 9 cells about i's.
     let y_reach = select(1, 0, PLANAR);
     for (var z = -1; z <= 1; z++) {
+        // Under Lees–Edwards shear a layer of cells reached round a z face holds the images
+        // shifted along x by the offset: look about i's x less that shift there.
+        var layer = c;
+        if SHEAR {
+            layer.x = sheared_layer_x(oi + ui, c.z + z);
+        }
         for (var y = -y_reach; y <= y_reach; y++) {
             for (var x = -1; x <= 1; x++) {
                 if !alive {
                     continue;
                 }
-                let b = bucket_of(wrap_cell(c + vec3<i32>(x, y, z)), params.buckets);
+                let b = bucket_of(wrap_cell(layer + vec3<i32>(x, y, z)), params.buckets);
                 var again = false;
                 for (var q = 0u; q < buckets; q++) {
                     again = again || seen[q] == b;

@@ -16,7 +16,7 @@
 mod cell_list;
 mod drift;
 
-pub use drift::{is_stale, steps_until_rebuild, walls_stale};
+pub use drift::{is_stale, steps_until_rebuild, steps_until_rebuild_sheared, walls_stale};
 
 use crate::effects::clumps::lanes::NONE;
 use crate::model::Model;

@@ -46,6 +46,9 @@ pub struct Params {
     pub period: [f32; 4],
     pub period_inv: [f32; 4],
     pub period_lo: [f32; 4],
+    /// Lees–Edwards shear: this step's offset, the next step's, and the slide γ̇·L_z (zeros
+    /// without; `effects::periodic::gpu` writes it before each step).
+    pub shear: [f32; 4],
 }
 
 /// A wall (`Wall` in common.wgsl).

@@ -64,7 +64,7 @@ use crate::effects::rolling_resistance::physics::RollingModel;
 use crate::error::{Error, GpuError, Result};
 use crate::guard::StiffContact;
 use crate::model::{Breakage, Model};
-use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild};
+use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild, steps_until_rebuild_sheared};
 use crate::physics::contact_law::BreakKind;
 use crate::physics::Vec3;
 use crate::plan::{Role, Stage, StepPlan};
@@ -446,13 +446,6 @@ impl GpuBackend {
     /// Puts the model on the device (rows rebuilt first if they do not cover it).
     fn upload(&mut self, m: &mut Model) -> Result<Session> {
         self.ready(m);
-        if m.settings.periodic.is_some_and(|c| c.shear.is_some()) {
-            return Err(Error::InvalidScene(
-                "Lees–Edwards shear runs on the CPU backend only, for now: run with --backend cpu (the GPU's \
-                 periodic cell has no sliding images yet)"
-                    .into(),
-            ));
-        }
         if m.wall_contacts.len() != m.len() * m.walls.len() {
             return Err(Error::InvalidScene("wall contact states do not match the walls: rebuild the model".into()));
         }
@@ -506,6 +499,8 @@ impl GpuBackend {
             period: v4(&image.len),
             period_inv: v4(&image.inv),
             period_lo: v4(&Vec3::from_fn(|k, _| m.settings.periodic.and_then(|c| c.axes[k]).map_or(0.0, |a| a[0]))),
+            // Written by the periodic stage's session under Lees–Edwards shear.
+            shear: [0.0; 4],
         };
         let limit = limits.binding.min(limits.buffer);
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
@@ -580,7 +575,7 @@ impl GpuBackend {
             None => None,
         };
         let cell = match self.plan.periodic {
-            Some(_) => Some(periodic::Session::upload(&self.ctx, &self.constants, m, &lanes)?),
+            Some(_) => Some(periodic::Session::upload(&self.ctx, &self.constants, m, &lanes, MAX_BATCH)?),
             None => None,
         };
         self.device_bytes = lanes.bytes
@@ -612,7 +607,7 @@ impl GpuBackend {
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
     /// rows are then untouched and the host must build them).
-    fn build_rows(&mut self, s: &Session) -> Result<std::result::Result<(), String>> {
+    fn build_rows(&mut self, s: &mut Session) -> Result<std::result::Result<(), String>> {
         let ctx = &self.ctx;
         ctx.queue.write_buffer(&s.lanes.counters, (C_LONGEST * 4) as u64, bytemuck::cast_slice(&[0u32; 2]));
         debug_assert_eq!(C_CROWDED, C_LONGEST + 1);
@@ -624,6 +619,9 @@ impl GpuBackend {
         let verdict = rows::verdict(&counters, s.lanes.plan.cap);
         if verdict.is_ok() {
             self.rows.device_builds += 1;
+            if let Some(c) = s.periodic.as_mut() {
+                c.rows_built();
+            }
         }
         Ok(verdict)
     }
@@ -632,7 +630,7 @@ impl GpuBackend {
     /// tests that compare them with the host's build). `Err(why)` inside when they did not fit.
     pub fn build_rows_once(&mut self, m: &mut Model) -> Result<std::result::Result<(), String>> {
         let mut session = self.upload(m)?;
-        let verdict = self.build_rows(&session)?;
+        let verdict = self.build_rows(&mut session)?;
         self.download(m, &mut session)?;
         Ok(verdict)
     }
@@ -718,17 +716,32 @@ impl GpuBackend {
         let ctx = &self.ctx;
         self.reset_batch_counters(s, guard);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        {
+        // Under Lees–Edwards shear each step reads its own offsets, copied into the params
+        // between passes: one pass a step (and one for the tail); else one pass for all.
+        let sheared = match &s.periodic {
+            Some(c) => c.schedule(ctx, k)?,
+            None => false,
+        };
+        let mut t = 0;
+        while t <= k {
+            let end = if sheared { t + 1 } else { k + 1 };
+            if let (true, Some(c)) = (sheared, &s.periodic) {
+                c.copy_entry(&mut enc, &s.lanes.params, t);
+            }
             let mut pass = enc
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
-            for t in 0..k {
-                for (stage, work) in self.step_stages(s, t) {
+            for u in t..end.min(k) {
+                for (stage, work) in self.step_stages(s, u) {
                     work.encode(&mut pass, stage);
                 }
             }
-            for (stage, work) in self.batch_tail(s, guard) {
-                work.encode(&mut pass, stage);
+            if end > k {
+                for (stage, work) in self.batch_tail(s, guard) {
+                    work.encode(&mut pass, stage);
+                }
             }
+            drop(pass);
+            t = end;
         }
         ctx.submit(enc);
         let counters = read::<u32>(ctx, &s.lanes.counters, COUNTERS)?;
@@ -823,7 +836,12 @@ impl GpuBackend {
     /// Sizes the next batch by the drift rule (at most `limit` steps), or rebuilds the rows
     /// now: on the device, or through the host when they outgrow their slots.
     fn keep_rows_current(&mut self, m: &mut Model, s: &mut Session, drift: f64, speed: f64, limit: u64) -> Result<()> {
-        match steps_until_rebuild(drift, speed, m.contacts.skin, m.clock.dt, MAX_BATCH) {
+        let skin = m.contacts.skin;
+        let next = match s.periodic.as_ref().and_then(periodic::Session::sliding) {
+            Some((slip, slide)) => steps_until_rebuild_sheared(drift, speed, skin, m.clock.dt, MAX_BATCH, slip, slide),
+            None => steps_until_rebuild(drift, speed, skin, m.clock.dt, MAX_BATCH),
+        };
+        match next {
             Some(k) => self.batch = k.min(limit),
             None => {
                 if let Err(why) = self.build_rows(s)? {
@@ -905,6 +923,9 @@ impl Backend for GpuBackend {
             let counters = self.step_batch(&session, k, guard_now)?;
             done += k;
             session.steps += k;
+            if let Some(c) = session.periodic.as_mut() {
+                c.stepped(k);
+            }
             if let Some(f) = session.pores.as_mut() {
                 f.stepped = true;
             }

@@ -80,6 +80,14 @@ impl GpuBackend {
                     .into(),
             ));
         }
+        if self.plan.periodic.is_some_and(|c| c.shear.is_some()) {
+            // Its steps copy their offsets between passes, which the timed passes do not.
+            return Err(Error::InvalidScene(
+                "bench --profile does not time a cell sheared by Lees–Edwards images on the GPU; profile the \
+                 scene with --backend cpu, or time it with bench"
+                    .into(),
+            ));
+        }
         crate::guard::check_time_step(m)?;
         let mut s = match self.session.take() {
             Some(s) => s,

@@ -221,6 +221,7 @@ pub fn constants(plan: &StepPlan) -> Vec<(&'static str, f64)> {
         ("PLANAR", flag(plan.planar.is_some())),
         ("CLUMPS", flag(plan.clumps.is_some())),
         ("PERIODIC", flag(plan.periodic.is_some())),
+        ("SHEAR", flag(plan.periodic.is_some_and(|c| c.shear.is_some()))),
     ])
     .collect()
 }

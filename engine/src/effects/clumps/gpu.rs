@@ -40,7 +40,11 @@ mod shader {
 
     pub const SHADER: Shader = Shader {
         name: "clumps",
-        source: include_str!("../../../../shaders/clumps.wgsl"),
+        source: concat!(
+            include_str!("../../../../shaders/periodic_image.wgsl"),
+            "\n",
+            include_str!("../../../../shaders/clumps.wgsl")
+        ),
         bindings: Bindings(&[&[
             uniform(PARAMS),
             read(ORIGIN),

@@ -14,7 +14,8 @@
 //! With x and z periodic the cell may shear by Lees–Edwards images ([`Model::lees_edwards`]):
 //! the image one span up slides along x at γ̇·L_z, a pair across a z face measures through the
 //! slid image and gains its velocity, and an element crossing a z face continues as that image
-//! (`setting.rs`). CPU backend only, for now.
+//! (`setting.rs`). Both backends: on the GPU each step's offset reaches the kernels through the
+//! params (`gpu.rs`).
 //!
 //! An optional stage: a scene without periodic axes has no pass, and its pair loop no test for
 //! it (the pair pass is compiled once with the image and once without, and picks per pass).
@@ -83,7 +84,7 @@ impl Model {
     /// the image one cell up sliding along x at γ̇·L_z, so the packing shears homogeneously with
     /// no wall. Both x and z must be periodic. The elements keep their velocities: give them the
     /// streaming profile v_x = γ̇·(z − z_mid) to start in steady shear. A rate of 0 stops the
-    /// slide where it is (the images stay offset). CPU backend only, for now.
+    /// slide where it is (the images stay offset). Both backends.
     pub fn lees_edwards(&mut self, rate: f64) -> Result<()> {
         let Some(cell) = self.settings.periodic.as_mut() else {
             return Err(Error::InvalidScene(
