@@ -5,6 +5,7 @@ use crate::body_potential::BodyFields;
 use crate::effects::parallel_bond::physics as parallel_bond;
 use crate::model::Model;
 use crate::physics::contact_law::{normal_energy, shear_energy, NormalLaw, TangentialLaw};
+use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::state::particles::dof;
 use crate::walls::WallShape;
@@ -221,15 +222,20 @@ pub fn contact_stats(m: &Model, plan: &StepPlan) -> ContactStats {
 
 /// Porosity of a region by volume fraction: 1 − (the volume the spheres share with it) / its
 /// volume. Spheres cut by the region's faces count by the part inside (exact intersection
-/// volumes, [`crate::geometry::sphere_box`]), not whole or not at all by their centres.
-/// A 2D model's is by area in its plane ([`crate::planar::porosity::porosity_by_area`]).
+/// volumes, [`crate::geometry::sphere_box`]), not whole or not at all by their centres; in a
+/// periodic cell, with the parts that reach the region through the faces (for a region within
+/// the cell). A 2D model's is by area in its plane ([`crate::planar::porosity::porosity_by_area`]).
 pub fn porosity(m: &Model, region: &Region) -> f64 {
     if m.planar().is_some() {
         return crate::planar::porosity::porosity_by_area(m, region);
     }
     let p = &m.particles;
-    let solid: f64 =
-        (0..p.len()).filter(|&i| !m.is_killed(i)).map(|i| region.shared_volume(p.pos[i], p.radius[i])).sum();
+    // In a periodic cell a sphere reaching out through a face comes in through the other.
+    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
+    let solid: f64 = (0..p.len())
+        .filter(|&i| !m.is_killed(i))
+        .map(|i| shifts.iter().map(|s| region.shared_volume(p.pos[i] + s, p.radius[i])).sum::<f64>())
+        .sum();
     let v = region.volume();
     if v > 0.0 {
         1.0 - solid / v
@@ -355,7 +361,6 @@ pub fn contact_loads(m: &Model, plan: &StepPlan) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::materials::Material;
-    use crate::physics::Vec3;
     use crate::walls::Wall;
     use std::f64::consts::PI;
 

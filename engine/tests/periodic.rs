@@ -7,9 +7,11 @@
 
 use crate::common::material;
 use matdem_engine::analysis::contact_list::contact_list;
+use matdem_engine::analysis::measure::measure;
 use matdem_engine::backend::RunControl;
 use matdem_engine::checkpoint::{decode, encode};
 use matdem_engine::plan::Stage;
+use matdem_engine::status::Region;
 use matdem_engine::{Model, Simulation, StepPlan, Vec3};
 use nalgebra::Matrix3;
 
@@ -104,12 +106,38 @@ fn a_strained_periodic_fcc_lattice_carries_the_infinite_lattices_stress() {
     eprintln!("cell {got}\ninfinite {want}");
     assert!(want[(0, 0)] > 0.0);
     assert!((got - want).norm() < 1e-9 * want.norm(), "cell {got} against {want}");
+    // d.measure over the whole cell: every branch counted whole through the faces, and every
+    // sphere's volume (those cut by a face come in through the other).
+    let span = n as f64 * a;
+    let region = Region::Box { lo: Vec3::zeros(), hi: Vec3::new(span * (1.0 - eps), span, span) };
+    let got = measure(&m, &contact_list(&m, &StepPlan::build(&m)), &region).unwrap();
+    let solid = m.len() as f64 * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3);
+    eprintln!("measured {}, porosity {}", got.stress, got.porosity);
+    assert!((got.stress - want).norm() < 1e-9 * want.norm(), "measured {} against {want}", got.stress);
+    assert!((got.porosity - (1.0 - solid / volume)).abs() < 1e-12, "porosity {}", got.porosity);
     // Without the images the boundary's bonds are missing: the same lattice, not periodic.
     let mut open = m.clone();
     open.unperiodic();
     matdem_engine::neighbours::rebuild(&mut open);
     let short = cell_stress(&open, volume);
     assert!((short - want).norm() > 0.1 * want.norm(), "the open block misses its boundary bonds");
+}
+
+/// A 2D model's porosity by area over its periodic cell counts the discs cut by a face whole
+/// (their parts come in through the other), as its 3D twin counts spheres.
+#[test]
+fn porosity_over_a_periodic_cell_counts_the_discs_cut_by_its_faces_whole() {
+    let mut m = Model::new();
+    let k = m.add_material(material("m", 2650.0, KN, 1e7, 0.2)).unwrap();
+    for (x, z) in [(0.2, 5.0), (5.0, 9.7), (5.0, 5.0), (9.9, 0.1)] {
+        m.add_particle(Vec3::new(x * R, 0.0, z * R), R, k).unwrap();
+    }
+    m.make_planar(Some(2.0 * R)).unwrap();
+    m.periodic([Some([0.0, 10.0 * R]), None, Some([0.0, 10.0 * R])]).unwrap();
+    let region = Region::Box { lo: Vec3::new(0.0, -R, 0.0), hi: Vec3::new(10.0 * R, R, 10.0 * R) };
+    let got = matdem_engine::status::porosity(&m, &region);
+    let want = 1.0 - 4.0 * std::f64::consts::PI * R * R / (100.0 * R * R);
+    assert!((got - want).abs() < 1e-12, "porosity {got} against {want}");
 }
 
 fn ball(v: Vec3, w: Vec3) -> Model {

@@ -13,6 +13,9 @@
 //! is the platen's stress exactly, whatever the slab's height; and over a region of whole
 //! lattice periods the shares add up to the lattice's mean exactly. The tensor is returned
 //! symmetrised (its antisymmetric part is the region's unbalanced moment, zero at equilibrium).
+//! In a periodic cell a branch that reaches out through a face comes back through the other
+//! (its images' shares add), so a region that is the whole cell counts every contact whole and
+//! gives the cell's stress, as the infinite lattice's for a strained periodic lattice.
 //! Porosity is by exact volumes (`status::porosity`); the coordination number counts the
 //! contacts of the elements whose centre is inside, as `fabric` does.
 //!
@@ -69,9 +72,11 @@ pub fn measure(m: &Model, list: &ContactList, region: &Region) -> Result<Measure
     let mut sum = Matrix3::zeros();
     let mut contacts = 0.0;
     let p = &m.particles;
+    // In a periodic cell a branch reaching out through a face comes in through the other.
+    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
     for row in list.rows.iter().filter(|r| r.is_active()) {
         let x = p.pos[row.i as usize];
-        let share = region.segment_share(x, x + row.branch);
+        let share: f64 = shifts.iter().map(|s| region.segment_share(x + s, x + s + row.branch)).sum();
         if share > 0.0 {
             sum += row.force * row.branch.transpose() * share;
         }

@@ -4,6 +4,7 @@
 use super::area::disc_rectangle_area;
 use crate::geometry::region::Region;
 use crate::model::Model;
+use crate::physics::Vec3;
 
 /// The region's cut by the plane y = 0: a rectangle for a box or a vertical cylinder, a disc
 /// for a sphere.
@@ -52,18 +53,18 @@ fn lens_area(d: f64, r: f64, s: f64) -> f64 {
 
 /// A 2D model's porosity in a region by area: 1 − (the area the elements' discs share with
 /// the region's cut by y = 0) / that cut's area, exact for discs cut by the region's edges.
+/// In a periodic cell, with the parts of discs that reach the region through the faces.
 pub fn porosity_by_area(m: &Model, region: &Region) -> f64 {
     let p = &m.particles;
     let cut = section(region);
+    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
+    let area = |c: Vec3, r: f64| match cut {
+        Section::Rectangle { x, z } => disc_rectangle_area(c.x, c.z, r, x, z),
+        Section::Disc { cx, cz, r: s } => lens_area(((c.x - cx).powi(2) + (c.z - cz).powi(2)).sqrt(), r, s),
+    };
     let solid: f64 = (0..p.len())
         .filter(|&i| !m.is_killed(i))
-        .map(|i| {
-            let (c, r) = (p.pos[i], p.radius[i]);
-            match cut {
-                Section::Rectangle { x, z } => disc_rectangle_area(c.x, c.z, r, x, z),
-                Section::Disc { cx, cz, r: s } => lens_area(((c.x - cx).powi(2) + (c.z - cz).powi(2)).sqrt(), r, s),
-            }
-        })
+        .map(|i| shifts.iter().map(|s| area(p.pos[i] + s, p.radius[i])).sum::<f64>())
         .sum();
     let a = section_area(region);
     if a > 0.0 {

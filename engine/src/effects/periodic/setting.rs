@@ -49,6 +49,25 @@ impl Periodic {
         }
     }
 
+    /// Where the images of a point nearest the cell lie, as shifts from it: every combination
+    /// of −1, 0 and +1 spans along the periodic axes (the zero shift first), the image k cells
+    /// up along z also `k·offset` along x under Lees–Edwards shear. A measurement region within
+    /// the cell meets a sphere or a contact reaching out through a face at one of these.
+    pub fn image_shifts(&self) -> Vec<Vec3> {
+        let image = self.image();
+        let steps = |k: usize| if image.len[k] > 0.0 { vec![0.0, -1.0, 1.0] } else { vec![0.0] };
+        let mut out = Vec::with_capacity(27);
+        for &kz in &steps(2) {
+            for &ky in &steps(1) {
+                for &kx in &steps(0) {
+                    let x = kx * image.len.x + kz * image.shift;
+                    out.push(Vec3::new(x, ky * image.len.y, kz * image.len.z));
+                }
+            }
+        }
+        out
+    }
+
     /// The axes' letters and spans, as the plan words them.
     pub fn words(&self) -> String {
         let axes: Vec<String> = ["x", "y", "z"]
@@ -219,6 +238,19 @@ mod tests {
         let mut below = Vec3::new(0.9, 0.0, -2.1);
         let (_, kick) = p.wrap_sliding(&mut below);
         assert!((below - Vec3::new(0.15, 0.0, 1.9)).norm() < 1e-15 && kick == 8.0, "{below:?}");
+    }
+
+    #[test]
+    fn the_image_shifts_cover_the_neighbouring_cells_once() {
+        let p = Periodic { shear: Some(Shear { rate: 2.0, offset: 0.25, offset_at_build: 0.0 }), ..cell() };
+        let shifts = p.image_shifts();
+        assert_eq!(shifts.len(), 9, "x and z repeat: 3 × 3");
+        assert_eq!(shifts[0], Vec3::zeros());
+        // One cell up (z + 4) sits the offset further along x, one cell down as far back.
+        assert!(shifts.contains(&Vec3::new(0.25, 0.0, 4.0)) && shifts.contains(&Vec3::new(-1.25, 0.0, -4.0)));
+        let mut unique = shifts.clone();
+        unique.dedup();
+        assert_eq!(unique.len(), 9);
     }
 
     #[test]
