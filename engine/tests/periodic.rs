@@ -480,6 +480,22 @@ fn a_ball_leaving_a_sheared_cell_on_the_gpu_continues_as_its_image() {
     assert_eq!(offset(&gpu), offset(&cpu), "the offset advances alike");
 }
 
+/// Local and viscous damping act on whole velocities: under a sliding cell they would drag the
+/// shear's stream towards rest, so a run is refused with what to do; a stopped slide may damp.
+#[test]
+fn lees_edwards_shear_refuses_damping_that_would_brake_the_stream() {
+    for (local, viscous, what) in [(0.2, 0.0, "local damping"), (0.0, 0.1, "viscous damping")] {
+        let mut m = sheared_gas(20.0);
+        (m.settings.local_damping, m.settings.damping) = (local, viscous);
+        let e = Simulation::new(m).run(1, &RunControl::default(), &mut |_| {}).unwrap_err().to_string();
+        assert!(e.contains(what) && e.contains("set it to 0 while the cell slides"), "{e}");
+    }
+    let mut m = sheared_gas(20.0);
+    m.settings.local_damping = 0.2;
+    m.lees_edwards(0.0).unwrap();
+    run(&mut Simulation::new(m), 1);
+}
+
 #[test]
 fn lees_edwards_shear_is_refused_without_x_and_z_periodic() {
     let mut m = gas();

@@ -139,12 +139,26 @@ fn check_effects(m: &Model) -> Result<()> {
 }
 
 /// Refuses a run whose scene has periodic axes and an effect that does not work with them yet
-/// (switched on after the cell was made).
+/// (switched on after the cell was made), or a sliding Lees–Edwards cell with damping that
+/// acts on whole velocities.
 pub fn check_scene(m: &Model) -> Result<()> {
-    match m.settings.periodic {
-        Some(_) => check_effects(m),
-        None => Ok(()),
+    let Some(cell) = m.settings.periodic else { return Ok(()) };
+    check_effects(m)?;
+    if cell.shear.is_some_and(|s| s.rate != 0.0) {
+        // Both act on an element's whole velocity, the shear's stream v_x = γ̇·z included,
+        // so they would drag the packing towards rest instead of damping its fluctuations.
+        let s = &m.settings;
+        let damping = [(s.local_damping, "local damping (−α·|F|·sign(v))"), (s.damping, "viscous damping (−c·v)")];
+        if let Some((_, what)) = damping.iter().find(|(on, _)| *on > 0.0) {
+            return Err(Error::InvalidScene(format!(
+                "Lees–Edwards shear: {what} acts on each element's whole velocity, so it would brake the \
+                 shear's streaming profile v_x = γ̇·z like a drag; set it to 0 while the cell slides (the \
+                 contacts' damping and friction take the heat of shearing), or stop the slide \
+                 (d.lees_edwards(0)) to balance with it"
+            )));
+        }
     }
+    Ok(())
 }
 
 /// What a plan with the `periodic` stage runs.
