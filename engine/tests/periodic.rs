@@ -546,6 +546,64 @@ fn lees_edwards_shear_on_the_gpu_runs_as_on_the_cpu() {
     assert!((p1 - p0).norm() < 1e-6 * scale, "peculiar momentum {p0:?} -> {p1:?}");
 }
 
+/// A 2D gas of 100 frictional discs in the x–z plane, periodic in x and z and sheared at
+/// γ̇ = 20/s from the streaming profile: the planar pair pass (CPU) and `in_plane` (GPU)
+/// through the sliding images.
+fn sheared_disc_gas() -> Model {
+    let mut m = Model::new();
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    (mat.ks, mat.mu_p, mat.restitution) = (4e4, 0.5, 0.7);
+    let k = m.add_material(mat).unwrap();
+    let mut seed = 777u64;
+    let mut uniform = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    // Rows 2.1 R apart (gaps of 0.1 R and more), the top row 0.05 R below the top face.
+    let span = 10.0 * 2.1 * R;
+    for (x, z) in (0..10).flat_map(|x| (0..10).map(move |z| (x, z))) {
+        let c = Vec3::new(x as f64 * 2.1 * R + 1.05 * R, 0.0, z as f64 * 2.1 * R + 2.05 * R);
+        let i = m.add_particle(c, R * (0.9 + 0.1 * uniform()), k).unwrap();
+        m.particles.vel[i] = Vec3::new(uniform() - 0.5, 0.0, uniform() - 0.5);
+    }
+    m.make_planar(None).unwrap();
+    m.settings.rotation = true;
+    m.periodic([Some([0.0, span]), None, Some([0.0, span])]).unwrap();
+    m.set_standard_dt().unwrap();
+    let rate = 20.0;
+    for i in 0..m.len() {
+        m.particles.vel[i].x += rate * (m.particles.pos[i].z - 0.5 * span);
+    }
+    m.lees_edwards(rate).unwrap();
+    m
+}
+
+#[test]
+fn a_sheared_2d_gas_runs_alike_on_the_cpu_and_the_gpu() {
+    let Some(ctx) = crate::common::gpu("periodic_sheared_2d") else { return };
+    let (mut cpu, mut gpu) = (Simulation::new(sheared_disc_gas()), Simulation::with_gpu(sheared_disc_gas(), ctx));
+    let start = sheared_disc_gas();
+    let mut touched = 0;
+    for _ in 0..3 {
+        run(&mut cpu, 100);
+        run(&mut gpu, 100);
+        touched = touched.max(cpu.contact_stats().contacts);
+    }
+    assert!(touched > 0, "the discs collide");
+    let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+    let moved = (0..a.len()).map(|i| (a.pos[i] - a.origin[i]).norm()).fold(0.0, f64::max);
+    let worst = (0..a.len()).map(|i| (a.pos[i] - b.pos[i]).norm()).fold(0.0, f64::max);
+    let crossed = |p: &matdem_engine::state::particles::Particles| {
+        (0..p.len()).filter(|&i| p.origin[i].z != start.particles.origin[i].z).collect::<Vec<_>>()
+    };
+    let (ca, cb) = (crossed(a), crossed(b));
+    eprintln!("2D, 300 steps ({} crossed a z face): positions {worst:.3e} m of {moved:.3e} m moved", ca.len());
+    assert!(!ca.is_empty() && ca == cb, "{ca:?} crossed a z face on the CPU, {cb:?} on the GPU");
+    assert!(b.pos.iter().all(|x| x.y == 0.0), "the discs stay in the plane");
+    assert!(worst < 1e-3 * moved, "{worst:e} against {moved:e}");
+    assert_eq!(offset(&gpu), offset(&cpu), "the offset advances alike");
+}
+
 /// Two frictional balls pressed together across the z face of a cell sheared at γ̇ (0.5 m/s
 /// of slide), both at rest: the upper one's image slides past the lower one, so friction
 /// drags it along x. `across`: ball B near the bottom meets A near the top through its image
