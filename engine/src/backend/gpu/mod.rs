@@ -719,13 +719,13 @@ impl GpuBackend {
         // Under Lees–Edwards shear each step reads its own offsets, copied into the params
         // between passes: one pass a step (and one for the tail); else one pass for all.
         let sheared = match &s.periodic {
-            Some(c) => c.schedule(ctx, k)?,
-            None => false,
+            Some(c) if c.schedule(ctx, k)? => Some(c),
+            _ => None,
         };
         let mut t = 0;
         while t <= k {
-            let end = if sheared { t + 1 } else { k + 1 };
-            if let (true, Some(c)) = (sheared, &s.periodic) {
+            let end = if sheared.is_some() { t + 1 } else { k + 1 };
+            if let Some(c) = sheared {
                 c.copy_entry(&mut enc, &s.lanes.params, t);
             }
             let mut pass = enc

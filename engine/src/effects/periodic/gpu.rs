@@ -234,7 +234,7 @@ impl Session {
                 // is far below half a span; under shear the offset has moved by at most the
                 // slide since then).
                 let d = p.pos[i] - *o;
-                *o += d - image.nearest(d);
+                *o += image.shift_of(d);
                 continue;
             }
             for a in 0..3 {

@@ -102,6 +102,17 @@ impl Image {
         self.nearest_sliding(d).0
     }
 
+    /// What [`nearest`](Self::nearest) takes off `d`: the shift from the point at `d` to its
+    /// image nearest the origin (whole spans, and k·offset along x for k cells along z).
+    #[inline]
+    pub fn shift_of(&self, d: Vec3) -> Vec3 {
+        let k = (d.z * self.inv.z).round();
+        let mut s = d;
+        s.x -= k * self.shift;
+        let spans = self.len.component_mul(&s.component_mul(&self.inv).map(f64::round));
+        Vec3::new(spans.x + k * self.shift, spans.y, spans.z)
+    }
+
     /// The nearest separation `d`, and what a pair's relative velocity v_i − v_j gains through
     /// that image along x: k·γ̇·L_z for the image k cells down (which moves k·γ̇·L_z slower than
     /// j along x).
@@ -232,6 +243,8 @@ mod tests {
         let (d, dv) = im.nearest_sliding(Vec3::new(0.1, 0.0, 3.9));
         assert!((d - Vec3::new(-0.15, 0.0, -0.1)).norm() < 1e-15, "{d:?}");
         assert_eq!(dv, 8.0);
+        // What the nearest image took off: one cell up, the offset along.
+        assert_eq!(im.shift_of(Vec3::new(0.1, 0.0, 3.9)), Vec3::new(0.25, 0.0, 4.0));
         let mut x = Vec3::new(0.5, 0.0, 2.1);
         let (shift, kick) = p.wrap_sliding(&mut x);
         assert!((x - Vec3::new(0.25, 0.0, -1.9)).norm() < 1e-15 && kick == -8.0, "{x:?} {shift:?} {kick}");
