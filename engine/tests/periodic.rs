@@ -22,19 +22,21 @@ fn run(sim: &mut Simulation, steps: u64) {
     sim.run(steps, &RunControl::default(), &mut |_| {}).unwrap();
 }
 
+type Ctx = std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>;
+
 /// A scene built straddling the face x = 0 and built mid-cell (at `mid`), both run `steps` on
 /// the CPU, or on the GPU of `ctx`: what crosses a face against what does not.
-fn across_and_inside(
-    scene: fn(f64) -> Model,
-    mid: f64,
-    steps: u64,
-    ctx: Option<&std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>>,
-) -> (Simulation, Simulation) {
-    let make = |x: f64| match ctx {
-        Some(ctx) => Simulation::with_gpu(scene(x), ctx.clone()),
-        None => Simulation::new(scene(x)),
+fn across_and_inside(scene: fn(f64) -> Model, mid: f64, steps: u64, ctx: Option<&Ctx>) -> (Simulation, Simulation) {
+    run_both(scene(0.0), scene(mid), steps, ctx)
+}
+
+/// Two scenes, each run `steps` on the CPU, or on the GPU of `ctx`.
+fn run_both(across: Model, inside: Model, steps: u64, ctx: Option<&Ctx>) -> (Simulation, Simulation) {
+    let make = |m: Model| match ctx {
+        Some(ctx) => Simulation::with_gpu(m, ctx.clone()),
+        None => Simulation::new(m),
     };
-    let (mut across, mut inside) = (make(0.0), make(mid));
+    let (mut across, mut inside) = (make(across), make(inside));
     run(&mut across, steps);
     run(&mut inside, steps);
     (across, inside)
@@ -636,19 +638,14 @@ fn check_sliding_pair(across: &Simulation, inside: &Simulation, tol: f64) {
 
 #[test]
 fn a_contact_across_a_sheared_face_is_the_contact_with_the_sliding_image() {
-    let (mut across, mut inside) = (Simulation::new(sliding_pair(true)), Simulation::new(sliding_pair(false)));
-    run(&mut across, 300);
-    run(&mut inside, 300);
+    let (across, inside) = run_both(sliding_pair(true), sliding_pair(false), 300, None);
     check_sliding_pair(&across, &inside, 1e-9);
 }
 
 #[test]
 fn a_contact_across_a_sheared_face_is_the_contact_with_the_sliding_image_on_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_sliding_pair") else { return };
-    let (mut across, mut inside) =
-        (Simulation::with_gpu(sliding_pair(true), ctx.clone()), Simulation::with_gpu(sliding_pair(false), ctx));
-    run(&mut across, 300);
-    run(&mut inside, 300);
+    let (across, inside) = run_both(sliding_pair(true), sliding_pair(false), 300, Some(&ctx));
     // f32 at the contact: the GPU's across against its own inside.
     check_sliding_pair(&across, &inside, 1e-4);
 }
@@ -977,19 +974,14 @@ fn check_dumbbells(across: &Simulation, inside: &Simulation, tol: f64) {
 
 #[test]
 fn clumps_across_a_face_collide_as_inside_the_cell() {
-    let (mut across, mut inside) = (Simulation::new(dumbbells(2.0 * R)), Simulation::new(dumbbells(8.0 * R)));
-    run(&mut across, 3000);
-    run(&mut inside, 3000);
+    let (across, inside) = run_both(dumbbells(2.0 * R), dumbbells(8.0 * R), 3000, None);
     check_dumbbells(&across, &inside, 1e-9);
 }
 
 #[test]
 fn clumps_across_a_face_collide_as_inside_the_cell_on_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_clumps_gpu") else { return };
-    let (mut across, mut inside) =
-        (Simulation::with_gpu(dumbbells(2.0 * R), ctx.clone()), Simulation::with_gpu(dumbbells(8.0 * R), ctx));
-    run(&mut across, 3000);
-    run(&mut inside, 3000);
+    let (across, inside) = run_both(dumbbells(2.0 * R), dumbbells(8.0 * R), 3000, Some(&ctx));
     // f32 at the contacts: the GPU's across against its own inside.
     check_dumbbells(&across, &inside, 1e-4);
 }
