@@ -11,6 +11,7 @@ use matdem_engine::analysis::measure::measure;
 use matdem_engine::backend::RunControl;
 use matdem_engine::checkpoint::{decode, encode};
 use matdem_engine::plan::Stage;
+use matdem_engine::state::particles::Particles;
 use matdem_engine::status::Region;
 use matdem_engine::{Model, Simulation, StepPlan, Vec3};
 use nalgebra::Matrix3;
@@ -28,6 +29,30 @@ type Ctx = std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>;
 /// the CPU, or on the GPU of `ctx`: what crosses a face against what does not.
 fn across_and_inside(scene: fn(f64) -> Model, mid: f64, steps: u64, ctx: Option<&Ctx>) -> (Simulation, Simulation) {
     run_both(scene(0.0), scene(mid), steps, ctx)
+}
+
+/// A scene run `steps` on the CPU and on the GPU of `ctx`.
+fn cpu_and_gpu(scene: fn() -> Model, steps: u64, ctx: Ctx) -> (Simulation, Simulation) {
+    let (mut cpu, mut gpu) = (Simulation::new(scene()), Simulation::with_gpu(scene(), ctx));
+    run(&mut cpu, steps);
+    run(&mut gpu, steps);
+    (cpu, gpu)
+}
+
+/// How far two runs of one scene went apart (m): the largest move of `a`'s elements, and the
+/// largest differences of their positions and of their displacements.
+fn divergence(a: &Particles, b: &Particles) -> (f64, f64, f64) {
+    let most = |f: &dyn Fn(usize) -> f64| (0..a.len()).map(f).fold(0.0, f64::max);
+    (
+        most(&|i| (a.pos[i] - a.origin[i]).norm()),
+        most(&|i| (a.pos[i] - b.pos[i]).norm()),
+        most(&|i| ((a.pos[i] - a.origin[i]) - (b.pos[i] - b.origin[i])).norm()),
+    )
+}
+
+/// The elements that crossed a z face since `start` (their displacement origins moved in z).
+fn crossed_z(p: &Particles, start: &Model) -> Vec<usize> {
+    (0..p.len()).filter(|&i| p.origin[i].z != start.particles.origin[i].z).collect()
 }
 
 /// Two scenes, each run `steps` on the CPU, or on the GPU of `ctx`.
@@ -215,18 +240,28 @@ fn a_collision_across_a_face_is_the_collision_inside_the_cell() {
     }
 }
 
+/// The gases' frictional material (μ 0.5, restitution 0.7).
+fn gas_material() -> matdem_engine::Material {
+    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
+    (mat.ks, mat.mu_p, mat.restitution) = (4e4, 0.5, 0.7);
+    mat
+}
+
+/// Uniform numbers in [0, 1) from `seed` (a linear congruential generator: the same gas on
+/// every machine).
+fn uniform_numbers(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A gas of 216 frictional balls in a fully periodic cube, random velocities of zero mean, no
 /// gravity, no damping but the contacts'.
 fn gas() -> Model {
     let mut m = Model::new();
-    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
-    (mat.ks, mat.mu_p, mat.restitution) = (4e4, 0.5, 0.7);
-    let k = m.add_material(mat).unwrap();
-    let mut seed = 12345u64;
-    let mut uniform = || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let k = m.add_material(gas_material()).unwrap();
+    let mut uniform = uniform_numbers(12345u64);
     for (x, y, z) in (0..6).flat_map(|x| (0..6).flat_map(move |y| (0..6).map(move |z| (x, y, z)))) {
         // The last layer 0.05 R inside the upper faces: it crosses within the first steps.
         let c = Vec3::new(x as f64, y as f64, z as f64) * 2.4 * R + Vec3::repeat(2.35 * R);
@@ -268,15 +303,11 @@ fn a_periodic_gas_keeps_its_momentum_to_round_off() {
 #[test]
 fn a_periodic_gas_runs_alike_on_the_cpu_and_the_gpu() {
     let Some(ctx) = crate::common::gpu("periodic_gas") else { return };
-    let (mut cpu, mut gpu) = (Simulation::new(gas()), Simulation::with_gpu(gas(), ctx));
     // A horizon the collisions' amplification of f32's round-off allows (at 1500 steps the
     // positions differ by 4e-3 of the largest move: the gas is chaotic).
-    run(&mut cpu, 300);
-    run(&mut gpu, 300);
+    let (cpu, gpu) = cpu_and_gpu(gas, 300, ctx);
     let (a, b) = (&cpu.model.particles, &gpu.model.particles);
-    let moved = (0..a.len()).map(|i| (a.pos[i] - a.origin[i]).norm()).fold(0.0, f64::max);
-    let worst = (0..a.len()).map(|i| (a.pos[i] - b.pos[i]).norm()).fold(0.0, f64::max);
-    let disp = (0..a.len()).map(|i| ((a.pos[i] - a.origin[i]) - (b.pos[i] - b.origin[i])).norm()).fold(0.0, f64::max);
+    let (moved, worst, disp) = divergence(a, b);
     let start = gas();
     let crossed = (0..a.len()).filter(|&i| a.origin[i] != start.particles.origin[i]).count();
     let crossed_gpu = (0..a.len()).filter(|&i| b.origin[i] != start.particles.origin[i]).count();
@@ -470,9 +501,7 @@ fn a_ball_leaving_a_sheared_cell_continues_as_its_image() {
 #[test]
 fn a_ball_leaving_a_sheared_cell_on_the_gpu_continues_as_its_image() {
     let Some(ctx) = crate::common::gpu("periodic_lees_edwards_ball") else { return };
-    let (mut cpu, mut gpu) = (Simulation::new(sheared_ball()), Simulation::with_gpu(sheared_ball(), ctx));
-    run(&mut cpu, 100);
-    run(&mut gpu, 100);
+    let (cpu, gpu) = cpu_and_gpu(sheared_ball, 100, ctx);
     // f32 positions of ~1e-2 m (an ulp of 1e-9 m) and velocities of ~1 m/s.
     check_sheared_ball(&gpu, 1e-6);
     // Each step's move of 1e-5 m rounds in an f32 displacement of up to 1e-2 m (after the
@@ -514,18 +543,11 @@ fn lees_edwards_shear_is_refused_without_x_and_z_periodic() {
 fn lees_edwards_shear_on_the_gpu_runs_as_on_the_cpu() {
     let Some(ctx) = crate::common::gpu("periodic_lees_edwards_gpu") else { return };
     let rate = 20.0;
-    let (mut cpu, mut gpu) = (Simulation::new(sheared_gas(rate)), Simulation::with_gpu(sheared_gas(rate), ctx));
+    let (cpu, mut gpu) = cpu_and_gpu(|| sheared_gas(20.0), 300, ctx);
     let start = sheared_gas(rate);
-    run(&mut cpu, 300);
-    run(&mut gpu, 300);
     let (a, b) = (&cpu.model.particles, &gpu.model.particles);
-    let moved = (0..a.len()).map(|i| (a.pos[i] - a.origin[i]).norm()).fold(0.0, f64::max);
-    let worst = (0..a.len()).map(|i| (a.pos[i] - b.pos[i]).norm()).fold(0.0, f64::max);
-    let disp = (0..a.len()).map(|i| ((a.pos[i] - a.origin[i]) - (b.pos[i] - b.origin[i])).norm()).fold(0.0, f64::max);
-    let crossed = |p: &matdem_engine::state::particles::Particles| {
-        (0..p.len()).filter(|&i| p.origin[i].z != start.particles.origin[i].z).collect::<Vec<_>>()
-    };
-    let (ca, cb) = (crossed(a), crossed(b));
+    let (moved, worst, disp) = divergence(a, b);
+    let (ca, cb) = (crossed_z(a, &start), crossed_z(b, &start));
     eprintln!(
         "after 300 steps ({} crossed a z face): positions {worst:.3e} m, displacements {disp:.3e} m, of {moved:.3e} m moved",
         ca.len()
@@ -553,14 +575,8 @@ fn lees_edwards_shear_on_the_gpu_runs_as_on_the_cpu() {
 /// through the sliding images.
 fn sheared_disc_gas() -> Model {
     let mut m = Model::new();
-    let mut mat = material("m", 2650.0, KN, 1e7, 0.2);
-    (mat.ks, mat.mu_p, mat.restitution) = (4e4, 0.5, 0.7);
-    let k = m.add_material(mat).unwrap();
-    let mut seed = 777u64;
-    let mut uniform = || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let k = m.add_material(gas_material()).unwrap();
+    let mut uniform = uniform_numbers(777u64);
     // Rows 2.1 R apart (gaps of 0.1 R and more), the top row 0.05 R below the top face.
     let span = 10.0 * 2.1 * R;
     for (x, z) in (0..10).flat_map(|x| (0..10).map(move |z| (x, z))) {
@@ -593,12 +609,8 @@ fn a_sheared_2d_gas_runs_alike_on_the_cpu_and_the_gpu() {
     }
     assert!(touched > 0, "the discs collide");
     let (a, b) = (&cpu.model.particles, &gpu.model.particles);
-    let moved = (0..a.len()).map(|i| (a.pos[i] - a.origin[i]).norm()).fold(0.0, f64::max);
-    let worst = (0..a.len()).map(|i| (a.pos[i] - b.pos[i]).norm()).fold(0.0, f64::max);
-    let crossed = |p: &matdem_engine::state::particles::Particles| {
-        (0..p.len()).filter(|&i| p.origin[i].z != start.particles.origin[i].z).collect::<Vec<_>>()
-    };
-    let (ca, cb) = (crossed(a), crossed(b));
+    let (moved, worst, _) = divergence(a, b);
+    let (ca, cb) = (crossed_z(a, &start), crossed_z(b, &start));
     eprintln!("2D, 300 steps ({} crossed a z face): positions {worst:.3e} m of {moved:.3e} m moved", ca.len());
     assert!(!ca.is_empty() && ca == cb, "{ca:?} crossed a z face on the CPU, {cb:?} on the GPU");
     assert!(b.pos.iter().all(|x| x.y == 0.0), "the discs stay in the plane");
