@@ -156,7 +156,8 @@ rows.save("increment.csv");
 
 // Sheared faster than the pore fluid drains, the rows carry the excess pore pressure and the
 // effective mean stress p' = (σ1 + 2σ3)/3 − u, and the procedure says the test was not drained.
-// An undrained test is refused before any work, with the reason.
+// An undrained test of a membrane sample is refused before any work, with the reason and what
+// to build instead.
 #[test]
 fn a_saturated_triaxial_test_reports_its_pore_pressure() {
     let dir = temp_dir("triaxial_drained_shear");
@@ -198,7 +199,76 @@ triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
         &["--backend", "cpu"],
     );
     assert!(!refused.status.success());
-    assert!(stderr(&refused).contains("an undrained test is not available"), "{}", stderr(&refused));
+    let e = stderr(&refused);
+    assert!(e.contains("which the membrane cannot") && e.contains("build the sample as a box"), "{e}");
+}
+
+// An undrained test at constant volume (`pore_fluid: "undrained"` on a box sample: the side
+// walls move out as the platen comes down, u = σ3 − σ3'). A loose packing (deposited with
+// friction) liquefies: its water takes nearly all the cell pressure. A dense one (deposited
+// frictionless, then given the same friction) dilates: its pore pressure falls below zero and
+// its effective stress climbs far above σ3. Both keep their volume to round-off, and every row
+// keeps p' = (σ1 + 2σ3)/3 − u. Measured (646 grains, 5 × 5 × 12 mm, σ3 50 kPa, to 10 %): loose
+// u up to 49.6 kPa, p' ending at 7.4 kPa; dense u −794 kPa and p' 1.8 MPa at the end, φ' 39°.
+#[test]
+fn an_undrained_box_test_holds_its_volume_and_its_pore_pressure_follows_the_packing() {
+    let dir = temp_dir("triaxial_undrained");
+    let script = r#"
+for dense in [false, true] {
+    let b = new_box("t");
+    b.sample_w = 0.005; b.sample_l = 0.005; b.sample_h = 0.012;
+    b.ball_r = 0.4e-3; b.distri_rate = 0.2; b.seed = 7;
+    b.set_type("top_platen");
+    let d = b.build_initial_model();
+    let sand = #{ kn: 2e5, ks: 8e4, mu_p: 0.5, r: 0.4e-3, restitution: 0.5, density: 2650.0 };
+    let deposit = sand; deposit.mu_p = if dense { 0.0 } else { 0.5 };
+    d.set_group_mat("sample", material_micro("deposit", deposit));
+    d.set_standard_dt();
+    d.enable("rotation");
+    sediment(d, #{ accel: 30.0, tolerance: 0.05 });
+    d.set_group_mat("sample", material_micro("sand", sand));
+    let r = triaxial(d, #{ confining: 50e3, strain: 0.1, points: 20, pore_fluid: "undrained" });
+    let name = if dense { "dense" } else { "loose" };
+    r.curve.save(`${name}.csv`);
+    report(`${name}_phi_eff`, r.phi_eff);
+}
+"#;
+    let o = run_script(&dir, "undrained.rhai", script, &["--backend", "cpu"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s3 = 50e3;
+    for name in ["loose", "dense"] {
+        let csv = dir.join(format!("out/{name}.csv"));
+        let (s1, u, p, ev) = (
+            csv_column(&csv, "sigma1"),
+            csv_column(&csv, "pore_pressure"),
+            csv_column(&csv, "p_eff"),
+            csv_column(&csv, "volumetric_strain"),
+        );
+        eprintln!(
+            "{name}: u {u:?}
+p' {p:?}"
+        );
+        for k in 0..u.len() {
+            assert!(ev[k].abs() < 1e-9, "{name} row {k}: the volume changed by {}", ev[k]);
+            assert!(
+                (p[k] - ((s1[k] + 2.0 * s3) / 3.0 - u[k])).abs() < 1e-6 * s3,
+                "{name} row {k}: p' {} σ1 {} u {}",
+                p[k],
+                s1[k],
+                u[k]
+            );
+        }
+        assert!(u[0].abs() < 0.02 * s3, "{name}: consolidated at σ3 on every wall, u starts at {}", u[0]);
+        let (u_end, p_end) = (u[u.len() - 1], p[p.len() - 1]);
+        if name == "loose" {
+            assert!(u.iter().cloned().fold(f64::MIN, f64::max) > 0.9 * s3, "the loose packing did not liquefy: {u:?}");
+            assert!(p_end < 0.3 * s3, "the loose packing kept p' {p_end}");
+        } else {
+            assert!(u_end < 0.0 && p_end > 2.0 * s3, "the dense packing did not dilate: u {u_end}, p' {p_end}");
+        }
+    }
+    let phi = metrics(&dir.join("out"))["dense_phi_eff"];
+    assert!((30.0..50.0).contains(&phi), "dense φ' {phi}°");
 }
 
 // MatDEM's 2D biaxial test (`biaxial`, the membrane as the plate's two sides): a 2D box of 334
