@@ -269,6 +269,16 @@ p' {p:?}"
     }
     let phi = metrics(&dir.join("out"))["dense_phi_eff"];
     assert!((30.0..50.0).contains(&phi), "dense φ' {phi}°");
+    // A 2D box has two side walls, too few to hold a volume: refused before any work.
+    let refused = run_script(
+        &dir,
+        "undrained2d.rhai",
+        r#"let b = new_box("t"); b.sample_w = 0.006; b.sample_l = 0; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
+let d = b.build_initial_model();
+triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
+        &["--backend", "cpu"],
+    );
+    assert!(stderr(&refused).contains("runs on a 3D box sample"), "{}", stderr(&refused));
 }
 
 // MatDEM's 2D biaxial test (`biaxial`, the membrane as the plate's two sides): a 2D box of 334
