@@ -68,6 +68,20 @@ fn the_triaxial_example_runs_biaxial_tests_in_2d() {
 
 /// A quick sand cylinder (3 mm × 6 mm, ~365 grains of 0.4 mm ± 20 %) packed under gravity in
 /// its ring, with a top platen: `d` for the scripted tests below.
+/// A cylinder's builder settings, for the refusals.
+const CYLINDER: &str = "b.sample_r = 0.003; b.sample_h = 0.006;";
+
+/// Builds a box of 0.4 mm grains with `sample` (its builder settings) and runs `call` on it,
+/// which must fail before any work: its stderr.
+fn refused(dir: &std::path::Path, name: &str, sample: &str, call: &str) -> String {
+    let script = format!(
+        "let b = new_box(\"t\"); {sample} b.ball_r = 0.4e-3; b.set_type(\"top_platen\");\nlet d = b.build_initial_model();\n{call}"
+    );
+    let o = run_script(dir, &format!("{name}.rhai"), &script, &["--backend", "cpu"]);
+    assert!(!o.status.success(), "{name}: {}", stdout(&o));
+    stderr(&o)
+}
+
 const PACKED: &str = r#"
 let b = new_box("t");
 b.sample_r = 0.003; b.sample_h = 0.006;
@@ -190,16 +204,7 @@ report("u_max", r.pore_pressure_max);
     assert!(u_max > 0.05 * 50e3 && u_max < 50e3, "u_max {u_max} Pa");
     assert!(log.contains("not drained at this rate"), "{log}");
 
-    let refused = run_script(
-        &dir,
-        "undrained.rhai",
-        r#"let b = new_box("t"); b.sample_r = 0.003; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
-let d = b.build_initial_model();
-triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
-        &["--backend", "cpu"],
-    );
-    assert!(!refused.status.success());
-    let e = stderr(&refused);
+    let e = refused(&dir, "undrained", CYLINDER, r#"triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#);
     assert!(e.contains("which the membrane cannot") && e.contains("build the sample as a box"), "{e}");
 }
 
@@ -270,15 +275,9 @@ p' {p:?}"
     let phi = metrics(&dir.join("out"))["dense_phi_eff"];
     assert!((30.0..50.0).contains(&phi), "dense φ' {phi}°");
     // A 2D box has two side walls, too few to hold a volume: refused before any work.
-    let refused = run_script(
-        &dir,
-        "undrained2d.rhai",
-        r#"let b = new_box("t"); b.sample_w = 0.006; b.sample_l = 0; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
-let d = b.build_initial_model();
-triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#,
-        &["--backend", "cpu"],
-    );
-    assert!(stderr(&refused).contains("runs on a 3D box sample"), "{}", stderr(&refused));
+    let plate = "b.sample_w = 0.006; b.sample_l = 0; b.sample_h = 0.006;";
+    let e = refused(&dir, "undrained2d", plate, r#"triaxial(d, #{ confining: 50e3, pore_fluid: "undrained" });"#);
+    assert!(e.contains("runs on a 3D box sample"), "{e}");
 }
 
 // MatDEM's 2D biaxial test (`biaxial`, the membrane as the plate's two sides): a 2D box of 334
@@ -320,13 +319,6 @@ print(d.plan());
     assert_eq!(m["walls"], 2.0, "{m:?}");
     assert!(stdout(&o).contains("24 bands × 2 sectors"), "{}", stdout(&o));
     // A 3D model is refused by name.
-    let refused = run_script(
-        &dir,
-        "biaxial3d.rhai",
-        r#"let b = new_box("t"); b.sample_r = 0.003; b.sample_h = 0.006; b.ball_r = 0.4e-3; b.set_type("top_platen");
-let d = b.build_initial_model();
-biaxial(d, #{ confining: 50e3 });"#,
-        &["--backend", "cpu"],
-    );
-    assert!(stderr(&refused).contains("for a 3D cylinder use triaxial"), "{}", stderr(&refused));
+    let e = refused(&dir, "biaxial3d", CYLINDER, "biaxial(d, #{ confining: 50e3 });");
+    assert!(e.contains("for a 3D cylinder use triaxial"), "{e}");
 }
