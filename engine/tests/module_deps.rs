@@ -172,6 +172,7 @@ fn the_registry_is_the_step_order_and_names_its_effects() {
         let optional = !matches!(e.role, Role::Core | Role::Guard);
         assert_eq!(e.effect, optional, "{}: an optional stage, and only one, is an effect", e.name);
         assert_eq!(e.script.is_empty(), !optional, "{}: an effect, and only one, has a script switch", e.name);
+        assert_eq!(e.off.is_empty(), !optional, "{}: an effect, and only one, is named when it is off", e.name);
     }
 }
 

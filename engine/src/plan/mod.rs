@@ -535,9 +535,6 @@ impl StepPlan {
         if !self.bonds {
             off.push("bonds");
         }
-        if !self.has(Stage::ParallelBond) {
-            off.push("parallel bonds");
-        }
         if !self.dashpot {
             off.push("contact dashpot");
         }
@@ -553,30 +550,8 @@ impl StepPlan {
         if self.walls == 0 {
             off.push("walls");
         }
-        if !self.has(Stage::HeatLedger) {
-            off.push("heat ledger");
-        }
-        if self.conduction.is_none() {
-            off.push("heat conduction");
-        }
-        if self.buoyancy.is_none() {
-            off.push("buoyancy");
-        }
-        if self.applied_loads.is_none() {
-            off.push("applied loads");
-        }
-        if self.confining.is_none() {
-            off.push("confining pressure");
-        }
-        if self.moisture.is_none() {
-            off.push("moisture");
-        }
-        if self.pore_flow.is_none() {
-            off.push("fluid flow");
-        }
-        if self.rolling.is_none() {
-            off.push("rolling resistance");
-        }
+        // Then the effects the plan does not run, in step order.
+        off.extend(registry::REGISTRY.iter().filter(|e| e.effect && !(e.runs)(self)).map(|e| e.off));
         write!(f, "not simulated: {}", off.join(", "))
     }
 }

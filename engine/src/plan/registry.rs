@@ -46,11 +46,25 @@ pub struct Entry {
     /// The stage with its parameters in the plan's words, when the plan runs it (none for the
     /// core's, which the plan words itself, and the heat ledger, whose lanes say it all).
     pub words: fn(&StepPlan) -> Option<String>,
+    /// What the plan's `not simulated:` list calls the effect when the plan does not run it
+    /// ("" for the core's stages, which the plan words itself).
+    pub off: &'static str,
 }
 
 const fn core(stage: Stage, name: &'static str, runs: fn(&StepPlan) -> bool) -> Entry {
     let role = if matches!(stage, Stage::Guard) { Role::Guard } else { Role::Core };
-    Entry { stage, name, role, effect: false, runs, lanes: |_| None, checkpoint: "", script: "", words: |_| None }
+    Entry {
+        stage,
+        name,
+        role,
+        effect: false,
+        runs,
+        lanes: |_| None,
+        checkpoint: "",
+        script: "",
+        words: |_| None,
+        off: "",
+    }
 }
 
 /// A lane set of per-particle lanes only.
@@ -83,6 +97,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "record.parallel_bonds",
         script: "d.bond_parallel",
         words: |p| p.parallel_bond.as_ref().map(|b| parallel_bond::words(b, p.parallel_bond_entries / 2)),
+        off: "parallel bonds",
     },
     Entry {
         stage: Stage::RollingResistance,
@@ -104,6 +119,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::Rolling",
         script: "d.rolling_resistance",
         words: |p| p.rolling.as_ref().map(RollingResistance::words),
+        off: "rolling resistance",
     },
     Entry {
         stage: Stage::PoreFlow,
@@ -117,6 +133,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::PoreFlow",
         script: "d.enable(\"pore_flow\")",
         words: |p| p.pore_flow.as_ref().map(PoreFlowPlan::words),
+        off: "fluid flow",
     },
     Entry {
         stage: Stage::AppliedLoads,
@@ -134,6 +151,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::AppliedLoads",
         script: "d.apply_force",
         words: |p| p.applied_loads.as_ref().map(AppliedLoadsPlan::words),
+        off: "applied loads",
     },
     Entry {
         stage: Stage::ConfiningPressure,
@@ -146,6 +164,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::Confinement",
         script: "d.confine",
         words: |p| p.confining.as_ref().map(ConfiningPlan::words),
+        off: "confining pressure",
     },
     Entry {
         stage: Stage::Buoyancy,
@@ -158,6 +177,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "record.water",
         script: "d.water_level",
         words: |p| p.buoyancy.as_ref().map(BuoyancyPlan::words),
+        off: "buoyancy",
     },
     core(Stage::Integrate, "integrate", |_| true),
     Entry {
@@ -178,6 +198,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::Clumps",
         script: "d.clump",
         words: |p| p.clumps.as_ref().map(ClumpsPlan::words),
+        off: "clumps",
     },
     Entry {
         stage: Stage::Periodic,
@@ -190,6 +211,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::Periodic",
         script: "d.periodic",
         words: |p| p.periodic.as_ref().map(crate::effects::periodic::words),
+        off: "periodic cell",
     },
     Entry {
         stage: Stage::HeatLedger,
@@ -204,6 +226,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "record.model",
         script: "d.heat_ledger",
         words: |_| None,
+        off: "heat ledger",
     },
     Entry {
         stage: Stage::Conduction,
@@ -215,6 +238,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "record.thermal",
         script: "d.enable(\"heat\")",
         words: |p| p.conduction.as_ref().map(ConductionPlan::words),
+        off: "heat conduction",
     },
     Entry {
         stage: Stage::Moisture,
@@ -226,6 +250,7 @@ pub const REGISTRY: [Entry; 17] = [
         checkpoint: "Section::Moisture",
         script: "d.enable(\"moisture\")",
         words: |p| p.moisture.as_ref().map(MoisturePlan::words),
+        off: "moisture",
     },
     core(Stage::Guard, "guard", |_| true),
 ];

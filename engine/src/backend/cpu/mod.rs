@@ -11,20 +11,11 @@ mod lanes;
 mod pair_batch;
 mod pair_records;
 mod prefetch;
+pub mod stage;
 pub mod wall_forces;
 
-// The effects' passes, each in its folder (`effects/<name>/`).
-use crate::effects::applied_loads::cpu as applied_loads;
-use crate::effects::buoyancy::cpu as buoyancy;
-use crate::effects::clumps::cpu as clumps;
-use crate::effects::conduction::cpu as conduction;
-use crate::effects::confining_pressure::cpu as confining_pressure;
+use crate::effects;
 use crate::effects::heat_ledger::cpu as heat_ledger;
-use crate::effects::moisture::cpu as moisture;
-use crate::effects::parallel_bond::cpu as parallel_bond;
-use crate::effects::periodic::cpu as periodic;
-use crate::effects::pore_flow::cpu as pore_flow;
-use crate::effects::rolling_resistance::cpu as rolling_resistance;
 
 use super::{Backend, Sampling};
 use crate::error::Result;
@@ -35,7 +26,24 @@ use crate::plan::{Role, Stage, StepPlan};
 use crate::status::{potential_energies, Energies, EnergySample};
 use contact_forces::{compute_contact_forces, sync_rows, Breaks, PairScratch};
 use integrate::{integrate, Observed};
+use stage::{CpuStage, StageInput};
 use wall_forces::compute_wall_forces;
+
+/// Every optional stage's pass (`stage`), each in its effect's folder (`effects/<name>/cpu.rs`),
+/// in step order: a new stage is a row here. The heat ledger has none: it is booked inside the
+/// passes that dissipate.
+const CPU_STAGES: [(Stage, stage::Build); 10] = [
+    (Stage::ParallelBond, effects::parallel_bond::cpu::stage),
+    (Stage::RollingResistance, effects::rolling_resistance::cpu::stage),
+    (Stage::PoreFlow, effects::pore_flow::cpu::stage),
+    (Stage::AppliedLoads, effects::applied_loads::cpu::stage),
+    (Stage::ConfiningPressure, effects::confining_pressure::cpu::stage),
+    (Stage::Buoyancy, effects::buoyancy::cpu::stage),
+    (Stage::Clumps, effects::clumps::cpu::stage),
+    (Stage::Periodic, effects::periodic::cpu::stage),
+    (Stage::Conduction, effects::conduction::cpu::stage),
+    (Stage::Moisture, effects::moisture::cpu::stage),
+];
 
 /// Per-run derived data: the plan and each particle's viscous damping coefficient.
 pub struct CpuBackend {
@@ -44,12 +52,10 @@ pub struct CpuBackend {
     damping_c: Vec<f64>,
     /// Per-pair results passed between the two contact passes.
     pairs: PairScratch,
-    /// The conduction stage's next temperatures (empty without it).
-    next_temperature: Vec<f64>,
-    /// The moisture stage's next water contents (empty without it).
-    next_water: Vec<f64>,
-    /// The pore_flow stage's guard error, returned at the end of the step that raised it.
-    pore_error: Option<crate::error::Error>,
+    /// The plan's optional stages (of `CPU_STAGES`), in step order.
+    stages: Vec<(Stage, Box<dyn CpuStage>)>,
+    /// A stage's error (pore flow's guard), returned at the end of the step that raised it.
+    stage_error: Option<crate::error::Error>,
 }
 
 impl CpuBackend {
@@ -63,21 +69,19 @@ impl CpuBackend {
     /// The backend for `plan`, with the particles' viscous damping coefficients
     /// ([`StepPlan::damping_coefficients`]).
     pub fn with_plan(plan: StepPlan, damping_c: Vec<f64>) -> Self {
-        CpuBackend {
-            plan,
-            damping_c,
-            pairs: PairScratch::default(),
-            next_temperature: Vec::new(),
-            next_water: Vec::new(),
-            pore_error: None,
-        }
+        let stages = CPU_STAGES
+            .iter()
+            .filter(|(stage, _)| plan.has(*stage))
+            .filter_map(|(stage, build)| Some((*stage, build(&plan)?)))
+            .collect();
+        CpuBackend { plan, damping_c, pairs: PairScratch::default(), stages, stage_error: None }
     }
 
     /// Heap bytes of the backend's own per-particle and per-pair buffers.
     pub fn scratch_bytes(&self) -> usize {
-        (self.damping_c.capacity() + self.next_temperature.capacity() + self.next_water.capacity())
-            * std::mem::size_of::<f64>()
+        self.damping_c.capacity() * std::mem::size_of::<f64>()
             + self.pairs.bytes()
+            + self.stages.iter().map(|(_, s)| s.scratch_bytes()).sum::<usize>()
     }
 
     /// Advances the model by one step as separate passes, one per named stage (what an
@@ -114,20 +118,15 @@ impl CpuBackend {
         times.add(Stage::WallForces, t.elapsed());
         for stage in self.plan.runs(Role::Force) {
             let t = Instant::now();
-            self.force_stage(m, stage);
+            self.run_stage(m, stage);
             times.add(stage, t.elapsed());
         }
         let t = Instant::now();
         integrate(m, &self.plan, &self.damping_c);
         times.add(Stage::Integrate, t.elapsed());
-        for stage in self.plan.runs(Role::Body) {
+        for stage in self.plan.runs(Role::Body).chain(self.plan.runs(Role::Field)) {
             let t = Instant::now();
-            self.body_stage(m, stage);
-            times.add(stage, t.elapsed());
-        }
-        for stage in self.plan.runs(Role::Field) {
-            let t = Instant::now();
-            self.field_stage(m, stage);
+            self.run_stage(m, stage);
             times.add(stage, t.elapsed());
         }
         m.clock.step += 1;
@@ -191,10 +190,7 @@ impl CpuBackend {
         // book its drag's heat.
         let mut drag_heat = 0.0;
         for stage in self.plan.runs(Role::Force) {
-            let heat = self.force_stage(m, stage);
-            if stage == Stage::Buoyancy {
-                drag_heat = heat;
-            }
+            drag_heat += self.run_stage(m, stage).damping_heat;
         }
         if !observe {
             let _ = integrate(m, &self.plan, &self.damping_c);
@@ -211,7 +207,7 @@ impl CpuBackend {
         e.wall_work -= 0.5 * (e.wall_work - work_before);
         let mut obs = integrate(m, &self.plan, &self.damping_c);
         for stage in self.plan.runs(Role::Body) {
-            let o = self.body_stage(m, stage);
+            let o = self.run_stage(m, stage);
             obs.kinetic += o.kinetic;
             obs.damping_heat += o.damping_heat;
         }
@@ -231,65 +227,30 @@ impl CpuBackend {
 }
 
 impl CpuBackend {
-    /// The pore_flow stage; its guard error is kept for the end of the step.
-    fn pore_flow(&mut self, m: &mut Model) {
-        if self.pore_error.is_none() {
-            let plan = self.plan.pore_flow.as_ref().expect("the plan has the pore_flow stage");
-            if let Err(e) = pore_flow::pore_flow(m, plan) {
-                self.pore_error = Some(e);
+    /// One optional stage of the plan, at its role's place in the step: records the bonds it
+    /// broke and keeps its error for the end of the step; returns what it adds to an observed
+    /// step (a body stage's kinetic energy and damping heat, a force stage's drag heat).
+    fn run_stage(&mut self, m: &mut Model, stage: Stage) -> Observed {
+        let input = StageInput { plan: &self.plan, damping_c: &self.damping_c };
+        let Some((_, pass)) = self.stages.iter_mut().find(|(s, _)| *s == stage) else {
+            unreachable!("{stage} is not an optional stage of this plan (CPU_STAGES)")
+        };
+        match pass.run(m, &input) {
+            Ok(booked) => {
+                record_breaks(m, booked.breaks);
+                booked.observed
             }
-        }
-    }
-
-    /// One optional force stage of the plan (`Role::Force`), between the core's forces and the
-    /// move. Returns the heat of the buoyancy's drag (0 for the others), which the energies
-    /// of an observed step book.
-    fn force_stage(&mut self, m: &mut Model, stage: Stage) -> f64 {
-        let plan = &self.plan;
-        match (stage, &plan.applied_loads, &plan.buoyancy) {
-            (Stage::ParallelBond, ..) => {
-                let breaks = parallel_bond::parallel_bond(m, plan);
-                record_breaks(m, breaks);
-            }
-            (Stage::RollingResistance, ..) => rolling_resistance::rolling_resistance(m, plan),
-            (Stage::PoreFlow, ..) => self.pore_flow(m),
-            (Stage::AppliedLoads, Some(a), _) => applied_loads::applied_loads(m, a),
-            (Stage::ConfiningPressure, ..) => {
-                let c = plan.confining.as_ref().expect("the plan has the confining_pressure stage");
-                confining_pressure::confining_pressure(m, c)
-            }
-            (Stage::Buoyancy, _, Some(b)) => return buoyancy::buoyancy(m, b, &plan.heat).0,
-            _ => unreachable!("{stage} is not a force stage of this plan"),
-        }
-        0.0
-    }
-
-    /// One optional body stage of the plan (`Role::Body`), right after the move: what it adds
-    /// to an observed step's kinetic energy and damping heat.
-    fn body_stage(&mut self, m: &mut Model, stage: Stage) -> Observed {
-        match stage {
-            Stage::Clumps => clumps::clumps(m, &self.plan, &self.damping_c),
-            Stage::Periodic => {
-                periodic::periodic(m);
+            Err(e) => {
+                self.stage_error.get_or_insert(e);
                 Observed::default()
             }
-            _ => unreachable!("{stage} is not a body stage of this plan"),
         }
     }
 
     /// The plan's body stages after the move, in step order.
     fn body_stages(&mut self, m: &mut Model) {
         for stage in self.plan.runs(Role::Body) {
-            let _ = self.body_stage(m, stage);
-        }
-    }
-
-    /// One optional field stage of the plan (`Role::Field`), a field step after the move.
-    fn field_stage(&mut self, m: &mut Model, stage: Stage) {
-        match (stage, &self.plan.conduction, &self.plan.moisture) {
-            (Stage::Conduction, Some(c), _) => conduction::conduction(m, c, &mut self.next_temperature),
-            (Stage::Moisture, _, Some(w)) => moisture::moisture(m, w, &mut self.next_water),
-            _ => unreachable!("{stage} is not a field stage of this plan"),
+            let _ = self.run_stage(m, stage);
         }
     }
 
@@ -304,7 +265,7 @@ impl CpuBackend {
         sync_rows(m, &mut self.pairs);
         self.pairs.forget_records();
         for stage in stages {
-            self.field_stage(m, stage);
+            let _ = self.run_stage(m, stage);
         }
     }
 }
@@ -328,14 +289,14 @@ impl Backend for CpuBackend {
                 if let Some(energies) = self.advance(m, sampling.at(k)) {
                     samples.push(EnergySample { step, time, energies });
                 }
-                if self.pore_error.is_some() {
+                if self.stage_error.is_some() {
                     break;
                 }
             }
         });
         sync_rows(m, &mut self.pairs);
         samples.into_iter().for_each(sample);
-        if let Some(e) = self.pore_error.take() {
+        if let Some(e) = self.stage_error.take() {
             return Err(m.pore_fluid_cause(e, true));
         }
         check_state(m).map_err(|e| m.pore_fluid_cause(e, false))?;
@@ -373,5 +334,25 @@ impl StageTimes {
 fn record_breaks(m: &mut Model, breaks: Breaks) {
     for (i, j, kind) in breaks.0 {
         m.breakages.push(Breakage { step: m.clock.step, time: m.clock.time, i, j, kind });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::registry::REGISTRY;
+
+    /// A stage added to the registry without its CPU pass fails here; the heat ledger is booked
+    /// inside the passes that dissipate.
+    #[test]
+    fn every_optional_stage_but_the_ledger_has_its_cpu_pass_listed_once_in_step_order() {
+        for e in REGISTRY.iter().filter(|e| e.effect) {
+            let listed = CPU_STAGES.iter().filter(|(s, _)| *s == e.stage).count();
+            let expected = usize::from(e.role != Role::Ledger);
+            assert_eq!(listed, expected, "{}: in CPU_STAGES {listed} time(s)", e.name);
+        }
+        let order: Vec<usize> =
+            CPU_STAGES.iter().map(|(s, _)| Stage::ALL.iter().position(|a| a == s).unwrap()).collect();
+        assert!(order.is_sorted(), "CPU_STAGES is in step order");
     }
 }

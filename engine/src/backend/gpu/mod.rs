@@ -34,7 +34,7 @@ pub mod bindings;
 pub mod buffers;
 pub mod contact_forces;
 pub mod device;
-pub mod device_force;
+pub mod device_stage;
 pub mod guard;
 pub mod integrate;
 pub mod memory;
@@ -46,18 +46,12 @@ pub mod shaders;
 pub mod wall_forces;
 pub mod walls;
 
-// The effects' passes, each in its folder (`effects/<name>/`).
-use crate::effects::applied_loads::gpu as applied_loads;
-use crate::effects::buoyancy::gpu as buoyancy;
-use crate::effects::clumps::gpu as clumps;
+// The effects held by name (the others are rows of `DEVICE_STAGES`).
+use crate::effects;
 use crate::effects::conduction::gpu as conduction;
-use crate::effects::confining_pressure::gpu as confining_pressure;
 use crate::effects::heat_ledger::gpu as heat_ledger;
-use crate::effects::moisture::gpu as moisture;
-use crate::effects::parallel_bond::gpu as parallel_bond;
 use crate::effects::periodic::gpu as periodic;
 use crate::effects::pore_flow::gpu as pore_flow;
-use crate::effects::rolling_resistance::gpu as rolling_resistance;
 
 use super::{Backend, Sampling};
 use crate::effects::rolling_resistance::physics::RollingModel;
@@ -67,21 +61,22 @@ use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild, steps_until_rebuild_sheared};
 use crate::physics::contact_law::BreakKind;
 use crate::physics::Vec3;
-use crate::plan::{Role, Stage, StepPlan};
+use crate::plan::registry::REGISTRY;
+use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
     download, read, DeviceLanes, HostLanes, Params, COUNTERS, C_CROWDED, C_DRIFT, C_EVENTS, C_GUARD, C_LONGEST,
     C_PORE_DRIFT, C_PORE_EXCHANGE, C_PORE_STEP, C_SPEED, C_STIFF,
 };
 use device::GpuContext;
+use device_stage::{DeviceStages, UploadContext};
 use shaders::{Kernel, Pipeline};
 use std::sync::{Arc, Mutex};
 
 pub use device::{select, BackendChoice, Compute};
 
-/// Every WGSL stage, the core's and the effects', for validation without a device
-/// (`shaders.rs`'s tests).
-pub const SHADERS: [&shaders::Shader; 21] = [
+/// The core's WGSL stages and those of the effects held by name.
+const HELD_SHADERS: [&shaders::Shader; 13] = [
     &shaders::NEIGHBOURS,
     &shaders::CELL_LIST,
     &shaders::SCAN,
@@ -89,29 +84,39 @@ pub const SHADERS: [&shaders::Shader; 21] = [
     &shaders::CONTACT_FORCES,
     &shaders::WALL_FORCES,
     &shaders::WALLS,
-    &parallel_bond::SHADER,
-    &rolling_resistance::SHADER,
     &shaders::INTEGRATE,
     &shaders::WALL_FORCES_INTEGRATE,
     &shaders::GUARD,
-    &applied_loads::SHADER,
-    &confining_pressure::SHADER,
-    &buoyancy::SHADER,
-    &clumps::SHADER,
     &periodic::SHADER,
-    &conduction::SHADER,
-    &moisture::SHADER,
     &pore_flow::SHADER,
     &pore_flow::heat::SHADER,
 ];
 
-/// The force stages whose device work is one upload's kernels (`device_force`), in step order:
-/// a new such stage is a row here and its `gpu.rs`'s `upload`.
-const FORCE_STAGES: [(Stage, device_force::Upload); 3] = [
-    (Stage::AppliedLoads, applied_loads::upload),
-    (Stage::ConfiningPressure, confining_pressure::upload),
-    (Stage::Buoyancy, buoyancy::upload),
+/// The optional stages an upload builds through their `gpu.rs` (`device_stage`): the stage, its
+/// WGSL and its `upload`, in step order, which is also the order they are built and downloaded
+/// in (moisture binds the conduction stage's lanes, so it comes after it): a new such stage is a
+/// row here. Each step dispatches them in the plan's order.
+const DEVICE_STAGES: [(Stage, &shaders::Shader, device_stage::Upload); 8] = [
+    (Stage::ParallelBond, &effects::parallel_bond::gpu::SHADER, effects::parallel_bond::gpu::upload),
+    (Stage::RollingResistance, &effects::rolling_resistance::gpu::SHADER, effects::rolling_resistance::gpu::upload),
+    (Stage::AppliedLoads, &effects::applied_loads::gpu::SHADER, effects::applied_loads::gpu::upload),
+    (Stage::ConfiningPressure, &effects::confining_pressure::gpu::SHADER, effects::confining_pressure::gpu::upload),
+    (Stage::Buoyancy, &effects::buoyancy::gpu::SHADER, effects::buoyancy::gpu::upload),
+    (Stage::Clumps, &effects::clumps::gpu::SHADER, effects::clumps::gpu::upload),
+    (Stage::Conduction, &effects::conduction::gpu::SHADER, effects::conduction::gpu::upload),
+    (Stage::Moisture, &effects::moisture::gpu::SHADER, effects::moisture::gpu::upload),
 ];
+
+/// Every WGSL stage, the core's and the effects', for validation without a device
+/// (`shaders.rs`'s tests).
+pub fn all_shaders() -> impl Iterator<Item = &'static shaders::Shader> {
+    HELD_SHADERS.into_iter().chain(DEVICE_STAGES.iter().map(|(_, shader, _)| *shader))
+}
+
+/// The optional stages the backend holds by name, because the batch loop depends on them (the
+/// periodic cell's shear schedule and slip; pore flow's sub-steps and network rebuilds), and
+/// the heat ledger, which is booked inside the stages that dissipate.
+const HELD_BY_NAME: [Stage; 3] = [Stage::PoreFlow, Stage::Periodic, Stage::HeatLedger];
 
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
@@ -133,18 +138,10 @@ struct Pipelines {
     rows: rows::Pipelines,
     contact_forces: Pipeline,
     walls: Option<WallPipelines>,
-    /// Only when the plan has parallel bonds.
-    parallel_bond: Option<Pipeline>,
-    /// Only when the plan has rolling resistance.
-    rolling_resistance: Option<Pipeline>,
-    /// Only when the plan has pore flow.
+    /// Only when the plan has pore flow (the stages of `DEVICE_STAGES` build theirs at upload).
     pore_flow: Option<pore_flow::Pipelines>,
     integrate: Pipeline,
     guard: Pipeline,
-    /// The optional field stages, only when the plan has them (the force stages of
-    /// `FORCE_STAGES` build theirs at upload).
-    conduction: Option<conduction::Pipelines>,
-    moisture: Option<moisture::Pipelines>,
 }
 
 /// The pipelines of the walls and wall_forces stages.
@@ -167,13 +164,8 @@ struct Kernels {
     rows: rows::Kernels,
     contact_forces: Vec<Kernel>,
     walls: Option<WallKernels>,
-    parallel_bond: Option<Kernel>,
-    /// One per slab.
-    rolling_resistance: Vec<Kernel>,
     integrate: Kernel,
     guard: Vec<Kernel>,
-    conduction: Option<conduction::Kernels>,
-    moisture: Option<moisture::Kernels>,
 }
 
 /// [`WallPipelines`] bound to one upload; the wall forces one per slab.
@@ -209,23 +201,14 @@ struct Session {
     host: HostLanes,
     lanes: DeviceLanes,
     kernels: Kernels,
-    /// The force stages of `FORCE_STAGES` the plan runs, in step order.
-    forces: Vec<(Stage, Box<dyn device_force::DeviceForce>)>,
-    /// The parallel bonds' buffers, when the plan has them.
-    bonds: Option<parallel_bond::BondLanes>,
+    /// The stages of `DEVICE_STAGES` the plan runs, in its order.
+    stages: DeviceStages,
     /// Steps run since the upload.
     steps: u64,
-    /// The model's step at the upload (the conduction stage runs after every `every`-th).
+    /// The model's step at the upload (a field stage runs after every `every`-th).
     step0: u64,
-    /// The conduction stage's lanes, when the plan has it (the water's uniform lives in its
-    /// kernel's bind group).
-    thermal: Option<conduction::Lanes>,
-    /// The moisture stage's lanes, when the plan has it.
-    water: Option<moisture::Lanes>,
     /// The pore_flow stage's network, fluid and kernels, when the plan has it.
     pores: Option<pore_flow::PoreSession>,
-    /// The clumps' bodies and members, when the plan has them.
-    clumps: Option<clumps::Session>,
     /// The periodic cell's crossings, when the plan has one.
     periodic: Option<periodic::Session>,
 }
@@ -233,10 +216,10 @@ struct Session {
 impl Session {
     /// Whether the session may continue after a download: every lane it holds is then either
     /// the model's (downloaded whole) or restarted by [`GpuBackend::rewind`]. The pore network
-    /// and the conduction stage keep sums since the upload that a download adds to the model
-    /// (the heat fed, the network's geometry), so they upload afresh.
+    /// and the stages that say so (conduction) keep sums since the upload that a download adds
+    /// to the model (the network's geometry, the heat fed), so they upload afresh.
     fn can_continue(&self) -> bool {
-        self.pores.is_none() && self.thermal.is_none()
+        self.pores.is_none() && !self.stages.keep_sums()
     }
 }
 
@@ -334,13 +317,9 @@ impl GpuBackend {
                 sum_loads: walls::sum_pipeline(device, &constants),
                 fold: walls::fold_pipeline(device, &constants),
             }),
-            parallel_bond: plan.has(Stage::ParallelBond).then(|| parallel_bond::pipeline(device, &constants)),
-            rolling_resistance: plan.rolling.as_ref().map(|r| rolling_resistance::pipeline(device, &constants, r)),
             pore_flow: plan.pore_flow.map(|f| pore_flow::pipelines(device, &constants, f.thermal)),
             integrate: integrate::pipeline(device, &constants),
             guard: guard::pipeline(device, &constants),
-            conduction: plan.conduction.as_ref().map(|c| conduction::pipelines(device, &constants, c)),
-            moisture: plan.moisture.as_ref().map(|w| moisture::pipelines(device, &constants, w)),
         };
         // The kernels scale velocities, so they take c_i/m_i.
         let damping_rate = damping.iter().zip(&m.particles.mass).map(|(c, mass)| c / mass).collect();
@@ -412,20 +391,14 @@ impl GpuBackend {
         }
     }
 
-    /// Brings the model to what an upload needs: rows that cover it, the lanes the plan's
-    /// stages read.
+    /// Brings the model to what an upload needs: rows that cover it, the core's lanes the plan
+    /// reads (a stage of `DEVICE_STAGES` fits its own at its upload).
     fn ready(&self, m: &mut Model) {
         if is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
             rebuild(m);
         }
         if self.plan.rotation && m.particles.rotation.is_none() {
             m.particles.enable_rotation();
-        }
-        if self.plan.conduction.is_some() {
-            m.fit_thermal();
-        }
-        if self.plan.moisture.is_some() {
-            m.fit_moisture();
         }
     }
 
@@ -504,30 +477,33 @@ impl GpuBackend {
         };
         let limit = limits.binding.min(limits.buffer);
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
-        let bonds = match &self.plan.parallel_bond {
-            Some(pb) if self.pipelines.parallel_bond.is_some() => {
-                Some(parallel_bond::BondLanes::upload(&self.ctx, m, pb, limit)?)
+        let mut stages = DeviceStages::default();
+        for (stage, _, upload) in DEVICE_STAGES {
+            let u = UploadContext {
+                ctx: &self.ctx,
+                constants: &self.constants,
+                plan: &self.plan,
+                lanes: &lanes,
+                limit,
+                earlier: &stages,
+            };
+            if let Some(work) = upload(m, &u)? {
+                stages.push(stage, work);
             }
-            _ => None,
-        };
+        }
+        // An optional stage the plan runs has its work here or is held by name.
+        let missing = |s: &Stage| !HELD_BY_NAME.contains(s) && stages.get(*s).is_none();
+        if let Some(s) =
+            REGISTRY.iter().filter(|e| e.effect).map(|e| e.stage).filter(|s| self.plan.has(*s)).find(missing)
+        {
+            return Err(GpuError::Device(format!("the stage `{s}` has no GPU work (DEVICE_STAGES)")).into());
+        }
         let device = &self.ctx.device;
         let p = &self.pipelines;
-        let thermal = self.plan.conduction.as_ref().map(|c| conduction::Lanes::upload(&self.ctx, m, c));
-        let mut forces = Vec::new();
-        for (stage, upload) in FORCE_STAGES {
-            if let Some(f) = upload(&self.ctx, &self.constants, m, &self.plan, &lanes, limit)? {
-                forces.push((stage, f));
-            }
-        }
-        // A force stage the plan runs has its kernels here or among those held by name.
-        let held = [Stage::ParallelBond, Stage::RollingResistance, Stage::PoreFlow];
-        if let Some(s) = self.plan.runs(Role::Force).find(|s| !held.contains(s) && !forces.iter().any(|f| f.0 == *s)) {
-            return Err(GpuError::Device(format!("the force stage `{s}` has no GPU kernel (FORCE_STAGES)")).into());
-        }
-        let moist = self.plan.moisture.as_ref().map(|w| moisture::Lanes::upload(&self.ctx, m, w));
         let pores = match &p.pore_flow {
             Some(pipelines) => {
-                Some(pore_flow::PoreSession::upload(&self.ctx, m, &host, &lanes, pipelines, thermal.as_ref(), limit)?)
+                let thermal = stages.find::<conduction::Field>(Stage::Conduction).map(conduction::Field::lanes);
+                Some(pore_flow::PoreSession::upload(&self.ctx, m, &host, &lanes, pipelines, thermal, limit)?)
             }
             None => None,
         };
@@ -545,64 +521,19 @@ impl GpuBackend {
                 }),
                 None => None,
             },
-            parallel_bond: match (&p.parallel_bond, &bonds) {
-                (Some(pipeline), Some(b)) => Some(b.kernel(device, pipeline, &lanes)?),
-                _ => None,
-            },
-            rolling_resistance: match &p.rolling_resistance {
-                Some(r) => rolling_resistance::kernels(device, r, &lanes)?,
-                None => Vec::new(),
-            },
             integrate: integrate::kernel(device, &p.integrate, &lanes)?,
             guard: guard::kernels(device, &p.guard, &lanes)?,
-            conduction: p
-                .conduction
-                .as_ref()
-                .zip(thermal.as_ref())
-                .zip(self.plan.conduction.as_ref())
-                .map(|((c, f), plan)| conduction::kernels(device, c, &lanes, f, plan))
-                .transpose()?,
-            moisture: p
-                .moisture
-                .as_ref()
-                .zip(moist.as_ref())
-                .zip(self.plan.moisture.as_ref())
-                .map(|((w, f), plan)| moisture::kernels(device, w, &lanes, f, plan, thermal.as_ref()))
-                .transpose()?,
-        };
-        let rigid = match self.plan.clumps {
-            Some(_) => Some(clumps::Session::upload(&self.ctx, &self.constants, m, &lanes)?),
-            None => None,
         };
         let cell = match self.plan.periodic {
             Some(_) => Some(periodic::Session::upload(&self.ctx, &self.constants, m, &lanes, MAX_BATCH)?),
             None => None,
         };
-        self.device_bytes = lanes.bytes
-            + rigid.as_ref().map_or(0, |c| c.bytes)
-            + cell.as_ref().map_or(0, |c| c.bytes)
-            + bonds.as_ref().map_or(0, |b| b.bytes)
-            + thermal.as_ref().map_or(0, |t| t.bytes)
-            + moist.as_ref().map_or(0, |w| w.bytes)
-            + pores.as_ref().map_or(0, |f| f.bytes)
-            + forces.iter().map(|(_, f)| f.bytes()).sum::<u64>();
+        self.device_bytes =
+            lanes.bytes + stages.bytes() + cell.as_ref().map_or(0, |c| c.bytes) + pores.as_ref().map_or(0, |f| f.bytes);
         self.rows.uploads += 1;
         self.rows.slabs = lanes.slabs.len();
         self.check_device()?;
-        Ok(Session {
-            host,
-            lanes,
-            kernels,
-            forces,
-            bonds,
-            steps: 0,
-            step0: m.clock.step,
-            thermal,
-            water: moist,
-            pores,
-            clumps: rigid,
-            periodic: cell,
-        })
+        Ok(Session { host, lanes, kernels, stages, steps: 0, step0: m.clock.step, pores, periodic: cell })
     }
 
     /// Rebuilds the rows on the device: `Ok(Err(why))` when they did not fit their slots (the
@@ -670,27 +601,19 @@ impl GpuBackend {
                 }
                 Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
                 Stage::WallForces => StageWork::Kernels(kr.walls.as_ref()?.forces.iter().collect()),
-                Stage::ParallelBond => StageWork::Kernels(vec![kr.parallel_bond.as_ref()?]),
-                Stage::RollingResistance => StageWork::Kernels(kr.rolling_resistance.iter().collect()),
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
-                Stage::Clumps => StageWork::Kernels(vec![s.clumps.as_ref()?.kernel()?]),
                 Stage::Periodic => StageWork::Kernels(vec![s.periodic.as_ref()?.kernel()?]),
-                Stage::Conduction if self.plan.conduction.as_ref()?.runs_after(step) => {
-                    StageWork::Conduction(kr.conduction.as_ref()?)
-                }
-                Stage::Moisture if self.plan.moisture.as_ref()?.runs_after(step) => {
-                    StageWork::Moisture(kr.moisture.as_ref()?)
-                }
-                // A field stage not due after this step; the rows' drift and the guard end a
-                // batch (`batch_tail`); the heat ledger is booked inside the stages that dissipate.
-                Stage::Conduction | Stage::Moisture | Stage::Neighbours | Stage::HeatLedger | Stage::Guard => {
-                    return None
-                }
-                // A force stage of `FORCE_STAGES` (the upload refused a plan whose force stage
-                // has no kernels).
-                other => StageWork::Kernels(s.forces.iter().find(|(f, _)| *f == other)?.1.kernels()),
+                // The rows' drift and the guard end a batch (`batch_tail`); the heat ledger is
+                // booked inside the stages that dissipate.
+                Stage::Neighbours | Stage::HeatLedger | Stage::Guard => return None,
+                // A stage of `DEVICE_STAGES` (the upload refused a plan whose stage has no
+                // work), unless it is not due after this step (a field stage).
+                other => match s.stages.get(other)?.kernels(step) {
+                    none if none.is_empty() => return None,
+                    kernels => StageWork::Kernels(kernels),
+                },
             })
         };
         self.plan.stages().into_iter().filter_map(|stage| Some((stage, work(stage)?))).collect()
@@ -765,20 +688,11 @@ impl GpuBackend {
             self.ctx.submit(enc);
         }
         download(&self.ctx, &s.lanes, &mut s.host, m, self.plan.rotation)?;
-        if let Some(b) = &s.bonds {
-            b.download(&self.ctx, m)?;
-        }
-        if let (Some(t), Some(plan)) = (&s.thermal, &self.plan.conduction) {
-            t.download(&self.ctx, &s.lanes, m, plan)?;
-        }
-        if let (Some(w), Some(plan)) = (&s.water, &self.plan.moisture) {
-            w.download(&self.ctx, &s.lanes, m, plan, s.thermal.as_ref())?;
+        for (_, work) in s.stages.iter() {
+            work.download(&self.ctx, &s.lanes, m, &s.stages)?;
         }
         if let Some(f) = &s.pores {
             f.download(&self.ctx, m)?;
-        }
-        if let Some(c) = &s.clumps {
-            c.download(&self.ctx, m)?;
         }
         if let Some(c) = &s.periodic {
             c.download(&self.ctx, m)?;
@@ -1015,8 +929,6 @@ enum StageWork<'s> {
     Kernels(Vec<&'s Kernel>),
     Pores(&'s pore_flow::PoreSession),
     PoreDrift(&'s pore_flow::PoreSession),
-    Conduction(&'s conduction::Kernels),
-    Moisture(&'s moisture::Kernels),
 }
 
 impl StageWork<'_> {
@@ -1033,8 +945,6 @@ impl StageWork<'_> {
             }
             StageWork::Pores(f) => f.dispatch(pass),
             StageWork::PoreDrift(f) => f.dispatch_drift(pass),
-            StageWork::Conduction(c) => c.dispatch(pass),
-            StageWork::Moisture(w) => w.dispatch(pass),
         }
     }
 
@@ -1043,9 +953,29 @@ impl StageWork<'_> {
     fn cost(&self) -> Option<(u64, u64)> {
         match self {
             StageWork::Kernels(kernels) => Some((kernels.len() as u64, kernels.iter().map(|k| k.bytes).sum())),
-            StageWork::Conduction(c) => Some(c.cost()),
-            StageWork::Moisture(w) => Some(w.cost()),
             StageWork::Pores(_) | StageWork::PoreDrift(_) => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stage added to the registry without its device work fails here, before any device
+    /// would refuse its plan at upload.
+    #[test]
+    fn every_optional_stage_has_its_device_work_listed_once_or_is_held_by_name() {
+        for e in REGISTRY.iter().filter(|e| e.effect) {
+            let listed = DEVICE_STAGES.iter().filter(|(s, ..)| *s == e.stage).count();
+            let held = usize::from(HELD_BY_NAME.contains(&e.stage));
+            assert_eq!(listed + held, 1, "{}: in DEVICE_STAGES {listed} time(s), held by name {held}", e.name);
+        }
+        for (stage, shader, _) in DEVICE_STAGES {
+            assert_eq!(shader.name, stage.name(), "DEVICE_STAGES: a stage's row holds its own WGSL");
+        }
+        let order: Vec<usize> =
+            DEVICE_STAGES.iter().map(|(s, ..)| Stage::ALL.iter().position(|a| a == s).unwrap()).collect();
+        assert!(order.is_sorted(), "DEVICE_STAGES is in step order");
     }
 }

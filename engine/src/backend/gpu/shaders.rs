@@ -335,18 +335,6 @@ impl Kernel {
     }
 }
 
-/// Dispatches, and bytes their kernels bind, of a field stage's run: the `sub` kernels once
-/// per sub-step, `substeps` of them, the `once` kernels once (`bench --profile`).
-pub fn cost<'k>(
-    substeps: u32,
-    sub: impl Iterator<Item = &'k Kernel>,
-    once: impl Iterator<Item = &'k Kernel>,
-) -> (u64, u64) {
-    let tally = |ks: &mut dyn Iterator<Item = &'k Kernel>| ks.fold((0u64, 0u64), |(c, b), k| (c + 1, b + k.bytes));
-    let (n, (sc, sb), (oc, ob)) = (u64::from(substeps), tally(&mut { sub }), tally(&mut { once }));
-    (n * sc + oc, n * sb + ob)
-}
-
 /// Workgroups of 64 covering `n` items, as a 2-D grid when one row of 65,535 is not enough.
 pub fn groups_for(n: usize) -> (u32, u32) {
     grid(n.div_ceil(64))
@@ -384,14 +372,14 @@ mod tests {
 
     #[test]
     fn every_stage_parses_and_validates() {
-        for stage in super::super::SHADERS {
+        for stage in super::super::all_shaders() {
             naga_parse(&source(stage)).unwrap_or_else(|e| panic!("{}: {e}", stage.name));
         }
     }
 
     #[test]
     fn bindings_are_declared_only_by_the_lists() {
-        for stage in super::super::SHADERS {
+        for stage in super::super::all_shaders() {
             assert!(!stage.source.contains("@binding"), "{}: declare a binding in its list instead", stage.name);
         }
         assert!(!COMMON.contains("@binding") && !HEAT_LEDGER.contains("@binding"));

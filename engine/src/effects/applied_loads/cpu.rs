@@ -9,9 +9,21 @@
 //! potential of the positions and angles (effects/applied_loads/lanes.rs), read with the energies.
 
 use crate::backend::cpu::blocks::{for_blocks, Rows};
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::model::Model;
+use crate::plan::StepPlan;
 use crate::state::particles::dof;
+
+/// The stage's pass (`backend::cpu::stage::Build`).
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| {
+        if let Some(a) = &s.plan.applied_loads {
+            applied_loads(m, a);
+        }
+        Ok(Booked::default())
+    })
+}
 
 /// Adds each element's applied force (and torque) to this step's force (and torque) lane.
 pub fn applied_loads(m: &mut Model, plan: &AppliedLoadsPlan) {

@@ -9,12 +9,12 @@
 use crate::backend::gpu::bindings::{Holder, Lane};
 use crate::backend::gpu::buffers::{storage_lane, DeviceLanes};
 use crate::backend::gpu::device::GpuContext;
-use crate::backend::gpu::device_force::DeviceForce;
+use crate::backend::gpu::device_stage::{DeviceStage, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::error::Result;
 use crate::model::Model;
-use crate::plan::{Stage, StepPlan};
+use crate::plan::Stage;
 
 use wgsl as al;
 
@@ -86,19 +86,12 @@ pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, loads: &Lane
     Kernel::bind(device, p, &[d, loads], groups_for(d.n))
 }
 
-/// The stage for one upload, when the plan has it (`device_force::Upload`): the loads' lanes live
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the loads' lanes live
 /// in the kernel's bind group (read only: nothing to download).
-pub fn upload(
-    ctx: &GpuContext,
-    constants: &[(&str, f64)],
-    m: &Model,
-    plan: &StepPlan,
-    d: &DeviceLanes,
-    limit: u64,
-) -> Result<Option<Box<dyn DeviceForce>>> {
-    let Some(a) = &plan.applied_loads else { return Ok(None) };
-    let lanes = Lanes::upload(ctx, m, a, limit)?;
-    let kernel = kernel(&ctx.device, &pipeline(ctx, constants, a), d, &lanes)?;
+pub fn upload(m: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(a) = &u.plan.applied_loads else { return Ok(None) };
+    let lanes = Lanes::upload(u.ctx, m, a, u.limit)?;
+    let kernel = kernel(&u.ctx.device, &pipeline(u.ctx, u.constants, a), u.lanes, &lanes)?;
     Ok(Some(Box::new(Upload { kernel, bytes: lanes.bytes })))
 }
 
@@ -107,8 +100,8 @@ struct Upload {
     bytes: u64,
 }
 
-impl DeviceForce for Upload {
-    fn kernels(&self) -> Vec<&Kernel> {
+impl DeviceStage for Upload {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
         vec![&self.kernel]
     }
 

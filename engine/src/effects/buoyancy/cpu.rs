@@ -27,11 +27,14 @@
 //! well the terminal speed is A/(1/τ + c/m) to first order in x.
 
 use crate::backend::cpu::blocks::{for_blocks, Reduce, Rows};
+use crate::backend::cpu::integrate::Observed;
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::buoyancy::physics::submerged_volume;
 use crate::effects::buoyancy::BuoyancyPlan;
 use crate::effects::heat_ledger::cpu::HeatLanes;
 use crate::model::Model;
 use crate::physics::Vec3;
+use crate::plan::StepPlan;
 use crate::state::particles::{dof, HeatCauses};
 
 /// The heat the drag took out in a step (J), summed over the elements.
@@ -42,6 +45,16 @@ impl Reduce for DragHeat {
     fn combine(self, o: Self) -> Self {
         DragHeat(self.0 + o.0)
     }
+}
+
+/// The stage's pass (`backend::cpu::stage::Build`): the drag's heat is booked apart by an
+/// observed step's energies.
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| {
+        let Some(b) = &s.plan.buoyancy else { return Ok(Booked::default()) };
+        let DragHeat(heat) = buoyancy(m, b, &s.plan.heat);
+        Ok(Booked { observed: Observed { kinetic: 0.0, damping_heat: heat }, ..Booked::default() })
+    })
 }
 
 /// Adds the buoyant force (and the drag) of this step to the force lane of every element

@@ -6,12 +6,12 @@
 
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
-use crate::backend::gpu::device_force::DeviceForce;
+use crate::backend::gpu::device_stage::{DeviceStage, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::buoyancy::BuoyancyPlan;
 use crate::error::Result;
 use crate::model::Model;
-use crate::plan::{Stage, StepPlan};
+use crate::plan::Stage;
 use wgpu::util::DeviceExt;
 use wgsl::WATER;
 
@@ -68,25 +68,18 @@ pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, water: &wgpu
     Kernel::bind(device, p, &[d, &(WATER, water)], groups_for(d.n))
 }
 
-/// The stage for one upload, when the plan has it (`device_force::Upload`): the water's uniform
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the water's uniform
 /// lives in the kernel's bind group; no lane of its own.
-pub fn upload(
-    ctx: &GpuContext,
-    constants: &[(&str, f64)],
-    _: &Model,
-    plan: &StepPlan,
-    d: &DeviceLanes,
-    _: u64,
-) -> Result<Option<Box<dyn DeviceForce>>> {
-    let Some(b) = &plan.buoyancy else { return Ok(None) };
-    let kernel = kernel(&ctx.device, &pipeline(ctx, constants), d, &water(ctx, b))?;
+pub fn upload(_: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(b) = &u.plan.buoyancy else { return Ok(None) };
+    let kernel = kernel(&u.ctx.device, &pipeline(u.ctx, u.constants), u.lanes, &water(u.ctx, b))?;
     Ok(Some(Box::new(Upload(kernel))))
 }
 
 struct Upload(Kernel);
 
-impl DeviceForce for Upload {
-    fn kernels(&self) -> Vec<&Kernel> {
+impl DeviceStage for Upload {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
         vec![&self.0]
     }
 

@@ -5,12 +5,19 @@
 //! entry is written once. CPU twin of `gpu.rs`.
 
 use crate::backend::cpu::integrate::Observed;
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::clumps::lanes::Body;
 use crate::effects::clumps::physics::{free_rotation, rotational_energy};
 use crate::effects::heat_ledger::cpu::{book, HeatLanes};
 use crate::model::Model;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
+
+/// The stage's pass (`backend::cpu::stage::Build`): the bodies' share of an observed step's
+/// kinetic energy and damping heat.
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| Ok(Booked { observed: clumps(m, s.plan, s.damping_c), ..Booked::default() }))
+}
 
 /// Advances every clump by a step; returns the clumps' kinetic energy at the integer step and
 /// the heat their damping released, for an observed step's energies.

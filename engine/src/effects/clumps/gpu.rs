@@ -6,6 +6,7 @@
 use crate::backend::gpu::bindings::{Holder, Lane};
 use crate::backend::gpu::buffers::{read, DeviceLanes};
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_stage::{DeviceStage, DeviceStages, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel};
 use crate::effects::clumps::lanes::Body;
 use crate::error::Result;
@@ -113,13 +114,13 @@ impl DeviceBody {
 }
 
 /// The stage's buffers and kernel for one upload.
-pub struct Session {
+struct Session {
     bodies: wgpu::Buffer,
     start: wgpu::Buffer,
     members: wgpu::Buffer,
     kernel: Option<Kernel>,
     count: usize,
-    pub bytes: u64,
+    bytes: u64,
 }
 
 impl Holder for Session {
@@ -133,45 +134,52 @@ impl Holder for Session {
     }
 }
 
-impl Session {
-    /// Uploads the model's clumps and binds the stage's kernel to `lanes`.
-    pub fn upload(ctx: &GpuContext, constants: &[(&str, f64)], m: &Model, lanes: &DeviceLanes) -> Result<Self> {
-        let c = &m.clumps;
-        let bodies: Vec<DeviceBody> = c.bodies.iter().map(DeviceBody::of).collect();
-        let members: Vec<[f32; 4]> = c
-            .members
-            .iter()
-            .zip(&c.offsets)
-            .map(|(&j, o)| [o.x as f32, o.y as f32, o.z as f32, f32::from_bits(j)])
-            .collect();
-        let make = |label, contents: &[u8]| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            })
-        };
-        let mut s = Session {
-            bodies: make("clump bodies", bytemuck::cast_slice(&bodies)),
-            start: make("clump starts", bytemuck::cast_slice(&c.member_start)),
-            members: make("clump members", bytemuck::cast_slice(&members)),
-            kernel: None,
-            count: bodies.len(),
-            bytes: (bodies.len() * std::mem::size_of::<DeviceBody>() + c.member_start.len() * 4 + members.len() * 16)
-                as u64,
-        };
-        let pipeline = shaders::pipeline(ctx, Stage::Clumps.name(), &SHADER, "clumps", constants);
-        s.kernel = Some(Kernel::bind(&ctx.device, &pipeline, &[lanes, &s], groups_for(s.count))?);
-        Ok(s)
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the model's clumps,
+/// and the stage's kernel bound to them and the particles' lanes.
+pub fn upload(m: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    if u.plan.clumps.is_none() {
+        return Ok(None);
+    }
+    let (ctx, c) = (u.ctx, &m.clumps);
+    let bodies: Vec<DeviceBody> = c.bodies.iter().map(DeviceBody::of).collect();
+    let members: Vec<[f32; 4]> = c
+        .members
+        .iter()
+        .zip(&c.offsets)
+        .map(|(&j, o)| [o.x as f32, o.y as f32, o.z as f32, f32::from_bits(j)])
+        .collect();
+    let make = |label, contents: &[u8]| {
+        ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        })
+    };
+    let mut s = Session {
+        bodies: make("clump bodies", bytemuck::cast_slice(&bodies)),
+        start: make("clump starts", bytemuck::cast_slice(&c.member_start)),
+        members: make("clump members", bytemuck::cast_slice(&members)),
+        kernel: None,
+        count: bodies.len(),
+        bytes: (bodies.len() * std::mem::size_of::<DeviceBody>() + c.member_start.len() * 4 + members.len() * 16)
+            as u64,
+    };
+    let pipeline = shaders::pipeline(ctx, Stage::Clumps.name(), &SHADER, "clumps", u.constants);
+    s.kernel = Some(Kernel::bind(&ctx.device, &pipeline, &[u.lanes, &s], groups_for(s.count))?);
+    Ok(Some(Box::new(s)))
+}
+
+impl DeviceStage for Session {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
+        self.kernel.iter().collect()
     }
 
-    /// The step's dispatch.
-    pub fn kernel(&self) -> Option<&Kernel> {
-        self.kernel.as_ref()
+    fn bytes(&self) -> u64 {
+        self.bytes
     }
 
     /// Brings the bodies back into `m` (the members come with the elements' lanes).
-    pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
+    fn download(&self, ctx: &GpuContext, _: &DeviceLanes, m: &mut Model, _: &DeviceStages) -> Result<()> {
         let bodies = read::<DeviceBody>(ctx, &self.bodies, self.count)?;
         for (d, b) in bodies.iter().zip(&mut m.clumps.bodies) {
             d.onto(b);

@@ -169,7 +169,7 @@ impl Model {
         }
         cpu::place_members(self, number);
         if let Some(cell) = self.settings.periodic {
-            crate::effects::periodic::cpu::wrap_clump(&cell, &mut self.clumps, &mut self.particles, number);
+            crate::effects::periodic::wrap::wrap_clump(&cell, &mut self.clumps, &mut self.particles, number);
         }
         // The members' pairs among themselves leave the rows (with any bond between them).
         self.contacts.stale = true;

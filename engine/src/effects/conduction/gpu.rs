@@ -15,6 +15,7 @@
 use crate::backend::gpu::bindings::{Holder, Lane, DISP, HEAT, ORIGIN, OTHER, PARAMS, ROW_LEN, SLAB, STATE};
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_stage::{DeviceStage, DeviceStages, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::conduction::ConductionPlan;
 use crate::error::Result;
@@ -98,7 +99,7 @@ struct FieldParams {
 }
 
 /// The stage's pipelines.
-pub struct Pipelines {
+struct Pipelines {
     conduct: Pipeline,
     settle: Pipeline,
     expand: Option<Pipeline>,
@@ -106,7 +107,7 @@ pub struct Pipelines {
     feed: Option<Pipeline>,
 }
 
-pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
+fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &ConductionPlan) -> Pipelines {
     let mut c = constants.to_vec();
     c.push(("EXPANSION", if plan.expansion { 1.0 } else { 0.0 }));
     let make = |entry| shaders::pipeline(device, Stage::Conduction.name(), &SHADER, entry, &c);
@@ -132,7 +133,7 @@ pub struct Lanes {
     /// only when the dissipated heat is fed in.
     fed: Option<wgpu::Buffer>,
     /// Bytes of the lanes.
-    pub bytes: u64,
+    bytes: u64,
 }
 
 impl Holder for Lanes {
@@ -155,7 +156,7 @@ const STORAGE: wgpu::BufferUsages =
 
 impl Lanes {
     /// The model's thermal lanes in f32 (the model's lanes must be fitted).
-    pub fn upload(ctx: &GpuContext, m: &Model, plan: &ConductionPlan) -> Self {
+    fn upload(ctx: &GpuContext, m: &Model, plan: &ConductionPlan) -> Self {
         let th = &m.particles.thermal;
         let n = m.len();
         let mut bytes = 0u64;
@@ -221,7 +222,7 @@ impl Lanes {
     /// Brings the temperatures and conductances back (and the radii, with expansion, and the
     /// heat fed, with dissipation). Runs before the heat ledger's download adds the device's
     /// sums to the model's ledger.
-    pub fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &ConductionPlan) -> Result<()> {
+    fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, plan: &ConductionPlan) -> Result<()> {
         let n = d.n;
         let thermal: Vec<[f32; 4]> = crate::backend::gpu::buffers::read(ctx, &self.thermal, n)?;
         let g: Vec<f32> = crate::backend::gpu::buffers::read(ctx, &self.conductance, n)?;
@@ -248,21 +249,14 @@ impl Lanes {
 }
 
 /// The pipelines bound to one upload.
-pub struct Kernels {
+struct Kernels {
     conduct: Vec<Kernel>,
     settle: Kernel,
     expand: Option<Kernel>,
     feed: Option<Kernel>,
-    substeps: u32,
 }
 
-pub fn kernels(
-    device: &wgpu::Device,
-    p: &Pipelines,
-    d: &DeviceLanes,
-    f: &Lanes,
-    plan: &ConductionPlan,
-) -> Result<Kernels> {
+fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
     // The rows' walk reads the scene's constants for a periodic cell's images only.
     let walk = [
@@ -301,34 +295,56 @@ pub fn kernels(
             Kernel::bind_lanes(device, k, &lanes, &[d, f], groups_for(d.n))
         })
         .transpose()?;
-    Ok(Kernels { conduct, settle, expand, feed, substeps: plan.substeps })
+    Ok(Kernels { conduct, settle, expand, feed })
 }
 
-impl Kernels {
-    /// One field step, in the kernels' order (each in the stage's debug group).
-    /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
-    pub fn cost(&self) -> (u64, u64) {
-        crate::backend::gpu::shaders::cost(
-            self.substeps,
-            self.conduct.iter().chain([&self.settle]),
-            self.feed.iter().chain(&self.expand),
-        )
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the model's lanes,
+/// fitted to the particles, and the kernels bound to them.
+pub fn upload(m: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(plan) = u.plan.conduction else { return Ok(None) };
+    m.fit_thermal();
+    let lanes = Lanes::upload(u.ctx, m, &plan);
+    let kernels = kernels(&u.ctx.device, &pipelines(u.ctx, u.constants, &plan), u.lanes, &lanes)?;
+    Ok(Some(Box::new(Field { plan, lanes, kernels })))
+}
+
+/// The stage on the device for one upload.
+pub struct Field {
+    plan: ConductionPlan,
+    lanes: Lanes,
+    kernels: Kernels,
+}
+
+impl Field {
+    /// The stage's lanes, which the moisture and pore_flow stages bind beside their own.
+    pub fn lanes(&self) -> &Lanes {
+        &self.lanes
+    }
+}
+
+impl DeviceStage for Field {
+    /// One field step after each `every`-th step: the heat fed in, then per sub-step `conduct`
+    /// once per slab of rows and `settle`, then the expansion.
+    fn kernels(&self, step: u64) -> Vec<&Kernel> {
+        if !self.plan.runs_after(step) {
+            return Vec::new();
+        }
+        let k = &self.kernels;
+        let substep = k.conduct.iter().chain([&k.settle]);
+        let substeps = std::iter::repeat_n(substep, self.plan.substeps as usize).flatten();
+        k.feed.iter().chain(substeps).chain(&k.expand).collect()
     }
 
-    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
-        pass.push_debug_group(Stage::Conduction.name());
-        if let Some(f) = &self.feed {
-            f.dispatch(pass);
-        }
-        for _ in 0..self.substeps {
-            for k in &self.conduct {
-                k.dispatch(pass);
-            }
-            self.settle.dispatch(pass);
-        }
-        if let Some(e) = &self.expand {
-            e.dispatch(pass);
-        }
-        pass.pop_debug_group();
+    fn bytes(&self) -> u64 {
+        self.lanes.bytes
+    }
+
+    fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, _: &DeviceStages) -> Result<()> {
+        self.lanes.download(ctx, d, m, &self.plan)
+    }
+
+    /// The heat fed since the upload (the `fed` lane, in the device's terms).
+    fn keeps_sums(&self) -> bool {
+        true
     }
 }

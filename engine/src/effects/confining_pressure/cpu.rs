@@ -5,9 +5,21 @@
 //! its patch and the patches of the empty cells it covers (`physics.rs`). A grain is in one cell, so each grain's force lane is written once.
 //! Killed elements feel nothing. CPU twin of `gpu.rs`.
 
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::confining_pressure::physics::{picks, NONE};
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::model::Model;
+use crate::plan::StepPlan;
+
+/// The stage's pass (`backend::cpu::stage::Build`).
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| {
+        if let Some(c) = &s.plan.confining {
+            confining_pressure(m, c);
+        }
+        Ok(Booked::default())
+    })
+}
 
 /// Adds the membrane's load to the force lane of each grain it touches.
 pub fn confining_pressure(m: &mut Model, plan: &ConfiningPlan) {

@@ -8,12 +8,12 @@
 use crate::backend::gpu::bindings::{Holder, Lane, DISP, FORCE, KIND, ORIGIN, PARAMS, WALLS};
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
-use crate::backend::gpu::device_force::DeviceForce;
+use crate::backend::gpu::device_stage::{DeviceStage, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::error::Result;
 use crate::model::Model;
-use crate::plan::{Stage, StepPlan};
+use crate::plan::Stage;
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
@@ -163,23 +163,16 @@ pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes)
     Ok(Kernels { list, bytes: f.bytes })
 }
 
-/// The stage for one upload, when the plan has it (`device_force::Upload`).
-pub fn upload(
-    ctx: &GpuContext,
-    constants: &[(&str, f64)],
-    _: &Model,
-    plan: &StepPlan,
-    d: &DeviceLanes,
-    _: u64,
-) -> Result<Option<Box<dyn DeviceForce>>> {
-    let Some(c) = &plan.confining else { return Ok(None) };
-    let lanes = Lanes::upload(ctx, c);
-    Ok(Some(Box::new(kernels(&ctx.device, &pipelines(ctx, constants), d, &lanes)?)))
+/// The stage for one upload, when the plan has it (`device_stage::Upload`).
+pub fn upload(_: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(c) = &u.plan.confining else { return Ok(None) };
+    let lanes = Lanes::upload(u.ctx, c);
+    Ok(Some(Box::new(kernels(&u.ctx.device, &pipelines(u.ctx, u.constants), u.lanes, &lanes)?)))
 }
 
-impl DeviceForce for Kernels {
+impl DeviceStage for Kernels {
     /// The step's five dispatches, in order.
-    fn kernels(&self) -> Vec<&Kernel> {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
         self.list.iter().collect()
     }
 

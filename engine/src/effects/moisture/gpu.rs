@@ -9,8 +9,9 @@
 use crate::backend::gpu::bindings::{Holder, Lane, DISP, ORIGIN, OTHER, PARAMS, ROW_LEN, SLAB, STATE};
 use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_stage::{DeviceStage, DeviceStages, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
-use crate::effects::conduction::gpu::wgsl as co;
+use crate::effects::conduction::gpu::{wgsl as co, Field as Conduction};
 use crate::effects::moisture::MoisturePlan;
 use crate::error::Result;
 use crate::model::Model;
@@ -96,14 +97,14 @@ struct FieldParams {
 }
 
 /// The stage's pipelines.
-pub struct Pipelines {
+struct Pipelines {
     exchange: Pipeline,
     settle: Pipeline,
     shrink: Option<Pipeline>,
     strengthen: Option<Pipeline>,
 }
 
-pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
+fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &MoisturePlan) -> Pipelines {
     let make = |entry| shaders::pipeline(device, Stage::Moisture.name(), &SHADER, entry, constants);
     Pipelines {
         exchange: make("exchange"),
@@ -117,7 +118,7 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)], plan: &Moisture
 }
 
 /// The stage's device lanes.
-pub struct Lanes {
+struct Lanes {
     params: wgpu::Buffer,
     /// (ω, m, α_w, χ) per particle.
     water: wgpu::Buffer,
@@ -130,7 +131,7 @@ pub struct Lanes {
     /// The tables' points; a placeholder without tables.
     tables: wgpu::Buffer,
     /// Bytes of the lanes.
-    pub bytes: u64,
+    bytes: u64,
 }
 
 impl Holder for Lanes {
@@ -154,7 +155,7 @@ const STORAGE: wgpu::BufferUsages =
 
 impl Lanes {
     /// The model's moisture lanes in f32 (the model's lanes must be fitted).
-    pub fn upload(ctx: &GpuContext, m: &Model, plan: &MoisturePlan) -> Self {
+    fn upload(ctx: &GpuContext, m: &Model, plan: &MoisturePlan) -> Self {
         let w = &m.particles.moisture;
         let n = m.len();
         let mut bytes = 0u64;
@@ -208,7 +209,7 @@ impl Lanes {
     /// Brings the water contents and conductances back (and the radii, with a radius table,
     /// and the expansion's r0 when this stage keeps it; the bond shares come back with the
     /// pair states).
-    pub fn download(
+    fn download(
         &self,
         ctx: &GpuContext,
         d: &DeviceLanes,
@@ -241,17 +242,16 @@ impl Lanes {
 }
 
 /// The pipelines bound to one upload.
-pub struct Kernels {
+struct Kernels {
     exchange: Vec<Kernel>,
     settle: Kernel,
     shrink: Option<Kernel>,
     strengthen: Vec<Kernel>,
-    substeps: u32,
 }
 
 /// `thermal`: the conduction stage's lanes, which `shrink_expand` reads (temperatures) and
 /// writes (the expansion's r0) when the plan has thermal expansion too.
-pub fn kernels(
+fn kernels(
     device: &wgpu::Device,
     p: &Pipelines,
     d: &DeviceLanes,
@@ -305,34 +305,47 @@ pub fn kernels(
                 .collect::<Result<_>>()?
         }
     };
-    Ok(Kernels { exchange, settle, shrink, strengthen, substeps: plan.substeps })
+    Ok(Kernels { exchange, settle, shrink, strengthen })
 }
 
-impl Kernels {
-    /// One field step, in the kernels' order (each in the stage's debug group).
-    /// Dispatches, and bytes their kernels bind, in one run of the stage (`bench --profile`).
-    pub fn cost(&self) -> (u64, u64) {
-        crate::backend::gpu::shaders::cost(
-            self.substeps,
-            self.exchange.iter().chain([&self.settle]),
-            self.shrink.iter().chain(&self.strengthen),
-        )
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the model's lanes,
+/// fitted to the particles, and the kernels bound to them and, when heat expands the elements
+/// too, to the conduction stage's lanes.
+pub fn upload(m: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(plan) = &u.plan.moisture else { return Ok(None) };
+    m.fit_moisture();
+    let lanes = Lanes::upload(u.ctx, m, plan);
+    let thermal = u.earlier.find::<Conduction>(Stage::Conduction).map(Conduction::lanes);
+    let kernels = kernels(&u.ctx.device, &pipelines(u.ctx, u.constants, plan), u.lanes, &lanes, plan, thermal)?;
+    Ok(Some(Box::new(Field { plan: plan.clone(), lanes, kernels })))
+}
+
+/// The stage on the device for one upload.
+struct Field {
+    plan: MoisturePlan,
+    lanes: Lanes,
+    kernels: Kernels,
+}
+
+impl DeviceStage for Field {
+    /// One field step after each `every`-th step: per sub-step `exchange` once per slab of rows
+    /// and `settle`, then the radii and the strengths from their tables.
+    fn kernels(&self, step: u64) -> Vec<&Kernel> {
+        if !self.plan.runs_after(step) {
+            return Vec::new();
+        }
+        let k = &self.kernels;
+        let substep = k.exchange.iter().chain([&k.settle]);
+        let substeps = std::iter::repeat_n(substep, self.plan.substeps as usize).flatten();
+        substeps.chain(&k.shrink).chain(&k.strengthen).collect()
     }
 
-    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
-        pass.push_debug_group(Stage::Moisture.name());
-        for _ in 0..self.substeps {
-            for k in &self.exchange {
-                k.dispatch(pass);
-            }
-            self.settle.dispatch(pass);
-        }
-        if let Some(k) = &self.shrink {
-            k.dispatch(pass);
-        }
-        for k in &self.strengthen {
-            k.dispatch(pass);
-        }
-        pass.pop_debug_group();
+    fn bytes(&self) -> u64 {
+        self.lanes.bytes
+    }
+
+    fn download(&self, ctx: &GpuContext, d: &DeviceLanes, m: &mut Model, stages: &DeviceStages) -> Result<()> {
+        let thermal = stages.find::<Conduction>(Stage::Conduction).map(Conduction::lanes);
+        self.lanes.download(ctx, d, m, &self.plan, thermal)
     }
 }

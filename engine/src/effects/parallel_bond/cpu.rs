@@ -8,10 +8,16 @@
 
 use crate::backend::cpu::blocks::{for_blocks, Rows};
 use crate::backend::cpu::contact_forces::Breaks;
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::parallel_bond::physics::{update, BondState, Ends};
 use crate::model::Model;
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
+
+/// The stage's pass (`backend::cpu::stage::Build`): the bonds that broke go to the backend.
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| Ok(Booked { breaks: parallel_bond(m, s.plan), ..Booked::default() }))
+}
 
 /// Adds the parallel bonds' forces and torques of this step to the particles' (overwritten by
 /// `contact_forces` earlier in the step), books the energy a breaking bond releases into the

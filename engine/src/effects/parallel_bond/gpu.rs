@@ -9,6 +9,7 @@
 use crate::backend::gpu::bindings::{Holder, Lane};
 use crate::backend::gpu::buffers::{read, DeviceLanes};
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_stage::{DeviceStage, DeviceStages, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::parallel_bond::physics::{BondState, ParallelBondParams};
 use crate::error::{GpuError, Result};
@@ -94,19 +95,19 @@ struct Bond {
 /// Bytes of one bond end on the device.
 pub const ENTRY_BYTES: usize = std::mem::size_of::<Bond>() + std::mem::size_of::<u32>();
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
     shaders::pipeline(device, Stage::ParallelBond.name(), &SHADER, "parallel_bond", constants)
 }
 
 /// The stage's buffers for one upload.
-pub struct BondLanes {
+struct BondLanes {
     params: wgpu::Buffer,
     row_start: wgpu::Buffer,
     other: wgpu::Buffer,
     bonds: wgpu::Buffer,
     entries: usize,
     /// Bytes of the stage's buffers.
-    pub bytes: u64,
+    bytes: u64,
 }
 
 impl Holder for BondLanes {
@@ -124,7 +125,7 @@ impl Holder for BondLanes {
 impl BondLanes {
     /// Uploads the model's bonds (their rows fitted to the particles); refuses a lane larger
     /// than `limit` bytes.
-    pub fn upload(ctx: &GpuContext, m: &mut Model, params: &ParallelBondParams, limit: u64) -> Result<Self> {
+    fn upload(ctx: &GpuContext, m: &mut Model, params: &ParallelBondParams, limit: u64) -> Result<Self> {
         let n = m.len();
         let b = &mut m.parallel_bonds;
         b.fit(n);
@@ -176,13 +177,8 @@ impl BondLanes {
         Ok(BondLanes { params, row_start, other, bonds: bonds_buf, entries: b.state.len(), bytes })
     }
 
-    /// The kernel bound to these buffers and the particles' lanes.
-    pub fn kernel(&self, device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Kernel> {
-        Kernel::bind(device, p, &[d, self], groups_for(d.n))
-    }
-
     /// Brings the bonds' states back into the model (f32 widened to f64).
-    pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
+    fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
         let bonds: Vec<Bond> = read(ctx, &self.bonds, self.entries)?;
         let v = |a: &[f32; 4]| Vec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
         for (s, g) in m.parallel_bonds.state.iter_mut().zip(&bonds) {
@@ -195,5 +191,33 @@ impl BondLanes {
             };
         }
         Ok(())
+    }
+}
+
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): the model's bonds
+/// (their rows fitted to the particles) and the kernel bound to them and the particles' lanes.
+pub fn upload(m: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(params) = &u.plan.parallel_bond else { return Ok(None) };
+    let lanes = BondLanes::upload(u.ctx, m, params, u.limit)?;
+    let kernel = Kernel::bind(&u.ctx.device, &pipeline(u.ctx, u.constants), &[u.lanes, &lanes], groups_for(u.lanes.n))?;
+    Ok(Some(Box::new(Bonds { lanes, kernel })))
+}
+
+struct Bonds {
+    lanes: BondLanes,
+    kernel: Kernel,
+}
+
+impl DeviceStage for Bonds {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
+        vec![&self.kernel]
+    }
+
+    fn bytes(&self) -> u64 {
+        self.lanes.bytes
+    }
+
+    fn download(&self, ctx: &GpuContext, _: &DeviceLanes, m: &mut Model, _: &DeviceStages) -> Result<()> {
+        self.lanes.download(ctx, m)
     }
 }

@@ -28,6 +28,7 @@ pub mod cpu;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod setting;
+pub mod wrap;
 
 pub use setting::{Image, Periodic, Separations};
 
@@ -72,7 +73,7 @@ impl Model {
         }
         let cell = Periodic { axes, shear: None };
         check_effects(self)?;
-        cpu::wrap_all(&cell, &mut self.particles, &mut self.clumps);
+        wrap::wrap_all(&cell, &mut self.particles, &mut self.clumps);
         self.settings.periodic = Some(cell);
         self.contacts.stale = true;
         crate::neighbours::rebuild(self);

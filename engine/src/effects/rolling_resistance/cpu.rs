@@ -13,6 +13,7 @@
 //! (shaders/rolling_resistance.wgsl; cdt only).
 
 use crate::backend::cpu::blocks::{for_blocks, Rows, Strided};
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::rolling_resistance::physics::{
     cdt_torque, epsd_torque, pair_inertia, RollingContact, RollingModel, RollingResistance,
 };
@@ -21,6 +22,14 @@ use crate::physics::contact_law::{NormalLaw, TangentialLaw};
 use crate::physics::Vec3;
 use crate::plan::StepPlan;
 use crate::state::contacts::Contacts;
+
+/// The stage's pass (`backend::cpu::stage::Build`).
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| {
+        rolling_resistance(m, s.plan);
+        Ok(Booked::default())
+    })
+}
 
 /// Adds this step's rolling resistance torques to the particles' (overwritten by
 /// `contact_forces` earlier in the step). The rotation lanes must exist (a plan with the stage

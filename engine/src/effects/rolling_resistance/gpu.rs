@@ -6,11 +6,12 @@
 //! work is friction heat). cdt has no lanes. Built only when
 //! the plan has the stage. CPU twin: `effects/rolling_resistance/cpu.rs`.
 
-use crate::backend::gpu::buffers::DeviceLanes;
 use crate::backend::gpu::device::GpuContext;
+use crate::backend::gpu::device_stage::{DeviceStage, UploadContext};
 use crate::backend::gpu::shaders::{self, groups_for, Kernel, Pipeline};
 use crate::effects::rolling_resistance::physics::RollingResistance;
 use crate::error::Result;
+use crate::model::Model;
 use crate::plan::Stage;
 
 /// The stage's WGSL and its bindings in order, from which its `@binding` lines are generated.
@@ -48,7 +49,7 @@ mod shader {
     };
 }
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResistance) -> Pipeline {
+fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResistance) -> Pipeline {
     let mut constants = constants.to_vec();
     constants.push(("ROLLING_MU", r.mu_r));
     constants.push(("ROLLING_DAMPING", r.damping));
@@ -56,6 +57,25 @@ pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], r: &RollingResis
     shaders::pipeline(device, name, &SHADER, name, &constants)
 }
 
-pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
-    d.slabs.iter().map(|s| Kernel::bind(device, p, &[d, s], groups_for(s.count))).collect()
+/// The stage for one upload, when the plan has it (`device_stage::Upload`): one kernel per slab
+/// of rows; its springs are the core's lanes (nothing of its own to download).
+pub fn upload(_: &mut Model, u: &UploadContext) -> Result<Option<Box<dyn DeviceStage>>> {
+    let Some(r) = &u.plan.rolling else { return Ok(None) };
+    let (device, d) = (&u.ctx.device, u.lanes);
+    let p = pipeline(u.ctx, u.constants, r);
+    let slabs =
+        d.slabs.iter().map(|s| Kernel::bind(device, &p, &[d, s], groups_for(s.count))).collect::<Result<_>>()?;
+    Ok(Some(Box::new(Slabs(slabs))))
+}
+
+struct Slabs(Vec<Kernel>);
+
+impl DeviceStage for Slabs {
+    fn kernels(&self, _: u64) -> Vec<&Kernel> {
+        self.0.iter().collect()
+    }
+
+    fn bytes(&self) -> u64 {
+        0
+    }
 }

@@ -13,10 +13,23 @@
 
 pub mod heat;
 
+use crate::backend::cpu::stage::{pass, Booked, CpuStage, StageInput};
 use crate::effects::pore_flow::PoreFlowPlan;
 use crate::error::Result;
 use crate::model::Model;
+use crate::plan::StepPlan;
 use heat as pore_heat;
+
+/// The stage's pass (`backend::cpu::stage::Build`): a guard error ends the run at the end of
+/// the step that raised it.
+pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
+    pass(|m, s: &StageInput| {
+        if let Some(p) = &s.plan.pore_flow {
+            pore_flow(m, p)?;
+        }
+        Ok(Booked::default())
+    })
+}
 
 /// Runs the stage on the model's pore network (a no-op when it has none).
 pub fn pore_flow(m: &mut Model, plan: &PoreFlowPlan) -> Result<()> {
