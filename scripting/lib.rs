@@ -1,7 +1,7 @@
 //! matdem-rs host: Rhai bindings, CLI, plots and outputs around `matdem-engine`.
 //!
 //! [`new_engine`] builds a Rhai engine with the whole script API and the embedded
-//! standard library; [`run::run_script`] runs a script file into an output folder;
+//! standard library; [`script_run::run_script`] runs a script file into an output folder;
 //! [`report`] renders errors with file, line, column and a caret.
 //!
 //! The modules stand in layers, each naming only modules of its own layer or below, in no
@@ -26,10 +26,10 @@ pub mod repl;
 pub mod report;
 pub mod report_page;
 pub mod resume;
-pub mod run;
 pub mod run_backend;
 pub mod run_record;
 pub mod sandbox;
+pub mod script_run;
 pub mod snapshot;
 pub mod stdlib;
 pub mod stop;

@@ -5,8 +5,8 @@
 use crate::common::*;
 use matdem_engine::backend::RunControl;
 use matdem_rs::package::Package;
-use matdem_rs::run::{default_out_dir, RunConfig};
 use matdem_rs::sandbox::Limits;
+use matdem_rs::script_run::{default_out_dir, RunConfig};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use std::path::{Path, PathBuf};
@@ -171,7 +171,7 @@ fn no_generated_package_writes_outside_its_output_folder() {
                         package: Some(package),
                         limits: Limits::default(),
                     };
-                    let _ = matdem_rs::run::run_script(&cfg);
+                    let _ = matdem_rs::script_run::run_script(&cfg);
                     prop_assert!(out.starts_with(dir.join("out")), "output folder {}", out.display());
                 }
             }

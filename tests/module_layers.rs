@@ -64,7 +64,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     // The script API (`api`) and the Rhai engine it is registered into (`lib`: `new_engine`).
     ("script API", &["api", "lib"]),
     // What a person starts: a script run, the REPL, the benchmark, the command line.
-    ("front ends", &["bench", "cli", "commands", "main", "repl", "run"]),
+    ("front ends", &["bench", "cli", "commands", "main", "repl", "script_run"]),
 ];
 
 /// The host's source files as (path relative to `scripting/`, with `/` separators; text).

@@ -187,7 +187,7 @@ pub fn tokens(code: &str) -> Vec<Token> {
     out
 }
 
-/// The module path a file defines: `api/runs.rs` is `api::runs`, `api/mod.rs` is `api`,
+/// The module path a file defines: `api/run_points.rs` is `api::run_points`, `api/mod.rs` is `api`,
 /// `lib.rs` and `main.rs` are their crate's root.
 pub fn module_path(file: &str) -> Vec<String> {
     let mut parts: Vec<String> = file.trim_end_matches(".rs").split('/').map(String::from).collect();

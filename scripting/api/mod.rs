@@ -18,7 +18,7 @@ pub mod movies;
 pub mod plot;
 pub mod reference;
 pub mod resume_point;
-pub mod runs;
+pub mod run_points;
 pub mod snapshots;
 pub mod statistics;
 pub mod table;
@@ -82,7 +82,7 @@ pub struct Host {
     /// Each model's plan as of its first run or balance, by model name, for the run's page.
     pub plans: RefCell<Vec<(String, String)>>,
     /// How to start runs of this run's own source (`run_points`); `matdem-rs run` only.
-    pub self_run: Option<runs::SelfRun>,
+    pub self_run: Option<run_points::SelfRun>,
     /// A packaged simulator's parameters (empty for a plain script): an engine's suggested
     /// fix is checked against their ranges ([`Host::raise_engine`]).
     pub parameters: Vec<crate::package::Parameter>,
@@ -210,7 +210,7 @@ impl Host {
 
 /// The script error for an engine error of a long native build (a box, zones): a build
 /// cancelled by a signal has nothing to resume, so in a run it stops the script like a
-/// signal in a script loop (see run::evaluate); elsewhere it is a plain error.
+/// signal in a script loop (see script_run::evaluate); elsewhere it is a plain error.
 pub fn raise_build(host: &Host, e: matdem_engine::Error) -> Box<EvalAltResult> {
     match e {
         matdem_engine::Error::Cancelled { .. } if host.resumable => crate::stop::Stop::Stopped.unwind(),
@@ -260,6 +260,6 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     files::register(engine, host.clone());
     zones::register(engine, host.clone());
     calibration::register(engine, host.clone());
-    runs::register(engine, host.clone());
+    run_points::register(engine, host.clone());
     plot::register(engine, host);
 }

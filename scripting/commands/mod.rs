@@ -3,7 +3,7 @@
 
 mod bench;
 mod package;
-mod run;
+mod scripts;
 mod study;
 mod sweep;
 
@@ -44,13 +44,13 @@ pub fn dispatch(command: Command) -> Outcome {
     match command {
         Command::Run { script, out, resume, mut set, set_file, backend, limits } => {
             if let Some(file) = set_file {
-                set.extend(run::read_set_file(&file)?);
+                set.extend(scripts::read_set_file(&file)?);
             }
-            run::run(script, out, resume, &set, backend, limits.resolve())
+            scripts::run(script, out, resume, &set, backend, limits.resolve())
         }
-        Command::Plan { script, set, limits } => run::plan(script, &set, limits.resolve()),
-        Command::Repl { script, out, limits } => run::repl(script, out, limits.resolve()),
-        Command::Doc => run::doc(),
+        Command::Plan { script, set, limits } => scripts::plan(script, &set, limits.resolve()),
+        Command::Repl { script, out, limits } => scripts::repl(script, out, limits.resolve()),
+        Command::Doc => scripts::doc(),
         Command::Info { package } => package::info(&package),
         Command::Pack { package, output } => package::pack(&package, output),
         Command::Bench { backend, particles, steps, warmup, json, profile, fields, scene } => {

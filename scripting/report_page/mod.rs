@@ -10,9 +10,9 @@
 //! many images loaded and how many did not, which the headless-browser test reads.
 
 pub(crate) mod html;
-mod run;
+mod run_page;
 
-pub use run::{write_run_page, RunSummary};
+pub use run_page::{write_run_page, RunSummary};
 
 /// The page's file name, which the sandbox keeps for the host.
 pub use crate::sandbox::PAGE_FILE;

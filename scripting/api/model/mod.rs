@@ -39,8 +39,8 @@ mod periodic;
 mod planar;
 mod pores;
 mod regions;
-mod running;
 mod settings;
+mod stepping;
 
 use super::arrays::{number, to_numbers, Field, Mask};
 use super::table::{row_from_map, Table, TableData};
@@ -203,7 +203,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     planar::register(engine);
     clumps::register(engine);
     periodic::register(engine);
-    running::register(engine, &host);
+    stepping::register(engine, &host);
     observation::register(engine, &host);
     elements::register(engine, &host);
     regions::register(engine, &host);

@@ -4,9 +4,9 @@ use super::{open_backend, stop_on_signals, Failure, Outcome};
 use crate::cli::Backend;
 use matdem_engine::backend::RunControl;
 use matdem_rs::package::Package;
-use matdem_rs::run::{parse_value, run_script, RunConfig, RunError};
 use matdem_rs::run_backend::RunBackend;
 use matdem_rs::sandbox::Limits;
+use matdem_rs::script_run::{parse_value, run_script, RunConfig, RunError};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -38,7 +38,7 @@ pub fn run(
         }
         (Some(o), None) => o,
         (None, Some(dir)) => matdem_rs::resume::run_folder(dir),
-        (None, None) => matdem_rs::run::default_out_dir(&stem),
+        (None, None) => matdem_rs::script_run::default_out_dir(&stem),
     };
     let control = RunControl::default();
     stop_on_signals(&control, "the run without saving a resume point");

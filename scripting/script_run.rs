@@ -270,7 +270,7 @@ fn evaluate(
             host.params.insert(k.as_str().into(), v.clone());
         }
     }
-    host.self_run = own_binary().map(|exe| crate::api::runs::SelfRun {
+    host.self_run = own_binary().map(|exe| crate::api::run_points::SelfRun {
         source: cfg.script.clone(),
         params: session.params.clone(),
         exe,
@@ -280,7 +280,7 @@ fn evaluate(
     let host = Rc::new(host);
     let mut engine = crate::new_engine(host.clone());
     // A signal lands where it lands: in a balance, which saves a resume point (see
-    // api::model::running::run_steps), or in the script's own code between two balances. There
+    // api::model::stepping::run_steps), or in the script's own code between two balances. There
     // the script goes on for up to STOP_GRACE, so that its next run or balance (usually a few
     // operations away) saves the resume point after its first chunk; a script that reaches
     // none in that time (a long loop of its own) is stopped with no resume point.
