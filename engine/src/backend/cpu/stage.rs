@@ -54,3 +54,27 @@ impl CpuStage for Pass {
 pub fn pass(f: fn(&mut Model, &StageInput) -> Result<Booked>) -> Option<Box<dyn CpuStage>> {
     Some(Box::new(Pass(f)))
 }
+
+/// A pass that keeps one f64 per particle between steps (a field stage's next values, kept so
+/// that a step allocates nothing), with the plan it was built for.
+struct Buffered<P> {
+    plan: P,
+    next: Vec<f64>,
+    pass: fn(&mut Model, &P, &mut Vec<f64>),
+}
+
+impl<P: Send> CpuStage for Buffered<P> {
+    fn run(&mut self, m: &mut Model, _: &StageInput) -> Result<Booked> {
+        (self.pass)(m, &self.plan, &mut self.next);
+        Ok(Booked::default())
+    }
+
+    fn scratch_bytes(&self) -> usize {
+        self.next.capacity() * std::mem::size_of::<f64>()
+    }
+}
+
+/// A stage whose pass keeps one f64 per particle between steps.
+pub fn buffered<P: Send + 'static>(plan: P, pass: fn(&mut Model, &P, &mut Vec<f64>)) -> Box<dyn CpuStage> {
+    Box::new(Buffered { plan, next: Vec::new(), pass })
+}

@@ -11,35 +11,18 @@
 //! the mass kept: contacts and bonds see the new radii at the next force pass.
 
 use crate::backend::cpu::blocks::{for_blocks, Rows};
-use crate::backend::cpu::stage::{Booked, CpuStage, StageInput};
+use crate::backend::cpu::stage::{buffered, CpuStage};
 use crate::diffusion::{self, Exchange};
 use crate::effects::conduction::lanes::FIXED;
 use crate::effects::conduction::physics::pair_conductance;
 use crate::effects::conduction::ConductionPlan;
-use crate::error::Result;
 use crate::model::Model;
 use crate::plan::StepPlan;
 
 /// The stage's pass (`backend::cpu::stage::Build`), with its next temperatures kept between
 /// steps.
 pub fn stage(plan: &StepPlan) -> Option<Box<dyn CpuStage>> {
-    plan.conduction.map(|plan| Box::new(Conduction { plan, next: Vec::new() }) as Box<dyn CpuStage>)
-}
-
-struct Conduction {
-    plan: ConductionPlan,
-    next: Vec<f64>,
-}
-
-impl CpuStage for Conduction {
-    fn run(&mut self, m: &mut Model, _: &StageInput) -> Result<Booked> {
-        conduction(m, &self.plan, &mut self.next);
-        Ok(Booked::default())
-    }
-
-    fn scratch_bytes(&self) -> usize {
-        self.next.capacity() * std::mem::size_of::<f64>()
-    }
+    plan.conduction.map(|plan| buffered(plan, conduction))
 }
 
 /// Runs the field step if it falls after the step that starts at `m.clock.step`. `next` is

@@ -11,10 +11,9 @@
 //! copies of the pair state stay identical.
 
 use crate::backend::cpu::blocks::{for_blocks, Rows};
-use crate::backend::cpu::stage::{Booked, CpuStage, StageInput};
+use crate::backend::cpu::stage::{buffered, CpuStage};
 use crate::diffusion;
 use crate::effects::moisture::{MoisturePlan, WaterExchange};
-use crate::error::Result;
 use crate::model::Model;
 use crate::physics::contact_law::PairState;
 use crate::plan::StepPlan;
@@ -22,23 +21,7 @@ use crate::plan::StepPlan;
 /// The stage's pass (`backend::cpu::stage::Build`), with its next water contents kept between
 /// steps.
 pub fn stage(plan: &StepPlan) -> Option<Box<dyn CpuStage>> {
-    plan.moisture.clone().map(|plan| Box::new(Moisture { plan, next: Vec::new() }) as Box<dyn CpuStage>)
-}
-
-struct Moisture {
-    plan: MoisturePlan,
-    next: Vec<f64>,
-}
-
-impl CpuStage for Moisture {
-    fn run(&mut self, m: &mut Model, _: &StageInput) -> Result<Booked> {
-        moisture(m, &self.plan, &mut self.next);
-        Ok(Booked::default())
-    }
-
-    fn scratch_bytes(&self) -> usize {
-        self.next.capacity() * std::mem::size_of::<f64>()
-    }
+    plan.moisture.clone().map(|plan| buffered(plan, moisture))
 }
 
 /// Runs the field step if it falls after the step that starts at `m.clock.step`. `next` is
