@@ -20,8 +20,8 @@ use std::any::Any;
 
 /// One upload's work of a stage.
 pub trait DeviceStage: Any {
-    /// What the step that ends at the model's step `step` dispatches, in order; none when the
-    /// stage is not due then (a field stage that runs every few steps).
+    /// What step `step` (the model's step count when it starts) dispatches, in order; none when
+    /// the stage is not due after it (a field stage that runs every few steps).
     fn kernels(&self, step: u64) -> Vec<&Kernel>;
     /// Bytes of the stage's own lanes on the device.
     fn bytes(&self) -> u64;
