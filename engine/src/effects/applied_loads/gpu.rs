@@ -51,7 +51,7 @@ mod shader {
     };
 }
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLoadsPlan) -> Pipeline {
+fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLoadsPlan) -> Pipeline {
     let mut constants = constants.to_vec();
     constants.push(("APPLIED_TORQUE", if plan.torques { 1.0 } else { 0.0 }));
     let name = Stage::AppliedLoads.name();
@@ -59,7 +59,7 @@ pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], plan: &AppliedLo
 }
 
 /// The stage's lanes on the device.
-pub struct Lanes {
+struct Lanes {
     /// Each element's applied force (N), xyz of a vec4<f32>.
     pub force: wgpu::Buffer,
     /// Each element's applied torque (N·m); a placeholder when the plan has no torque.
@@ -70,7 +70,7 @@ pub struct Lanes {
 
 impl Lanes {
     /// Uploads the model's loads (f32) for `plan`, refusing a lane over `limit` bytes.
-    pub fn upload(ctx: &GpuContext, m: &Model, plan: &AppliedLoadsPlan, limit: u64) -> Result<Self> {
+    fn upload(ctx: &GpuContext, m: &Model, plan: &AppliedLoadsPlan, limit: u64) -> Result<Self> {
         let a = &m.particles.applied;
         let v4 = |v: &crate::physics::Vec3| [v.x as f32, v.y as f32, v.z as f32, 0.0f32];
         let force: Vec<[f32; 4]> = a.force.iter().map(v4).collect();
@@ -82,7 +82,7 @@ impl Lanes {
     }
 }
 
-pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, loads: &Lanes) -> Result<Kernel> {
+fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, loads: &Lanes) -> Result<Kernel> {
     Kernel::bind(device, p, &[d, loads], groups_for(d.n))
 }
 

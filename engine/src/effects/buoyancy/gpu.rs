@@ -50,12 +50,12 @@ mod shader {
     };
 }
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
+fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
     shaders::pipeline(device, Stage::Buoyancy.name(), &SHADER, "buoyancy", constants)
 }
 
 /// The water's uniform (`Water` in buoyancy.wgsl).
-pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
+fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
     let words = [plan.level as f32, plan.density as f32, (6.0 * std::f64::consts::PI * plan.viscosity) as f32, 0.0f32];
     ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("water"),
@@ -64,7 +64,7 @@ pub fn water(ctx: &GpuContext, plan: &BuoyancyPlan) -> wgpu::Buffer {
     })
 }
 
-pub fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Result<Kernel> {
+fn kernel(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes, water: &wgpu::Buffer) -> Result<Kernel> {
     Kernel::bind(device, p, &[d, &(WATER, water)], groups_for(d.n))
 }
 

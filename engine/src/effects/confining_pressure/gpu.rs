@@ -74,7 +74,7 @@ struct Confine {
 }
 
 /// The stage's pipelines, one per entry point.
-pub struct Pipelines {
+struct Pipelines {
     clear: Pipeline,
     mark: Pipeline,
     pick: Pipeline,
@@ -82,7 +82,7 @@ pub struct Pipelines {
     apply: Pipeline,
 }
 
-pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
+fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
     let make = |entry| shaders::pipeline(device, Stage::ConfiningPressure.name(), &SHADER, entry, constants);
     Pipelines {
         clear: make("confine_clear"),
@@ -94,14 +94,14 @@ pub fn pipelines(device: &GpuContext, constants: &[(&str, f64)]) -> Pipelines {
 }
 
 /// The stage's uniform and cells on the device.
-pub struct Lanes {
+struct Lanes {
     confine: wgpu::Buffer,
     cells: wgpu::Buffer,
     pub bytes: u64,
 }
 
 impl Lanes {
-    pub fn upload(ctx: &GpuContext, plan: &ConfiningPlan) -> Self {
+    fn upload(ctx: &GpuContext, plan: &ConfiningPlan) -> Self {
         let cells = plan.bands * plan.sectors;
         let words = Confine {
             pressure: plan.pressure as f32,
@@ -143,12 +143,12 @@ impl Holder for Lanes {
 
 /// The pipelines bound to one upload, in the order a step dispatches them, and the bytes of the
 /// stage's buffers.
-pub struct Kernels {
+struct Kernels {
     list: [Kernel; 5],
     bytes: u64,
 }
 
-pub fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
+fn kernels(device: &wgpu::Device, p: &Pipelines, d: &DeviceLanes, f: &Lanes) -> Result<Kernels> {
     // Each entry point's layout holds only the bindings it uses (the layout is the shader's).
     let place = [PARAMS, ORIGIN, DISP, KIND, WALLS, cp::CONFINE, cp::CELLS];
     let bind = |pipeline, lanes: &[Lane], groups| Kernel::bind_lanes(device, pipeline, lanes, &[d, f], groups);

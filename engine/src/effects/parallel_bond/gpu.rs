@@ -92,9 +92,6 @@ struct Bond {
     pad: [u32; 3],
 }
 
-/// Bytes of one bond end on the device.
-pub const ENTRY_BYTES: usize = std::mem::size_of::<Bond>() + std::mem::size_of::<u32>();
-
 fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
     shaders::pipeline(device, Stage::ParallelBond.name(), &SHADER, "parallel_bond", constants)
 }
