@@ -232,3 +232,52 @@ fn the_critical_step_of_a_model_without_particles_is_refused_not_nan() {
     let e = refusal("critical_empty", &format!("{SMALL_BOX} d.remove(\"all\"); d.critical_dt()"));
     assert!(e.contains("critical_dt: the model has no particles"), "{e}");
 }
+
+/// Sample mean and variance.
+fn moments(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    (mean, v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0))
+}
+
+#[test]
+fn random_fields_have_their_distributions_moments_and_repeat_with_their_seed() {
+    // 100,000 draws: the mean's standard error is σ/316; each mean is held to 5 of them and
+    // each variance to 3 % (its own relative standard error is 0.4–1.6 % for these laws).
+    let n = 100_000;
+    let check = |name: &str, script: &str, mean: f64, var: f64| {
+        let v = values(name, script);
+        assert_eq!(v.len(), n);
+        let (m, s2) = moments(&v);
+        assert!((m - mean).abs() < 5.0 * (var / n as f64).sqrt(), "{script}: mean {m}, expected {mean}");
+        assert!((s2 / var - 1.0).abs() < 0.03, "{script}: variance {s2}, expected {var}");
+        v
+    };
+    let u = check("rf_uniform", "random_field(100000, 1)", 0.5, 1.0 / 12.0);
+    assert!(u.iter().all(|x| (0.0..1.0).contains(x)));
+    check("rf_normal", "random_field(100000, 2, \"normal\")", 0.0, 1.0);
+    // Weibull of shape 2 and scale 1: mean Γ(3/2) = √π/2, variance Γ(2) − Γ(3/2)² = 1 − π/4.
+    let pi = std::f64::consts::PI;
+    let w = check("rf_weibull", "random_field(100000, 3, \"weibull\", 2)", pi.sqrt() / 2.0, 1.0 - pi / 4.0);
+    assert!(w.iter().all(|x| *x > 0.0));
+    // Shape 1 is the exponential law: mean 1, variance 1.
+    check("rf_exponential", "random_field(100000, 4, \"weibull\", 1.0)", 1.0, 1.0);
+    // The same seed gives the same values, another seed others.
+    assert_eq!(values("rf_again", "random_field(5, 7)"), values("rf_again2", "random_field(5, 7)"));
+    assert_ne!(values("rf_other", "random_field(5, 7)"), values("rf_other2", "random_field(5, 8)"));
+}
+
+#[test]
+fn random_fields_refuse_bad_shapes_seeds_sizes_and_names() {
+    for (script, says) in [
+        ("random_field(3, 1, \"weibull\", 0.0)", "the shape m must be a number above 0"),
+        ("random_field(3, 1, \"weibull\")", "give its shape m"),
+        ("random_field(3, 1, \"normal\", 2.0)", "this distribution takes no shape"),
+        ("random_field(3, 1, \"gauss\")", "unknown distribution; use \"uniform\", \"normal\" or \"weibull\""),
+        ("random_field(3, -1)", "the seed must be 0 or more"),
+        ("random_field(-3, 1)", "a field holds 0 to"),
+    ] {
+        let e = refusal("rf_bad", script);
+        assert!(e.contains(says), "{script}: {e}");
+    }
+}

@@ -407,6 +407,40 @@ pub fn to_numbers(v: &Dynamic, what: &str) -> RhaiResult<Vec<f64>> {
     Err(err(format!("{what}: expected an array of numbers, got {}", v.type_name())))
 }
 
+/// `random_field(n, seed[, distribution[, shape]])`: n values drawn from a seeded generator
+/// (SplitMix64, the packings' own), the same on every machine: "uniform" in [0, 1), "normal"
+/// (mean 0, standard deviation 1; Box–Muller) or "weibull" with shape m and scale 1 (a rock's
+/// homogeneity index in RFPA-style strength fields; divide by its mean for a mean of 1).
+fn random_field(n: INT, seed: INT, dist: &str, shape: Option<Dynamic>) -> RhaiResult<Field> {
+    let call = format!("random_field({n}, {seed}, \"{dist}\")");
+    if !(0..=MAX_FIELD_LEN).contains(&n) {
+        return Err(err(format!("{call}: a field holds 0 to {MAX_FIELD_LEN} values")));
+    }
+    if seed < 0 {
+        return Err(err(format!("{call}: the seed must be 0 or more")));
+    }
+    let mut rng = matdem_engine::builder::Rng::new(seed as u64);
+    // (0, 1]: a logarithm's argument.
+    let mut open = move || 1.0 - rng.uniform();
+    match (dist, shape) {
+        ("uniform", None) => Field::collect(n as usize, &call, (0..n).map(|_| 1.0 - open())),
+        ("normal", None) => Field::collect(
+            n as usize,
+            &call,
+            (0..n).map(|_| (-2.0 * open().ln()).sqrt() * (std::f64::consts::TAU * open()).cos()),
+        ),
+        ("weibull", Some(m)) => {
+            let m = number(&m).filter(|m| m.is_finite() && *m > 0.0).ok_or_else(|| {
+                err(format!("{call}: the shape m must be a number above 0 (1 spreads strengths widely, 10 hardly)"))
+            })?;
+            Field::collect(n as usize, &call, (0..n).map(|_| (-open().ln()).powf(1.0 / m)))
+        }
+        ("weibull", None) => Err(err(format!("{call}: give its shape m: random_field(n, seed, \"weibull\", m)"))),
+        ("uniform" | "normal", Some(_)) => Err(err(format!("{call}: this distribution takes no shape"))),
+        _ => Err(err(format!("{call}: unknown distribution; use \"uniform\", \"normal\" or \"weibull\""))),
+    }
+}
+
 /// A number from an INT or FLOAT.
 pub fn number(v: &Dynamic) -> Option<f64> {
     v.as_float().ok().or_else(|| v.as_int().ok().map(|i| i as f64))
@@ -438,6 +472,11 @@ pub fn register(engine: &mut Engine) {
             // The last value is `end` itself, not a sum that rounds near it.
             let value = move |i: INT| if i == n - 1 && n > 1 { b } else { a + step * i as f64 };
             Field::collect(n as usize, &call, (0..n).map(value))
+        })
+        .register_fn("random_field", |n: INT, seed: INT| random_field(n, seed, "uniform", None))
+        .register_fn("random_field", |n: INT, seed: INT, dist: &str| random_field(n, seed, dist, None))
+        .register_fn("random_field", |n: INT, seed: INT, dist: &str, shape: Dynamic| {
+            random_field(n, seed, dist, Some(shape))
         })
         .register_fn("len", |f: &mut Field| f.0.len() as INT)
         .register_get("len", |f: &mut Field| f.0.len() as INT)
