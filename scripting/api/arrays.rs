@@ -420,20 +420,23 @@ fn random_field(n: INT, seed: INT, dist: &str, shape: Option<Dynamic>) -> RhaiRe
         return Err(err(format!("{call}: the seed must be 0 or more")));
     }
     let mut rng = matdem_engine::builder::Rng::new(seed as u64);
-    // (0, 1]: a logarithm's argument.
-    let mut open = move || 1.0 - rng.uniform();
+    let n_values = n as usize;
     match (dist, shape) {
-        ("uniform", None) => Field::collect(n as usize, &call, (0..n).map(|_| 1.0 - open())),
+        ("uniform", None) => Field::collect(n_values, &call, (0..n).map(|_| rng.uniform())),
+        // 1 − u lies in (0, 1]: a logarithm's argument.
         ("normal", None) => Field::collect(
-            n as usize,
+            n_values,
             &call,
-            (0..n).map(|_| (-2.0 * open().ln()).sqrt() * (std::f64::consts::TAU * open()).cos()),
+            (0..n).map(|_| {
+                let (u, v) = (1.0 - rng.uniform(), rng.uniform());
+                (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+            }),
         ),
         ("weibull", Some(m)) => {
             let m = number(&m).filter(|m| m.is_finite() && *m > 0.0).ok_or_else(|| {
                 err(format!("{call}: the shape m must be a number above 0 (1 spreads strengths widely, 10 hardly)"))
             })?;
-            Field::collect(n as usize, &call, (0..n).map(|_| (-open().ln()).powf(1.0 / m)))
+            Field::collect(n_values, &call, (0..n).map(|_| (-(1.0 - rng.uniform()).ln()).powf(1.0 / m)))
         }
         ("weibull", None) => Err(err(format!("{call}: give its shape m: random_field(n, seed, \"weibull\", m)"))),
         ("uniform" | "normal", Some(_)) => Err(err(format!("{call}: this distribution takes no shape"))),

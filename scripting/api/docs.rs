@@ -150,7 +150,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("field", "field([1.0, 2.0]) -> Field", "a whole array of numbers"),
     ("zeros", "zeros(n) -> Field", "a field of n zeros"),
     ("linspace", "linspace(start, end, n) -> Field", "n evenly spaced values from start to end (both included)"),
-    ("random_field", "random_field(n, seed) / random_field(n, seed, \"normal\") / random_field(n, seed, \"weibull\", m) -> Field", "n seeded random values, the same on every machine: uniform in [0, 1), standard normal, or Weibull of shape m and scale 1 (a heterogeneous strength: `let w = random_field(d.n, 7, \"weibull\", 3.0); d.xb = d.xb * ((w / w.mean()) * 50.0).round() / 50.0` — binned, since per-element micro values take at most 256 materials)"),
+    ("random_field", "random_field(n, seed) / random_field(n, seed, \"normal\") / random_field(n, seed, \"weibull\", m) -> Field", "n seeded random values, the same on every machine: uniform in [0, 1), standard normal, or Weibull of shape m and scale 1 (a heterogeneous strength: `let w = random_field(d.n, 7, \"weibull\", 3.0); d.xb = d.xb * ((w / w.mean()) * 50.0).round().clamp(1.0, 250.0) / 50.0` — binned to 0.02 and kept above 0, since per-element micro values take at most 256 materials)"),
     ("select", "f.select(mask) -> Field", "the values a mask selects"),
     ("sum", "f.sum() -> f64", "the sum of a field (0 for an empty one); refuses NaN/inf elements, naming the first"),
     ("mean", "f.mean() -> f64", "the mean of a field; refuses an empty field and NaN/inf elements, naming the first"),
