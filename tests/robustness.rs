@@ -1,6 +1,8 @@
 //! The script API under random bad values — NaN, ±inf, zero and negative sizes, huge
 //! counts, empty groups and masks, wrong types, unknown names — in process: every call ends
-//! in a value or a script error, never a panic or an abort. Prints how many cases ran.
+//! in a value or a script error, never a panic or an abort, and leaves every position,
+//! velocity and radius of the model finite (a value that would overflow a step is refused
+//! before the run, not found as a NaN after it). Prints how many cases ran.
 
 use matdem_rs::api::Host;
 use proptest::prelude::*;
@@ -54,6 +56,9 @@ const VALUES: &[&str] = &[
     "field([])",
     "d.r",
 ];
+
+/// True when every element's position, velocity and radius is finite.
+const FINITE: &str = "[d.x, d.y, d.z, d.vx, d.vy, d.vz, d.r].all(|f| f.is_finite().count() == d.n)";
 
 /// Calls with two holes, A and B.
 const CALLS: &[&str] = &[
@@ -271,15 +276,24 @@ fn random_bad_values_give_script_errors_never_panics() {
     let cancel = host.control.cancel.clone();
     let engine = matdem_rs::new_engine(host);
     let scene = engine.compile(SCENE).unwrap();
-    let run = |call: &rhai::AST| -> Result<(), Box<rhai::EvalAltResult>> {
+    // After any call, run or refused, the model's state is finite: a bad value is refused
+    // before it reaches the model, and a run stops before a NaN (the guard).
+    let finite = engine.compile(FINITE).unwrap();
+    let run = |call: &rhai::AST| -> (Result<(), Box<rhai::EvalAltResult>>, Result<bool, Box<rhai::EvalAltResult>>) {
         cancel.store(false, Ordering::Relaxed);
         let mut scope = rhai::Scope::new();
-        engine.run_ast_with_scope(&mut scope, &scene)?;
+        engine.run_ast_with_scope(&mut scope, &scene).unwrap();
         cancel.store(true, Ordering::Relaxed);
-        engine.run_ast_with_scope(&mut scope, call)
+        let outcome = engine.run_ast_with_scope(&mut scope, call);
+        (outcome, engine.eval_ast_with_scope::<bool>(&mut scope, &finite))
     };
     // The harness tells a refusal from success: the scene and a sound call run.
-    run(&engine.compile("d.add_group(\"g\", d.z > 0.0); zeros(3).sum()").unwrap()).unwrap();
+    let (outcome, state) = run(&engine.compile("d.add_group(\"g\", d.z > 0.0); zeros(3).sum()").unwrap());
+    assert!(outcome.is_ok() && state.unwrap());
+    // ... and a NaN in the model from one that is not (a check that cannot fail proves nothing).
+    let nan = engine.compile("d.vx = zeros(d.n) + (0.0/0.0)").unwrap();
+    let (outcome, state) = run(&nan);
+    assert!(outcome.is_err() || !state.unwrap(), "a NaN velocity was taken and not seen");
     let mut runner = TestRunner::new(Config { cases: 6000, failure_persistence: None, ..Config::default() });
     let strategy = (0..CALLS.len(), 0..VALUES.len(), 0..VALUES.len());
     let (ok, errors) = (std::cell::Cell::new(0u32), std::cell::Cell::new(0u32));
@@ -288,10 +302,21 @@ fn random_bad_values_give_script_errors_never_panics() {
         let call = CALLS[c].replace('A', VALUES[a]).replace('B', VALUES[b]);
         let ast = engine.compile(&call).map_err(|e| TestCaseError::fail(format!("{call}: {e}")))?;
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&ast)));
-        match outcome {
-            Ok(Ok(())) => ok.set(ok.get() + 1),
-            Ok(Err(_)) => errors.set(errors.get() + 1),
+        let state = match outcome {
+            Ok((Ok(()), state)) => {
+                ok.set(ok.get() + 1);
+                state
+            }
+            Ok((Err(_), state)) => {
+                errors.set(errors.get() + 1);
+                state
+            }
             Err(_) => return Err(TestCaseError::fail(format!("panic on: {call}"))),
+        };
+        match state {
+            Ok(true) => {}
+            Ok(false) => return Err(TestCaseError::fail(format!("a value in the model is not finite after: {call}"))),
+            Err(e) => return Err(TestCaseError::fail(format!("the model cannot be read after: {call}: {e}"))),
         }
         Ok(())
     });

@@ -1,12 +1,13 @@
 //! The stability guard: cheap periodic checks that stop a run before it produces NaNs, with
 //! a message naming the particle, the critical time step and the fix.
 //!
-//! Before a run: dt against the stiffest element's critical step, and gravity against the
-//! smallest radius. At every chunk end (`guard_every` steps, both backends): non-finite
-//! state, runaway speeds, deep overlaps, and dt against the critical step of the stiffest
-//! current contact — Hertz's tangent stiffness at its overlap, a bond or shear spring, a
-//! wall contact — so that a step too long for the loaded sample stops (or warns once) with
-//! the contact named, instead of finishing with wrong physics.
+//! Before a run: every length within a plausible range, dt against the stiffest element's
+//! critical step, gravity against the smallest radius, the speeds a script set and each
+//! applied load against what one step allows. At every chunk end (`guard_every` steps, both
+//! backends): non-finite state, runaway speeds, deep overlaps, and dt against the critical
+//! step of the stiffest current contact — Hertz's tangent stiffness at its overlap, a bond or
+//! shear spring, a wall contact — so that a step too long for the loaded sample stops (or
+//! warns once) with the contact named, instead of finishing with wrong physics.
 
 use crate::effects::periodic::Separations;
 use crate::error::{Error, Instability, Result, Suggestion};
@@ -16,6 +17,7 @@ use crate::physics::timestep::critical_step;
 use crate::plan::StepPlan;
 pub use crate::settings::guard::GuardMode;
 use crate::state::particles::dof;
+use crate::walls::WallMotion;
 
 /// Refuses a time step above the critical step of the stiffest element.
 pub fn check_time_step(m: &Model) -> Result<()> {
@@ -25,6 +27,9 @@ pub fn check_time_step(m: &Model) -> Result<()> {
             "the time step is not set: call set_standard_dt() or set dt to a positive value".into(),
         ));
     }
+    // The lengths first: a radius of 1e-300 m has a critical step of zero, and the step is not
+    // the cause.
+    check_extent(m)?;
     if let Some((i, crit)) = m.critical_dt() {
         if dt > crit {
             return Err(unstable(
@@ -35,8 +40,142 @@ pub fn check_time_step(m: &Model) -> Result<()> {
         }
     }
     check_gravity(m)?;
+    check_speeds(m)?;
+    check_applied_loads(m)?;
     m.check_conduction()?;
     m.check_moisture()
+}
+
+/// Refuses an element whose centre lies beyond [`MAX_LENGTH`] of the origin, whose radius
+/// lies outside [`MIN_RADIUS`]..=[`MAX_LENGTH`], or whose mass is not a positive finite
+/// number, naming the element and the value.
+pub fn check_extent(m: &Model) -> Result<()> {
+    let p = &m.particles;
+    for i in 0..p.len() {
+        let (x, r, mass) = (p.pos[i], p.radius[i], p.mass[i]);
+        if let Some(c) = (0..3).find(|&c| !(-MAX_LENGTH..=MAX_LENGTH).contains(&x[c])) {
+            return Err(Error::InvalidScene(format!(
+                "element {i} lies at {} = {:e} m: a scene's centres stay within ±{MAX_LENGTH:e} m of the origin (a \
+                 larger value is a unit or typing error, and past it the contact arithmetic overflows). Fix: place \
+                 it inside the scene (d.{}, d.set, d.move_group) or remove it (d.delete)",
+                ["x", "y", "z"][c],
+                x[c],
+                ["x", "y", "z"][c],
+            )));
+        }
+        if !(MIN_RADIUS..=MAX_LENGTH).contains(&r) {
+            return Err(Error::InvalidScene(format!(
+                "element {i} has radius {r:e} m: a radius lies between {MIN_RADIUS:e} and {MAX_LENGTH:e} m (outside is \
+                 a unit or typing error: no grain is smaller than a nanometre, and past either end its mass or its \
+                 contacts' arithmetic leave the numbers). Fix: set its radius in metres (d.r, d.set(\"r\", …))",
+            )));
+        }
+        if !(mass.is_finite() && mass > 0.0) {
+            let material = &m.materials[p.material[i] as usize];
+            return Err(Error::InvalidScene(format!(
+                "element {i} (radius {r:e} m, material `{}` of density {:e} kg/m³) has mass {mass:e} kg, not a \
+                 positive finite number. Fix: give the material a density in kg/m³ (2,650 for quartz)",
+                material.name, material.density,
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an element or a wall that already moves further in one step than the guard lets
+/// any element move ([`RUNAWAY_STEP_FRACTION`] of a radius): the guard would stop the run at
+/// its first check, after the contacts it passed through had thrown it further; the cause is
+/// the speed a script set, and the message says so.
+pub fn check_speeds(m: &Model) -> Result<()> {
+    let (p, dt) = (&m.particles, m.clock.dt);
+    for i in 0..p.len() {
+        let (v, r) = (p.vel[i].norm(), p.radius[i]);
+        if v * dt > RUNAWAY_STEP_FRACTION * r {
+            return Err(Error::InvalidScene(format!(
+                "element {i} moves at {v:.3e} m/s, {:.0}% of its radius ({r:.3e} m) in one step of dt = {dt:.3e} s, \
+                 where the guard stops any element at {:.0}%: it would pass through its contacts. Fix: give it a \
+                 speed under {:.3e} m/s (d.vx, d.set_velocity), or a smaller dt",
+                100.0 * v * dt / r,
+                100.0 * RUNAWAY_STEP_FRACTION,
+                RUNAWAY_STEP_FRACTION * r / dt,
+            )));
+        }
+    }
+    let smallest = (0..p.len()).filter(|&i| p.fixed[i] & dof::ALL != dof::ALL).map(|i| p.radius[i]).reduce(f64::min);
+    let Some(r) = smallest else { return Ok(()) };
+    for w in &m.walls {
+        let (speed, what) = match w.motion {
+            WallMotion::Fixed => continue,
+            WallMotion::Velocity(v) => (v.norm(), "moves at"),
+            WallMotion::Servo { max_speed, .. } => (max_speed.abs(), "may move (its servo's max_speed) at"),
+        };
+        if !(0.0..=RUNAWAY_STEP_FRACTION * r).contains(&(speed * dt)) {
+            return Err(Error::InvalidScene(format!(
+                "wall `{}` {what} {speed:.3e} m/s, {:.0}% of the smallest free radius ({r:.3e} m) in one step of \
+                 dt = {dt:.3e} s, where the guard stops any element at {:.0}%: it would pass through the grains. Fix: \
+                 move it slower than {:.3e} m/s (d.move_boundary, d.set_platen_stress), or take a smaller dt",
+                w.name,
+                100.0 * speed * dt / r,
+                100.0 * RUNAWAY_STEP_FRACTION,
+                RUNAWAY_STEP_FRACTION * r / dt,
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an applied load (`d.apply_force`, `d.apply_torque`) that alone moves its element,
+/// from rest, further in one step than the guard lets any element move
+/// ([`RUNAWAY_STEP_FRACTION`] of its radius): the guard would stop the run a step later on a
+/// runaway or non-finite element and blame dt, where the cause is the load's value. A load the
+/// grains can carry is far below this (held by contacts, it would press them past the guard's
+/// overlap first), so the check refuses only what the guard would stop anyway.
+pub fn check_applied_loads(m: &Model) -> Result<()> {
+    let (p, dt) = (&m.particles, m.clock.dt);
+    let a = &p.applied;
+    if !a.allocated(m.len()) {
+        return Ok(());
+    }
+    for i in 0..m.len() {
+        let r = p.radius[i];
+        let limit = RUNAWAY_STEP_FRACTION * r;
+        let force = a.force[i].norm();
+        let travel = force / p.mass[i] * dt * dt;
+        if p.fixed[i] & dof::ALL != dof::ALL && travel > limit {
+            return Err(runaway_load(i, "force", "N", "d.apply_force", force, travel, r, dt, force * limit / travel));
+        }
+        // A torque's turn in one step, as the travel of the element's surface.
+        let torque = a.torque[i].norm();
+        let turn = torque / p.inertia(i) * dt * dt * r;
+        if p.fixed[i] & dof::ROTATION != dof::ROTATION && turn > limit {
+            return Err(runaway_load(i, "torque", "N·m", "d.apply_torque", torque, turn, r, dt, torque * limit / turn));
+        }
+    }
+    Ok(())
+}
+
+/// The refusal of an applied load that throws its element out of the step.
+#[allow(clippy::too_many_arguments)]
+fn runaway_load(
+    i: usize,
+    what: &str,
+    unit: &str,
+    call: &str,
+    load: f64,
+    travel: f64,
+    r: f64,
+    dt: f64,
+    most: f64,
+) -> Error {
+    Error::InvalidScene(format!(
+        "the applied {what} is the cause: element {i} carries {load:.3e} {unit}, which alone moves it \
+         {travel:.3e} m in one step of dt = {dt:.3e} s, {:.0}% of its radius ({r:.3e} m), where the guard stops \
+         any element at {:.0}%, so the run would fly apart whatever the contacts. At this dt a {what} on it must \
+         stay under {most:.3e} {unit}, and a load the grains can carry is far below that. Fix: give element {i} a \
+         smaller {what} ({call}); a smaller dt only moves the limit (4× at dt/2)",
+        100.0 * travel / r,
+        100.0 * RUNAWAY_STEP_FRACTION,
+    ))
 }
 
 /// Refuses elements that sit at exactly the same place (a geometry or group added twice):
@@ -101,7 +240,7 @@ pub fn check_state(m: &Model) -> Result<()> {
             return Err(unstable(m, i, "has a non-finite position, velocity or force".into()));
         }
         let travel = v.norm() * dt;
-        if travel > 0.5 * p.radius[i] {
+        if travel > RUNAWAY_STEP_FRACTION * p.radius[i] {
             return Err(unstable(
                 m,
                 i,
@@ -240,6 +379,25 @@ pub(crate) fn unstable(m: &Model, particle: usize, what: String) -> Error {
 /// 1.04). 0.7 lets the first two run and stops the others. The GPU kernel uses the same
 /// number (`shaders/guard.wgsl`, `STIFFNESS_FRACTION`).
 pub const STIFFNESS_FRACTION: f64 = 0.7;
+
+/// The largest length a scene holds (m): every centre within this of the origin, every
+/// radius below it.
+///
+/// NOTE: why a bound at all. Past it the contact arithmetic overflows before the guard can
+/// name a cause: an element 1e308 m behind a wall meets it with an infinite Hertz force (δ^1.5),
+/// a radius of 1e308 m has no finite mass; the run then stops on a non-finite element, blaming
+/// dt, and leaves NaNs in the model. No scene comes near it (a landslide is kilometres): a
+/// value beyond is a unit or typing error. At 1e9 m the worst overlap's Hertz force is ~1e26 N.
+pub const MAX_LENGTH: f64 = 1e9;
+
+/// The smallest radius an element may have (m): a nanometre, below any grain; a radius of
+/// 1e-300 m has a mass of zero.
+pub const MIN_RADIUS: f64 = 1e-9;
+
+/// The guard stops a run in which an element moves more than this fraction of its radius in
+/// one step (|v|·dt): contacts are then passed through rather than resolved. The GPU guard
+/// uses the same number (`shaders/guard.wgsl`).
+pub const RUNAWAY_STEP_FRACTION: f64 = 0.5;
 
 /// Gravity alone moves a free particle |g|·dt² further each step; above this fraction of
 /// the smallest radius the run is refused and gravity, not dt, is named.

@@ -40,6 +40,7 @@ mod pore_heat_parity;
 mod pore_network;
 mod rolling_resistance;
 mod run_loop;
+mod runaway_inputs;
 mod scaling_law;
 mod servo;
 mod speed_test;

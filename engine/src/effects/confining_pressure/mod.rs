@@ -137,9 +137,12 @@ impl Model {
             )));
         }
         let p = req.pressure;
-        if !(p.is_finite() && p > 0.0) {
+        // Above 1e11 Pa (100 GPa, a hundred times any rock's strength) a membrane force
+        // σ3·(ρ + r)·Δθ·Δz can leave the numbers.
+        if !(p > 0.0 && p <= 1e11) {
             return Err(Error::InvalidScene(format!(
-                "confining pressure = {p}: give a finite pressure > 0 Pa (d.unconfine() removes it)"
+                "confining pressure = {p:e}: give a pressure in Pa above 0 and at most 1e11 (a triaxial cell's σ3 is \
+                 kPa to a few hundred MPa; d.unconfine() removes it)"
             )));
         }
         if !req.axis.iter().all(|v| v.is_finite()) {

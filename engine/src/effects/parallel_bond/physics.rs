@@ -47,6 +47,18 @@ impl ParallelBondParams {
                 return Err(format!("parallel bond `{name}` = {v}: give {what}"));
             }
         }
+        // Past these the bond's arithmetic leaves the numbers (a section of 1e-300 m has no
+        // area; k̄s = k̄n/1e-300 no finite stiffness); no rock comes near them.
+        let ranges = [
+            ("lambda", self.lambda, 0.01, 10.0, "a radius multiplier (PFC: 1)"),
+            ("e_star", self.e_star, 1.0, 1e13, "an effective modulus in Pa (granite: ~5e10)"),
+            ("k_ratio", self.k_ratio, 0.01, 100.0, "a stiffness ratio k̄n/k̄s (2.6 for ν = 0.3)"),
+        ];
+        for (name, v, lo, hi, what) in ranges {
+            if !(lo..=hi).contains(&v) {
+                return Err(format!("parallel bond `{name}` = {v:e}: give {what} between {lo:e} and {hi:e}"));
+            }
+        }
         if !(self.phi.is_finite() && (0.0..PI / 2.0).contains(&self.phi)) {
             return Err(format!(
                 "parallel bond `phi` = {}°: give a friction angle in [0°, 90°)",
@@ -217,6 +229,24 @@ mod tests {
 
     fn params() -> ParallelBondParams {
         ParallelBondParams { lambda: 1.0, e_star: 1e8, k_ratio: 2.0, sigma_c: 1e6, cohesion: 1e6, phi: 0.5 }
+    }
+
+    // Values past the ranges left the numbers (k̄s = k̄n/1e-300; a section of 1e-300·r with
+    // e_star 1e308), found by the host's robustness test; PFC's own values pass.
+    #[test]
+    fn parameters_whose_section_or_stiffness_leaves_the_numbers_are_refused_by_name() {
+        assert_eq!(params().validate(), Ok(()));
+        for (p, name) in [
+            (ParallelBondParams { k_ratio: 1e-300, ..params() }, "k_ratio"),
+            (ParallelBondParams { k_ratio: 1e3, ..params() }, "k_ratio"),
+            (ParallelBondParams { lambda: 1e-300, ..params() }, "lambda"),
+            (ParallelBondParams { e_star: 1e308, ..params() }, "e_star"),
+        ] {
+            let err = p.validate().unwrap_err();
+            assert!(err.contains(&format!("`{name}`")) && err.contains("between"), "{err}");
+        }
+        let pfc = ParallelBondParams { lambda: 1.0, e_star: 4.8e10, k_ratio: 2.6, ..params() };
+        assert_eq!(pfc.validate(), Ok(()));
     }
 
     #[test]
