@@ -142,31 +142,22 @@ pub fn check_applied_loads(m: &Model) -> Result<()> {
         let force = a.force[i].norm();
         let travel = force / p.mass[i] * dt * dt;
         if p.fixed[i] & dof::ALL != dof::ALL && travel > limit {
-            return Err(runaway_load(i, "force", "N", "d.apply_force", force, travel, r, dt, force * limit / travel));
+            return Err(runaway_load(i, ["force", "N", "d.apply_force"], force, travel, r, dt));
         }
         // A torque's turn in one step, as the travel of the element's surface.
         let torque = a.torque[i].norm();
         let turn = torque / p.inertia(i) * dt * dt * r;
         if p.fixed[i] & dof::ROTATION != dof::ROTATION && turn > limit {
-            return Err(runaway_load(i, "torque", "N·m", "d.apply_torque", torque, turn, r, dt, torque * limit / turn));
+            return Err(runaway_load(i, ["torque", "N·m", "d.apply_torque"], torque, turn, r, dt));
         }
     }
     Ok(())
 }
 
-/// The refusal of an applied load that throws its element out of the step.
-#[allow(clippy::too_many_arguments)]
-fn runaway_load(
-    i: usize,
-    what: &str,
-    unit: &str,
-    call: &str,
-    load: f64,
-    travel: f64,
-    r: f64,
-    dt: f64,
-    most: f64,
-) -> Error {
+/// The refusal of an applied load (`[what, unit, call]`, e.g. a force in N set by
+/// `d.apply_force`) of `load` that alone moves element `i` of radius `r` by `travel` in a step.
+fn runaway_load(i: usize, [what, unit, call]: [&str; 3], load: f64, travel: f64, r: f64, dt: f64) -> Error {
+    let most = load * RUNAWAY_STEP_FRACTION * r / travel;
     Error::InvalidScene(format!(
         "the applied {what} is the cause: element {i} carries {load:.3e} {unit}, which alone moves it \
          {travel:.3e} m in one step of dt = {dt:.3e} s, {:.0}% of its radius ({r:.3e} m), where the guard stops \
