@@ -144,7 +144,7 @@ fn a_confined_block_fractures_along_its_largest_stress_for_both_orientations() {
 // Heterogeneous bond strength (issue 30 item 3): the same packing with each element's Xb and
 // Fs0 times a Weibull draw of shape 1.5 (mean 1) breaks more bonds at the same well pressure
 // than with every bond alike — the weak bonds go first wherever the pressure reaches them.
-// Measured (quick, seed 1, 12 MPa held 800 steps): 12 against 35 bonds; seed 2 25 against 79;
+// Measured (quick, 12 MPa held 500 steps): seed 1 12 against 35 bonds, seed 2 25 against 79;
 // at the default size every one of ten seeds broke more (1.6–5.9 ×, docs/results).
 #[test]
 fn weibull_heterogeneous_bonds_break_more_at_the_same_well_pressure() {
