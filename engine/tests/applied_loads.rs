@@ -206,9 +206,14 @@ fn loaded_pile() -> Model {
 fn disagreement(
     scene: fn() -> Model,
     ctx: std::sync::Arc<matdem_engine::backend::gpu::device::GpuContext>,
-) -> Vec<[f64; 4]> {
-    let mut cpu = Simulation::new(scene());
-    let mut gpu = Simulation::with_gpu(scene(), ctx);
+) -> Vec<[f64; 5]> {
+    disagreement_of(Simulation::new(scene()), Simulation::with_gpu(scene(), ctx))
+}
+
+/// The largest disagreement of run `b` from the CPU run `cpu` after 200 and 800 steps, as
+/// fractions of `cpu`'s largest displacement, spin and angle, of its applied work and of its
+/// rotational kinetic energy.
+fn disagreement_of(mut cpu: Simulation, mut gpu: Simulation) -> Vec<[f64; 5]> {
     let mut out = Vec::new();
     for steps in [200u64, 600] {
         run(&mut cpu, steps);
@@ -218,17 +223,23 @@ fn disagreement(
         let top = |f: &dyn Fn(usize) -> f64| (0..a.len()).map(f).fold(0.0, f64::max);
         let (dx, dw, da) =
             (top(&|i| (a.pos[i] - a.origin[i]).norm()), top(&|i| ra.ang_vel[i].norm()), top(&|i| ra.angle[i].norm()));
-        let ex = top(&|i| (a.pos[i] - b.pos[i]).norm() / dx);
+        // Displacements, not positions: the same for the GPU (the runs share their origins), and a
+        // rounded twin's start one rounding away is no part of the run's disagreement.
+        let ex = top(&|i| ((a.pos[i] - a.origin[i]) - (b.pos[i] - b.origin[i])).norm() / dx);
         let ew = top(&|i| (ra.ang_vel[i] - rb.ang_vel[i]).norm() / dw);
         let ea = top(&|i| (ra.angle[i] - rb.angle[i]).norm() / da);
         let (wa, wb) = (a.applied_work(), b.applied_work());
         let ew_work = if wa != 0.0 { ((wa - wb) / wa).abs() } else { 0.0 };
+        let spin_energy = |p: &matdem_engine::state::particles::Particles, w: &[Vec3]| {
+            (0..p.len()).map(|i| 0.2 * p.mass[i] * p.radius[i].powi(2) * w[i].norm_squared()).sum::<f64>()
+        };
+        let (ka, kb) = (spin_energy(a, &ra.ang_vel), spin_energy(b, &rb.ang_vel));
         eprintln!(
             "after {} steps: displacement {ex:.2e}, spin {ew:.2e}, angle {ea:.2e} of the largest; applied work \
-             {wb:.6e} J against {wa:.6e} J",
+             {wb:.6e} J against {wa:.6e} J; rotational energy {kb:.6e} J against {ka:.6e} J",
             cpu.model.clock.step
         );
-        out.push([ex, ew, ea, ew_work]);
+        out.push([ex, ew, ea, ew_work, ((ka - kb) / ka).abs()]);
     }
     out
 }
@@ -241,12 +252,27 @@ fn bare_pile() -> Model {
     m
 }
 
+/// What the loaded pile's parity test allows of the GPU's run against the CPU's, after 200 and
+/// after 800 steps: [displacement, spin, angle] (each element's, as fractions of the largest),
+/// [applied work, rotational kinetic energy] (relative); ∞ where it does not compare. After 800
+/// steps the loads (20 times the top grains' weight) have made the top layer and the twisted
+/// grains slide, and a grain at the edge of slip turns either way on a rounding: one grain's
+/// spin and angle differ by 7.2e-3 and 4.1e-4 of the largest between lavapipe and the CPU, by
+/// up to 5.6e-3 and 3.2e-4 between the CPU and its rounded twins, and NVIDIA's compiler rounds
+/// otherwise than either (its spins of a rolling pile parted 5 times further than lavapipe's,
+/// rolling_resistance.rs). So the later horizon compares what physics fixes — displacements,
+/// the loads' work and the pile's rotational energy (lavapipe 4.6e-4, the twins ≤ 5.4e-4).
+const PILE_TOLERANCES: [[f64; 5]; 2] =
+    [[1e-3, 1e-3, 1e-3, 1e-3, f64::INFINITY], [1e-3, f64::INFINITY, f64::INFINITY, 1e-3, 5e-3]];
+
+/// Whether each of a pile's disagreements (`disagreement_of`) is below `PILE_TOLERANCES / margin`.
+fn within_pile_tolerances(d: &[[f64; 5]], margin: f64) -> bool {
+    d.iter().zip(PILE_TOLERANCES).all(|(got, allowed)| got.iter().zip(allowed).all(|(g, a)| *g < a / margin))
+}
+
 // CPU and GPU on the pile with loads (gravity, a floor, friction, rotation; the top layer pushed,
-// two elements twisted): after 200 steps every element's displacement, spin and angle agree to
-// 1e-3 of the largest, and the applied work to 1e-3; after 800, displacement, angle and work to
-// 1e-3 and the spins to 2e-2: the loads (20 times the top grains' weight) make the top layer and
-// the twisted grains slide, and f32 and f64 sliding contacts let the spins (a derivative) drift
-// apart faster than in the same pile without loads, which the test prints beside it.
+// two elements twisted) agree within `PILE_TOLERANCES` after 200 and 800 steps; the same pile
+// without loads is printed beside it.
 #[cfg(feature = "gpu")]
 #[test]
 fn a_pile_with_applied_loads_runs_alike_on_the_cpu_and_the_gpu() {
@@ -255,10 +281,20 @@ fn a_pile_with_applied_loads_runs_alike_on_the_cpu_and_the_gpu() {
     let _ = disagreement(bare_pile, ctx.clone());
     eprintln!("with loads:");
     let d = disagreement(loaded_pile, ctx);
-    let [ex, ew, ea, work] = d[0];
-    assert!(ex < 1e-3 && ew < 1e-3 && ea < 1e-3 && work < 1e-3, "after 200 steps: {:?}", d[0]);
-    let [ex, ew, ea, work] = d[1];
-    assert!(ex < 1e-3 && ew < 2e-2 && ea < 1e-3 && work < 1e-3, "after 800 steps: {:?}", d[1]);
+    assert!(within_pile_tolerances(&d, 1.0), "{d:?} against {PILE_TOLERANCES:?}");
+}
+
+// The pile's parity tolerances against rounding alone: the pile run on the CPU beside four
+// rounded twins (each position and velocity one rounding away, `rounded_twin`) stays within a
+// third of them (measured: at most 0.81 of a third), so they hold for any device's rounding, not
+// only for the one they were measured on.
+#[test]
+fn the_loaded_piles_parity_tolerances_hold_under_f32_rounding() {
+    for seed in 1..=4 {
+        let twin = crate::common::rounded_twin(loaded_pile(), seed);
+        let d = disagreement_of(Simulation::new(loaded_pile()), Simulation::new(twin));
+        assert!(within_pile_tolerances(&d, 3.0), "twin {seed}: {d:?} against a third of {PILE_TOLERANCES:?}");
+    }
 }
 
 // The stretched block (bonds, no friction) on both backends: displacements, spins and angles

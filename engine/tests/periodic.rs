@@ -997,3 +997,27 @@ fn clumps_across_a_face_collide_as_inside_the_cell_on_the_gpu() {
     // f32 at the contacts: the GPU's across against its own inside.
     check_dumbbells(&across, &inside, 1e-4);
 }
+
+// The gases' parity horizons against rounding alone: each gas run on the CPU beside three rounded
+// twins (each position and velocity one rounding away, `rounded_twin`) parts by less than a
+// third of the 1e-3 of the largest move the parity tests above allow after their 300 steps
+// (measured: at most 1.4e-7), so those hold for any device's rounding, not only for the one
+// they were measured on. (A twin's positions start one rounding away: its displacements count.)
+#[test]
+fn the_gases_parity_horizons_hold_under_f32_rounding() {
+    let sheared: fn() -> Model = || sheared_gas(20.0);
+    let scenes = [("gas", gas as fn() -> Model), ("sheared gas", sheared), ("sheared 2D gas", sheared_disc_gas)];
+    for (name, scene) in scenes {
+        for seed in 1..=3 {
+            let (mut a, mut b) =
+                (Simulation::new(scene()), Simulation::new(crate::common::rounded_twin(scene(), seed)));
+            run(&mut a, 300);
+            run(&mut b, 300);
+            let (moved, _, disp) = divergence(&a.model.particles, &b.model.particles);
+            assert!(
+                disp < 1e-3 / 3.0 * moved,
+                "{name}, twin {seed}: displacements part by {disp:e} of {moved:e} m moved"
+            );
+        }
+    }
+}

@@ -304,3 +304,36 @@ pub fn confine_column(m: &mut Model, nx: usize, nz: usize, a: f64) {
     m.settings.damping = 0.3;
     m.set_standard_dt().unwrap();
 }
+
+/// `m` with each coordinate of every position and velocity moved by up to half an f32 ulp of
+/// its own size (relative 2⁻²⁴; the displacement origins moved with the positions, so the twin
+/// starts undisplaced as a device's f32 displacements do): a run that starts one rounding away
+/// from `m`'s. Like a rounding, the move depends on the value alone (its size and sign from a
+/// hash of |x| and `seed`, applied symmetrically about 0), so equal coordinates stay equal and
+/// mirror images stay mirror images: a lattice's exact ties and symmetries hold as a device's
+/// rounding keeps them, and near-ties may go either way as its rounding may take them.
+///
+/// A parity test that compares trajectories holds on any device only if its metric stays within
+/// its tolerance with such a twin in place of the device: a compiler's choices (fused
+/// multiply-adds, reassociation) round otherwise at every step, and what one rounding at the
+/// start grows to by the test's horizon, a rounding later can too. Compare the twin's
+/// displacements (from its own origins) where the test compares positions.
+pub fn rounded_twin(mut m: Model, seed: u64) -> Model {
+    let nudge = |x: f64| {
+        let mut h = x.abs().to_bits() ^ seed.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        // splitmix64's finaliser: every bit of |x| moves the result.
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 31;
+        let u = (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+        x * (1.0 + u * f64::powi(2.0, -24))
+    };
+    let p = &mut m.particles;
+    for i in 0..p.pos.len() {
+        let moved = p.pos[i].map(nudge);
+        p.origin[i] += moved - p.pos[i];
+        p.pos[i] = moved;
+        p.vel[i] = p.vel[i].map(nudge);
+    }
+    m
+}
