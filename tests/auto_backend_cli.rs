@@ -46,7 +46,7 @@ fn no_hardware_gpu(o: &Output) -> bool {
 }
 
 #[test]
-fn auto_measures_both_backends_at_the_first_run_and_steps_like_a_cpu_run() {
+fn auto_measures_the_cpu_and_the_gpu_at_the_first_run_and_steps_like_a_cpu_run() {
     let dir = temp_dir("auto_measures");
     let script = dir.join("s.rhai");
     std::fs::write(&script, SCRIPT).unwrap();
@@ -92,7 +92,7 @@ fn auto_passes_over_a_software_gpu_without_measuring_unless_asked() {
 }
 
 #[test]
-fn a_resumed_auto_run_continues_on_the_backend_the_interrupted_run_chose() {
+fn a_resumed_auto_run_continues_on_the_cpu_or_gpu_the_interrupted_run_chose() {
     use std::io::BufRead;
     let dir = temp_dir("auto_resume");
     let script = dir.join("s.rhai");

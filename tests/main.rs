@@ -24,6 +24,7 @@ mod energy_pile_cli;
 mod field_maths;
 mod fields_script;
 mod geometry_objects;
+mod gpu_test_names;
 mod guard;
 mod hardening;
 mod hardening_bounds;

@@ -40,7 +40,7 @@ fn value(out: &str, key: &str) -> i64 {
 // grains' weight all hold over 500 steps; the plan runs the parallel_bond stage with rotation;
 // the CPU and GPU runs agree on the counts. A misspelt key is refused with the keys it takes.
 #[test]
-fn a_script_makes_parallel_bonds_and_reads_them_back() {
+fn a_script_makes_parallel_bonds_and_reads_them_back_on_the_cpu_and_the_gpu() {
     for backend in ["cpu", "gpu"] {
         let dir = temp_dir(&format!("parallel_bond_{backend}"));
         let o = run_script(&dir, "s.rhai", SCRIPT, &["--backend", backend]);

@@ -72,7 +72,7 @@ fn study_of_a_metric_the_script_never_reports_says_which_it_did() {
 // `--vary backend=cpu,gpu` (Mesa's software Vulkan in CI): both settings run the same script
 // and report the same settled height within 1e-3 relative, and the table names the backends.
 #[test]
-fn study_varies_the_backend() {
+fn study_varies_the_backend_between_the_cpu_and_the_gpu() {
     let dir = temp_dir("study_backend");
     let script = dir.join("drop.rhai");
     std::fs::write(

@@ -116,7 +116,7 @@ fn spinning_element() -> Model {
 // on the GPU (f32 sums), after 1000 steps and after 3000 more (in two runs: the GPU's angle since
 // the upload is added to the one before, in f64).
 #[test]
-fn the_angle_lane_of_a_spinning_free_element_is_omega_t() {
+fn the_angle_lane_of_a_spinning_free_element_is_omega_t_on_the_cpu_and_the_gpu() {
     let w = Vec3::new(30.0, -20.0, 50.0);
     let mut sims = vec![(Simulation::new(spinning_element()), 1e-12)];
     #[cfg(feature = "gpu")]

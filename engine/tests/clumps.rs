@@ -216,7 +216,7 @@ fn bad_clumps_are_refused_with_what_to_do() {
 /// The rows the device builds (rows.wgsl, behind CLUMPS) leave a clump's members out of each
 /// other's rows, as the host's do: a pile of touching dumbbells.
 #[test]
-fn device_rows_leave_a_clumps_members_apart() {
+fn rows_built_on_the_gpu_leave_a_clumps_members_apart() {
     use matdem_engine::backend::gpu::GpuBackend;
     let Some(ctx) = crate::common::gpu("clumps_device_rows") else { return };
     let mut m = Model::new();

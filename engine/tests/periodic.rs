@@ -348,7 +348,7 @@ fn bad_periodic_cells_are_refused_with_what_to_do() {
 /// The rows the device builds (rows.wgsl and cell_list.wgsl, behind PERIODIC) are the host's:
 /// the strained FCC cell, whose boundary pairs meet through the images.
 #[test]
-fn device_rows_of_a_periodic_cell_are_the_hosts() {
+fn rows_built_on_the_gpu_for_a_periodic_cell_are_the_hosts() {
     use matdem_engine::backend::gpu::GpuBackend;
     let Some(ctx) = crate::common::gpu("periodic_device_rows") else { return };
     let (m, _) = strained_fcc(4, 1e-3);
@@ -666,7 +666,7 @@ fn a_contact_across_a_sheared_face_is_the_contact_with_the_sliding_image_on_the_
 /// x less the offset) are the host's (its whole rows of cells there): the strained FCC cell
 /// with its images slid 0.37 of a span.
 #[test]
-fn device_rows_of_a_sheared_cell_are_the_hosts() {
+fn rows_built_on_the_gpu_for_a_sheared_cell_are_the_hosts() {
     use matdem_engine::backend::gpu::GpuBackend;
     let Some(ctx) = crate::common::gpu("periodic_sheared_rows") else { return };
     let (mut m, a) = strained_fcc(4, 1e-3);
@@ -721,7 +721,7 @@ fn check_sheared_dumbbell(sim: &Simulation, tol: f64) {
 }
 
 #[test]
-fn a_clump_leaving_a_sheared_cell_continues_as_its_image_on_both_backends() {
+fn a_clump_leaving_a_sheared_cell_continues_as_its_image_on_the_cpu_and_the_gpu() {
     let mut cpu = Simulation::new(sheared_dumbbell());
     run(&mut cpu, 300);
     check_sheared_dumbbell(&cpu, 1e-12);

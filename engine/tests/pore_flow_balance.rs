@@ -64,7 +64,7 @@ impl Books {
 // lavapipe: 2.8e-3 without the excess masses' carry, 4.1e-9 with it), and the inlet supplied
 // the steady flux ρ0·Q·t within 1e-3 (measured 2e-5 with the carry, 7e-4 without).
 #[test]
-fn steady_flow_on_the_device_books_every_kilogram() {
+fn steady_flow_on_the_gpu_books_every_kilogram() {
     let Some(ctx) = gpu("pore_flow_steady_balance") else { return };
     let m = column(4, 12);
     let fluid = Fluid { bulk_modulus: 1e7, max_substeps: 1_000_000, ..Fluid::default() };
@@ -111,7 +111,7 @@ fn steady_flow_on_the_device_books_every_kilogram() {
 // used its own f32 pore volumes, ~1e-5 off the host's: ~10 Pa at 1 MPa against ~90 Pa of head
 // across a layer).
 #[test]
-fn steady_flow_in_the_coupled_stage_books_every_kilogram() {
+fn steady_flow_in_the_coupled_stage_on_the_gpu_books_every_kilogram() {
     let Some(ctx) = gpu("pore_flow_coupled_balance") else { return };
     let (nx, nz) = (3, 12);
     let mut m = pore_column(nx, nz, A, 1e6);
@@ -158,7 +158,7 @@ fn steady_flow_in_the_coupled_stage_books_every_kilogram() {
 // device is conserved to round-off, 5e-12 of itself (measured on lavapipe: 5.4e-13 with the
 // carry, 2.7e-8 without it).
 #[test]
-fn sealed_flow_on_the_device_keeps_its_mass_over_many_sub_steps() {
+fn sealed_flow_on_the_gpu_keeps_its_mass_over_many_sub_steps() {
     let Some(ctx) = gpu("pore_flow_sealed_balance") else { return };
     let m = column(4, 6);
     let mut f = PoreFlow::new(&m, Fluid { bulk_modulus: 1e7, max_substeps: 1_000_000, ..Fluid::default() }).unwrap();

@@ -29,7 +29,7 @@ fn on_a_software_gpu_a_small_scene_measures_the_cpu_faster_and_picks_it() {
 }
 
 #[test]
-fn an_empty_model_picks_the_cpu_without_measuring() {
+fn an_empty_model_picks_the_cpu_without_measuring_the_gpu() {
     let Some(ctx) = gpu("speed_test_empty") else { return };
     let t = measure(&Model::new(), ctx).unwrap();
     assert_eq!((t.choice, t.cpu, t.particles), (Choice::Cpu, None, 0));
@@ -39,7 +39,7 @@ fn an_empty_model_picks_the_cpu_without_measuring() {
 // How a host moves its models once `auto` has chosen: a simulation that ran on the CPU and
 // is moved to the GPU continues from where the CPU left it, and back.
 #[test]
-fn a_simulation_moved_between_backends_continues_from_where_it_was() {
+fn a_simulation_moved_between_the_cpu_and_the_gpu_continues_from_where_it_was() {
     let Some(ctx) = gpu("speed_test_set_target") else { return };
     let model = LatticeScene::with_particles(64).build().unwrap();
     let mut sim = matdem_engine::Simulation::new(model);
