@@ -335,5 +335,16 @@ pub fn rounded_twin(mut m: Model, seed: u64) -> Model {
         p.pos[i] = moved;
         p.vel[i] = p.vel[i].map(nudge);
     }
+    // A clump's state is its body's: the body one rounding away, its members where it carries them.
+    for c in 0..m.clumps.bodies.len() {
+        let b = &mut m.clumps.bodies[c];
+        (b.pos, b.vel, b.ang_mom) = (b.pos.map(nudge), b.vel.map(nudge), b.ang_mom.map(nudge));
+        let before = m.particles.pos.clone();
+        matdem_engine::effects::clumps::cpu::place_members(&mut m, c);
+        let p = &mut m.particles;
+        for i in 0..p.pos.len() {
+            p.origin[i] += p.pos[i] - before[i];
+        }
+    }
     m
 }
