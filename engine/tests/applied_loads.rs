@@ -210,15 +210,15 @@ fn disagreement(
     disagreement_of(Simulation::new(scene()), Simulation::with_gpu(scene(), ctx))
 }
 
-/// The largest disagreement of run `b` from the CPU run `cpu` after 200 and 800 steps, as
-/// fractions of `cpu`'s largest displacement, spin and angle, of its applied work and of its
-/// rotational kinetic energy.
-fn disagreement_of(mut cpu: Simulation, mut gpu: Simulation) -> Vec<[f64; 5]> {
+/// The largest disagreement of run `other` from the CPU run `cpu` of one scene after 200 and 800
+/// steps, as fractions of `cpu`'s largest displacement, spin and angle, of its applied work and
+/// of its rotational kinetic energy.
+fn disagreement_of(mut cpu: Simulation, mut other: Simulation) -> Vec<[f64; 5]> {
     let mut out = Vec::new();
     for steps in [200u64, 600] {
         run(&mut cpu, steps);
-        run(&mut gpu, steps);
-        let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+        run(&mut other, steps);
+        let (a, b) = (&cpu.model.particles, &other.model.particles);
         let (ra, rb) = (a.rotation.as_ref().unwrap(), b.rotation.as_ref().unwrap());
         let top = |f: &dyn Fn(usize) -> f64| (0..a.len()).map(f).fold(0.0, f64::max);
         let (dx, dw, da) =

@@ -243,9 +243,9 @@ const COLUMN_PARTING: f64 = 1e-4;
 const COLUMN_STRESS: f64 = 5e-3;
 const COLUMN_VOLUME: f64 = 1.5e-2;
 
-/// Runs the column of varied radii, or its rounded twin `seed`, on `sim`'s backend beside the
-/// CPU's: [parting after 300 steps as a fraction of the largest displacement, then balanced
-/// after 4,000: side stress, membrane volume (relative)].
+/// Runs `other` (the column of varied radii on another backend, or its rounded twin) beside the
+/// CPU's `cpu`: [parting after 300 steps as a fraction of the largest displacement, then
+/// balanced after 4,000: side stress, membrane volume (relative)].
 fn column_disagreement(mut cpu: Simulation, mut other: Simulation) -> [f64; 3] {
     run(&mut cpu, 300);
     run(&mut other, 300);
