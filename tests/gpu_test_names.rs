@@ -1,6 +1,6 @@
 //! Every test that runs on a GPU says so in its path, so that `.ci/device-check run`, which runs
 //! on a hardware GPU the tests of the engine's and the host's integration binaries whose paths
-//! hold one of the words of `.ci/gpu-tests`, runs them all (before 2026-12-07 fourteen ran on
+//! hold one of the words of `.ci/gpu-tests`, runs them all (until 2026-12-06 fourteen ran on
 //! lavapipe only: `steady_flow_on_the_device_books_every_kilogram`, `study_varies_the_backend`, …).
 //!
 //! A test runs on a GPU when its body takes a device (`gpu(…)`, `common::gpu(…)`), builds a
