@@ -5,7 +5,9 @@
 // workgroup boundary, so the partials are the same however the particles are split. A wall no
 // particle of the workgroup touches has a zero partial, written without a tree, and the walls
 // it touches are summed up to four at a time in one tree: a tree costs the workgroup 8
-// barriers, and in a large scene most workgroups touch few walls.
+// barriers, and in a large scene most workgroups touch few walls. Where nothing reads the loads
+// before the next pass writes them again (no servo wall, a step other than a batch's last),
+// the pipeline is compiled with WALL_LOADS off: no touch mask, no trees, no barrier at all.
 // CPU twin: backend/cpu/wall_forces.rs.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
@@ -18,6 +20,9 @@ var<workgroup> red_stiffness: array<array<vec4<f32>, 64>, TREES>;
 // Bit w: some particle of the workgroup touches wall w (zero at the start of a dispatch).
 var<workgroup> touching: atomic<u32>;
 var<workgroup> touching_all: u32;
+// Whether this pass leaves the workgroups' load partials (off: the forces on the particles
+// alone, the same bits).
+override WALL_LOADS: bool = true;
 
 @compute @workgroup_size(64)
 fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -59,20 +64,23 @@ fn wall_pass(gid: vec3<u32>, groups: vec3<u32>, wg: vec3<u32>, li: u32) -> Finis
     // This particle's heat (damping, friction) and the work the walls did on it.
     var h = vec3<f32>(0.0);
     // Which walls the workgroup touches: their loads are the only ones to sum.
-    var mine = 0u;
-    for (var w = 0u; w < nw; w++) {
-        if inside && wall_overlap(walls[w], k, oi, ui, ri).overlap > 0.0 {
-            mine |= 1u << w;
+    var touched = 0u;
+    if WALL_LOADS {
+        var mine = 0u;
+        for (var w = 0u; w < nw; w++) {
+            if inside && wall_overlap(walls[w], k, oi, ui, ri).overlap > 0.0 {
+                mine |= 1u << w;
+            }
         }
+        if mine != 0u {
+            atomicOr(&touching, mine);
+        }
+        workgroupBarrier();
+        if li == 0u {
+            touching_all = atomicLoad(&touching);
+        }
+        touched = workgroupUniformLoad(&touching_all);
     }
-    if mine != 0u {
-        atomicOr(&touching, mine);
-    }
-    workgroupBarrier();
-    if li == 0u {
-        touching_all = atomicLoad(&touching);
-    }
-    let touched = workgroupUniformLoad(&touching_all);
     // One wall at a time, in wall order (as the CPU adds them): this particle's contact; the
     // workgroup's loads on the touched walls, TREES walls at a time, summed in a fixed tree
     // order. `queued` and `queue` depend only on `touched`: uniform across the workgroup.
@@ -132,6 +140,9 @@ fn wall_pass(gid: vec3<u32>, groups: vec3<u32>, wg: vec3<u32>, li: u32) -> Finis
                     load2.z = c.damping;
                 }
             }
+        }
+        if !WALL_LOADS {
+            continue;
         }
         if (touched & (1u << w)) == 0u {
             // Every load is +0: the tree would sum them to +0.

@@ -16,6 +16,7 @@ use crate::common::{
 use matdem_engine::backend::gpu::device::GpuContext;
 use matdem_engine::backend::gpu::{GpuBackend, RowStats};
 use matdem_engine::backend::RunControl;
+use matdem_engine::bench::LatticeScene;
 use matdem_engine::builder::Rng;
 use matdem_engine::neighbours::{is_stale, rebuild};
 use matdem_engine::physics::contact_law::BreakKind;
@@ -431,6 +432,47 @@ fn integration_in_the_wall_pass_changes_no_bit() {
     let (fused, separate) = (go(false), go(true));
     assert_eq!(fused.5, sample.clock.step + 2000);
     assert!(fused == separate, "the fused wall pass and integration differ from the separate passes");
+}
+
+// Without a servo wall, the wall pass leaves load partials only at a batch's last step, the one
+// a download reads (WALL_LOADS off in the others: no touch mask, no trees, no barrier). Three
+// scenes — the oedometer stage with its platen held (a ring, one workgroup), a stirred lattice
+// in a box of five planes (1,280 grains, 20 workgroups), and the same with a side wall pushed
+// in at a set velocity (a moving wall's pass then sums partials nobody reads) — in runs of
+// several lengths, so downloads fall at different steps of a batch: the same bits as summing
+// the loads at every step (positions, velocities, spins, every wall's load, stiffness and
+// contact count, friction heat).
+#[test]
+fn wall_loads_summed_only_for_a_download_change_no_bit() {
+    let Some(ctx) = gpu("quiet_wall_pass") else { return };
+    let lattice = LatticeScene { nx: 8, ny: 8, nz: 20, ..LatticeScene::default() }.stirred().build().unwrap();
+    let mut pushed = lattice.clone();
+    pushed.wall_mut("x0").unwrap().motion = WallMotion::Velocity(Vec3::new(0.05, 0.0, 0.0));
+    for sample in [oedometer_sample(), lattice, pushed] {
+        assert!(!Simulation::new(sample.clone()).plan().steps_read_wall_loads());
+        let go = |every_step: bool| {
+            let mut m = sample.clone();
+            let mut backend = GpuBackend::prepare(ctx.clone(), &m).unwrap();
+            if every_step {
+                backend.sum_loads_every_step();
+            }
+            let mut loads = Vec::new();
+            for steps in [700, 37, 1263] {
+                run_steps(&mut backend, &mut m, steps, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
+                let wall_bits = |w: &Wall| [w.normal_force.to_bits(), w.stiffness.to_bits(), u64::from(w.contacts)];
+                loads.push(m.walls.iter().map(wall_bits).collect::<Vec<_>>());
+            }
+            let p = &m.particles;
+            let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
+            let w = &p.rotation.as_ref().unwrap().ang_vel;
+            let heat = Simulation::new(m.clone()).energies();
+            (bits(&p.pos), bits(&p.vel), bits(w), loads, heat.heat_friction.to_bits(), m.clock.step)
+        };
+        let (quiet, every) = (go(false), go(true));
+        assert_eq!(quiet.5, sample.clock.step + 2000);
+        assert!(quiet.3.iter().flatten().any(|w| w[0] != 0), "the walls carry loads: {:?}", quiet.3);
+        assert!(quiet == every, "summing the fixed walls' loads only for a download changed the state");
+    }
 }
 
 // A wall that moved and is then fixed stands still on the GPU as on the CPU. A scene whose walls

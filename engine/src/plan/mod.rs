@@ -340,6 +340,17 @@ impl StepPlan {
         self.runs(Role::Force).next().is_some()
     }
 
+    /// Whether the plan has walls and none of them moves (by velocity or servo).
+    pub fn fixed_walls_only(&self) -> bool {
+        self.walls > 0 && self.moving_walls + self.servo_walls == 0
+    }
+
+    /// Whether a step reads the walls' loads of the step before: a servo wall sets its speed
+    /// from them. Without one, only what comes after a run reads them.
+    pub fn steps_read_wall_loads(&self) -> bool {
+        self.servo_walls > 0
+    }
+
     /// The stages of `role` this plan runs, in step order. A set apart from the plan, so a
     /// backend may walk it while it borrows itself mutably, and allocates nothing.
     pub fn runs(&self, role: Role) -> Stages {

@@ -150,6 +150,9 @@ struct WallPipelines {
     advance: Pipeline,
     /// The wall pass; with integration in it when `integrates`.
     forces: Pipeline,
+    /// The same pass leaving no load partials, for the steps whose loads nobody reads: without
+    /// a servo wall, all steps of a batch but its last (a download sums the last's).
+    quiet: Option<Pipeline>,
     /// No force stage runs between the wall pass and integration, so the pass integrates too.
     integrates: bool,
     /// The loads summed alone (before a download).
@@ -172,6 +175,8 @@ struct Kernels {
 struct WallKernels {
     advance: Kernel,
     forces: Vec<Kernel>,
+    /// [`WallPipelines::quiet`]'s kernels.
+    quiet: Option<Vec<Kernel>>,
     /// The wall pass integrates too (`forces` are the integrating pipeline's): the integrate
     /// stage has no pass of its own.
     integrates: bool,
@@ -312,7 +317,9 @@ impl GpuBackend {
             contact_forces: contact_forces::pipeline(device, &constants),
             walls: (plan.walls > 0).then(|| WallPipelines {
                 advance: walls::pipeline(device, &constants),
-                forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage()),
+                forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage(), true),
+                quiet: (!plan.steps_read_wall_loads())
+                    .then(|| wall_forces::pipeline(device, &constants, !plan.has_force_stage(), false)),
                 integrates: !plan.has_force_stage(),
                 sum_loads: walls::sum_pipeline(device, &constants),
                 fold: walls::fold_pipeline(device, &constants),
@@ -370,9 +377,20 @@ impl GpuBackend {
     pub fn separate_passes(&mut self) {
         let mut constants = shaders::constants(&self.plan);
         constants.extend(self.ledger.constants());
+        let quiet = !self.plan.steps_read_wall_loads();
         if let Some(w) = self.pipelines.walls.as_mut().filter(|w| w.integrates) {
-            w.forces = wall_forces::pipeline(&self.ctx, &constants, false);
+            w.forces = wall_forces::pipeline(&self.ctx, &constants, false, true);
+            w.quiet = quiet.then(|| wall_forces::pipeline(&self.ctx, &constants, false, false));
             w.integrates = false;
+        }
+    }
+
+    /// Sums the walls' loads at every step, as a plan with a servo wall must, where a plan
+    /// without one sums them only at a batch's last step: both give the same bits
+    /// (`engine/tests/gpu_parity.rs`). Takes effect at the next upload.
+    pub fn sum_loads_every_step(&mut self) {
+        if let Some(w) = self.pipelines.walls.as_mut() {
+            w.quiet = None;
         }
     }
 
@@ -515,6 +533,7 @@ impl GpuBackend {
                 Some(w) => Some(WallKernels {
                     advance: walls::kernel(device, &w.advance, &lanes)?,
                     forces: wall_forces::kernels(device, &w.forces, &lanes)?,
+                    quiet: w.quiet.as_ref().map(|q| wall_forces::kernels(device, q, &lanes)).transpose()?,
                     integrates: w.integrates,
                     sum_loads: walls::kernel(device, &w.sum_loads, &lanes)?,
                     fold: walls::fold_kernel(device, &w.fold, &lanes, walls::blocks(wall_groups))?,
@@ -586,7 +605,8 @@ impl GpuBackend {
     /// One step's stages in the order the device runs them, `t` steps into the batch: the
     /// plan's stages in step order (walls: last step's loads summed, then moved; contact forces;
     /// wall forces; the force stages; integration; the field stages due after this step).
-    fn step_stages<'s>(&'s self, s: &'s Session, t: u64) -> Vec<(Stage, StageWork<'s>)> {
+    /// `last`: the batch's last step, whose wall loads a download may read.
+    fn step_stages<'s>(&'s self, s: &'s Session, t: u64, last: bool) -> Vec<(Stage, StageWork<'s>)> {
         let kr = &s.kernels;
         let step = s.step0 + s.steps + t;
         let work = |stage: Stage| -> Option<StageWork<'s>> {
@@ -594,13 +614,22 @@ impl GpuBackend {
                 // Walls that never move need no pass a step: their loads are summed when a
                 // download reads them (`download`), and a fixed wall's velocity is zero from
                 // the upload.
-                Stage::Walls if self.plan.moving_walls + self.plan.servo_walls == 0 => return None,
+                Stage::Walls if self.plan.fixed_walls_only() => return None,
                 Stage::Walls => {
                     let w = kr.walls.as_ref()?;
                     StageWork::Kernels(w.summing(&w.advance))
                 }
                 Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
-                Stage::WallForces => StageWork::Kernels(kr.walls.as_ref()?.forces.iter().collect()),
+                Stage::WallForces => {
+                    let w = kr.walls.as_ref()?;
+                    // Without a servo the loads are read only by a download, after a batch's
+                    // last step (a moving wall's pass sums stale partials: nothing reads them).
+                    let kernels = match &w.quiet {
+                        Some(quiet) if !last => quiet,
+                        _ => &w.forces,
+                    };
+                    StageWork::Kernels(kernels.iter().collect())
+                }
                 Stage::PoreFlow => StageWork::Pores(s.pores.as_ref()?),
                 Stage::Integrate if kr.walls.as_ref().is_some_and(|w| w.integrates) => return None,
                 Stage::Integrate => StageWork::Kernels(vec![&kr.integrate]),
@@ -654,7 +683,7 @@ impl GpuBackend {
             let mut pass = enc
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(STEP_BATCH), timestamp_writes: None });
             for u in t..end.min(k) {
-                for (stage, work) in self.step_stages(s, u) {
+                for (stage, work) in self.step_stages(s, u, u + 1 == k) {
                     work.encode(&mut pass, stage);
                 }
             }

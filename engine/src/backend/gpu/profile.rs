@@ -100,7 +100,7 @@ impl GpuBackend {
         // Batches alternate, each as separate passes and then as a run encodes it, so that
         // both see the machine alike (another process's load comes in bursts).
         while done < steps {
-            let per_step = self.step_stages(&s, 0).len() + 2;
+            let per_step = self.step_stages(&s, 0, true).len() + 2;
             let room = ((MAX_PASSES - 4) / per_step).max(1) as u64;
             let first = self.batch.min(room).min(steps - done);
             let guard = done + first == steps;
@@ -109,7 +109,8 @@ impl GpuBackend {
                 let k = if separate { first } else { first.min(self.batch) };
                 let before = self.ctx.submissions();
                 self.reset_batch_counters(&s, guard);
-                let mut work: Vec<(Stage, StageWork)> = (0..k).flat_map(|t| self.step_stages(&s, t)).collect();
+                let mut work: Vec<(Stage, StageWork)> =
+                    (0..k).flat_map(|t| self.step_stages(&s, t, t + 1 == k)).collect();
                 work.extend(self.batch_tail(&s, guard));
                 if separate {
                     let passes: Vec<&[(Stage, StageWork)]> = work.chunks(1).collect();

@@ -11,13 +11,18 @@ use crate::plan::Stage;
 
 /// The wall pass; with `integrates`, the one that also moves each particle it finishes
 /// (shaders/wall_forces_integrate.wgsl): for plans with walls and no force stage between the
-/// two, one dispatch a step fewer.
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], integrates: bool) -> Pipeline {
+/// two, one dispatch a step fewer. Without `loads` it leaves no load partials (no touch mask,
+/// no reduction trees, no barrier): the particles' forces and motion are the same bits.
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], integrates: bool, loads: bool) -> Pipeline {
+    let mut constants = constants.to_vec();
+    if !loads {
+        constants.push(("WALL_LOADS", 0.0));
+    }
     if integrates {
         let (shader, entry) = (&shaders::WALL_FORCES_INTEGRATE, "compute_wall_forces_and_integrate");
-        return shaders::pipeline(device, "wall_forces + integrate", shader, entry, constants);
+        return shaders::pipeline(device, "wall_forces + integrate", shader, entry, &constants);
     }
-    shaders::pipeline(device, Stage::WallForces.name(), &shaders::WALL_FORCES, "compute_wall_forces", constants)
+    shaders::pipeline(device, Stage::WallForces.name(), &shaders::WALL_FORCES, "compute_wall_forces", &constants)
 }
 
 pub fn kernels(device: &wgpu::Device, p: &Pipeline, d: &DeviceLanes) -> Result<Vec<Kernel>> {
