@@ -5,9 +5,10 @@
 // workgroup boundary, so the partials are the same however the particles are split. A wall no
 // particle of the workgroup touches has a zero partial, written without a tree, and the walls
 // it touches are summed up to four at a time in one tree: a tree costs the workgroup 8
-// barriers, and in a large scene most workgroups touch few walls. Where nothing reads the loads
-// before the next pass writes them again (no servo wall, a step other than a batch's last),
-// the pipeline is compiled with WALL_LOADS off: no touch mask, no trees, no barrier at all.
+// barriers, and in a large scene most workgroups touch few walls. A wall whose load nothing
+// reads before the next pass writes it again (any but a servo, at a step other than a batch's
+// last) is left out of the partials by STEP_LOADS; with no wall left, the pass has no touch
+// mask, no tree and no barrier at all.
 // CPU twin: backend/cpu/wall_forces.rs.
 
 // Bindings: generated from this stage's list in engine/src/backend/gpu/shaders.rs.
@@ -20,9 +21,9 @@ var<workgroup> red_stiffness: array<array<vec4<f32>, 64>, TREES>;
 // Bit w: some particle of the workgroup touches wall w (zero at the start of a dispatch).
 var<workgroup> touching: atomic<u32>;
 var<workgroup> touching_all: u32;
-// Whether this pass leaves the workgroups' load partials (off: the forces on the particles
-// alone, the same bits).
-override WALL_LOADS: bool = true;
+// Bit w: this pass leaves the workgroups' load partials of wall w (the others' partials are
+// left as they were; the particles' forces are the same bits either way).
+override STEP_LOADS: u32 = 0xffffffffu;
 
 @compute @workgroup_size(64)
 fn compute_wall_forces(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -65,10 +66,10 @@ fn wall_pass(gid: vec3<u32>, groups: vec3<u32>, wg: vec3<u32>, li: u32) -> Finis
     var h = vec3<f32>(0.0);
     // Which walls the workgroup touches: their loads are the only ones to sum.
     var touched = 0u;
-    if WALL_LOADS {
+    if STEP_LOADS != 0u {
         var mine = 0u;
         for (var w = 0u; w < nw; w++) {
-            if inside && wall_overlap(walls[w], k, oi, ui, ri).overlap > 0.0 {
+            if inside && (STEP_LOADS & (1u << w)) != 0u && wall_overlap(walls[w], k, oi, ui, ri).overlap > 0.0 {
                 mine |= 1u << w;
             }
         }
@@ -141,7 +142,7 @@ fn wall_pass(gid: vec3<u32>, groups: vec3<u32>, wg: vec3<u32>, li: u32) -> Finis
                 }
             }
         }
-        if !WALL_LOADS {
+        if (STEP_LOADS & (1u << w)) == 0u {
             continue;
         }
         if (touched & (1u << w)) == 0u {

@@ -434,22 +434,25 @@ fn integration_in_the_wall_pass_changes_no_bit() {
     assert!(fused == separate, "the fused wall pass and integration differ from the separate passes");
 }
 
-// Without a servo wall, the wall pass leaves load partials only at a batch's last step, the one
-// a download reads (WALL_LOADS off in the others: no touch mask, no trees, no barrier). Three
-// scenes — the oedometer stage with its platen held (a ring, one workgroup), a stirred lattice
-// in a box of five planes (1,280 grains, 20 workgroups), and the same with a side wall pushed
-// in at a set velocity (a moving wall's pass then sums partials nobody reads) — in runs of
-// several lengths, so downloads fall at different steps of a batch: the same bits as summing
-// the loads at every step (positions, velocities, spins, every wall's load, stiffness and
-// contact count, friction heat).
+// A step reads only the servo walls' loads; the others are read by a download, after a batch's
+// last step. So every step but a batch's last leaves the servo walls' load partials alone
+// (STEP_LOADS; none without a servo: no touch mask, no trees, no barrier). Four scenes — the
+// oedometer stage with its platen held (a ring, one workgroup) and with its platen a servo (the
+// ring and floor then left out), a stirred lattice in a box of five planes (1,280 grains, 20
+// workgroups), and the same with a side wall pushed in at a set velocity (a moving wall's pass
+// sums partials nobody reads) — in runs of several lengths, so downloads fall at different
+// steps of a batch: the same bits as summing every wall's load at every step (positions,
+// velocities, spins, every wall's load, stiffness, contact count and travel, friction heat).
 #[test]
-fn wall_loads_summed_only_for_a_download_change_no_bit() {
+fn wall_loads_summed_only_where_read_change_no_bit() {
     let Some(ctx) = gpu("quiet_wall_pass") else { return };
+    let mut servo = oedometer_sample();
+    servo.wall_mut("top_platen").unwrap().motion = WallMotion::Servo { stress: 2e4, max_speed: 0.2 };
     let lattice = LatticeScene { nx: 8, ny: 8, nz: 20, ..LatticeScene::default() }.stirred().build().unwrap();
     let mut pushed = lattice.clone();
     pushed.wall_mut("x0").unwrap().motion = WallMotion::Velocity(Vec3::new(0.05, 0.0, 0.0));
-    for sample in [oedometer_sample(), lattice, pushed] {
-        assert!(!Simulation::new(sample.clone()).plan().steps_read_wall_loads());
+    for (sample, servo_mask) in [(oedometer_sample(), 0), (servo, 0b100), (lattice, 0), (pushed, 0)] {
+        assert_eq!(Simulation::new(sample.clone()).plan().servo_mask, servo_mask);
         let go = |every_step: bool| {
             let mut m = sample.clone();
             let mut backend = GpuBackend::prepare(ctx.clone(), &m).unwrap();
@@ -459,7 +462,10 @@ fn wall_loads_summed_only_for_a_download_change_no_bit() {
             let mut loads = Vec::new();
             for steps in [700, 37, 1263] {
                 run_steps(&mut backend, &mut m, steps, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
-                let wall_bits = |w: &Wall| [w.normal_force.to_bits(), w.stiffness.to_bits(), u64::from(w.contacts)];
+                let wall_bits = |w: &Wall| {
+                    let travel = w.displacement.map(f64::to_bits);
+                    [w.normal_force.to_bits(), w.stiffness.to_bits(), u64::from(w.contacts), travel.x, travel.z]
+                };
                 loads.push(m.walls.iter().map(wall_bits).collect::<Vec<_>>());
             }
             let p = &m.particles;
@@ -471,7 +477,7 @@ fn wall_loads_summed_only_for_a_download_change_no_bit() {
         let (quiet, every) = (go(false), go(true));
         assert_eq!(quiet.5, sample.clock.step + 2000);
         assert!(quiet.3.iter().flatten().any(|w| w[0] != 0), "the walls carry loads: {:?}", quiet.3);
-        assert!(quiet == every, "summing the fixed walls' loads only for a download changed the state");
+        assert!(quiet == every, "summing the loads only where they are read changed the state");
     }
 }
 

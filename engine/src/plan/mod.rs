@@ -18,7 +18,7 @@ use crate::physics::contact_law::PairParams;
 use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
 use crate::physics::Vec3;
 use crate::state::particles::HeatCauses;
-use crate::walls::WallMotion;
+use crate::walls::{Wall, WallMotion};
 use std::fmt;
 
 pub mod registry;
@@ -151,6 +151,9 @@ pub struct StepPlan {
     pub walls: usize,
     pub moving_walls: usize,
     pub servo_walls: usize,
+    /// Bit w: wall w is a servo, steered each step by its load of the step before (the only
+    /// wall loads a step reads; the others are read after a run).
+    pub servo_mask: u32,
     pub materials: usize,
     /// Pair constants per (material, material): `pair[a * materials + b]`.
     pub pair: Vec<PairParams>,
@@ -220,7 +223,9 @@ impl StepPlan {
         let s = &m.settings;
         let shear_springs = s.tangential.is_mindlin() || pair.iter().chain(&wall).any(|p| p.ks > 0.0);
         let moving_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Velocity(_))).count();
-        let servo_walls = m.walls.iter().filter(|w| matches!(w.motion, WallMotion::Servo { .. })).count();
+        let servo = |w: &Wall| matches!(w.motion, WallMotion::Servo { .. });
+        let servo_walls = m.walls.iter().filter(|w| servo(w)).count();
+        let servo_mask = m.walls.iter().enumerate().filter(|(_, w)| servo(w)).fold(0, |mask, (k, _)| mask | 1 << k);
         let bonds = m.contacts.state.iter().any(|p| p.bonded);
         let pb = &m.parallel_bonds;
         let parallel_bond = pb.params.filter(|_| pb.intact() > 0);
@@ -261,6 +266,7 @@ impl StepPlan {
             walls: m.walls.len(),
             moving_walls,
             servo_walls,
+            servo_mask,
             materials: nm,
             pair,
             wall,
@@ -343,12 +349,6 @@ impl StepPlan {
     /// Whether the plan has walls and none of them moves (by velocity or servo).
     pub fn fixed_walls_only(&self) -> bool {
         self.walls > 0 && self.moving_walls + self.servo_walls == 0
-    }
-
-    /// Whether a step reads the walls' loads of the step before: a servo wall sets its speed
-    /// from them. Without one, only what comes after a run reads them.
-    pub fn steps_read_wall_loads(&self) -> bool {
-        self.servo_walls > 0
     }
 
     /// The stages of `role` this plan runs, in step order. A set apart from the plan, so a

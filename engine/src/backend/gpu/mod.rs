@@ -118,6 +118,13 @@ pub fn all_shaders() -> impl Iterator<Item = &'static shaders::Shader> {
 /// the heat ledger, which is booked inside the stages that dissipate.
 const HELD_BY_NAME: [Stage; 3] = [Stage::PoreFlow, Stage::Periodic, Stage::HeatLedger];
 
+/// The walls whose loads a step of `plan` reads (bit w for wall w: the servo walls), when
+/// fewer than all: the steps but a batch's last leave the load partials of those alone.
+fn quiet_loads(plan: &StepPlan) -> Option<u32> {
+    let all = if plan.walls >= 32 { u32::MAX } else { (1 << plan.walls) - 1 };
+    (plan.servo_mask != all).then_some(plan.servo_mask)
+}
+
 /// Steps one batch may hold before the host looks at the drift again.
 const MAX_BATCH: u64 = 64;
 
@@ -150,8 +157,9 @@ struct WallPipelines {
     advance: Pipeline,
     /// The wall pass; with integration in it when `integrates`.
     forces: Pipeline,
-    /// The same pass leaving no load partials, for the steps whose loads nobody reads: without
-    /// a servo wall, all steps of a batch but its last (a download sums the last's).
+    /// The same pass leaving the load partials of the servo walls alone (none without one), the
+    /// only loads a step reads: for all steps of a batch but its last (a download sums the
+    /// last's). None when every wall is a servo.
     quiet: Option<Pipeline>,
     /// No force stage runs between the wall pass and integration, so the pass integrates too.
     integrates: bool,
@@ -317,9 +325,9 @@ impl GpuBackend {
             contact_forces: contact_forces::pipeline(device, &constants),
             walls: (plan.walls > 0).then(|| WallPipelines {
                 advance: walls::pipeline(device, &constants),
-                forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage(), true),
-                quiet: (!plan.steps_read_wall_loads())
-                    .then(|| wall_forces::pipeline(device, &constants, !plan.has_force_stage(), false)),
+                forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage(), None),
+                quiet: quiet_loads(&plan)
+                    .map(|mask| wall_forces::pipeline(device, &constants, !plan.has_force_stage(), Some(mask))),
                 integrates: !plan.has_force_stage(),
                 sum_loads: walls::sum_pipeline(device, &constants),
                 fold: walls::fold_pipeline(device, &constants),
@@ -377,16 +385,16 @@ impl GpuBackend {
     pub fn separate_passes(&mut self) {
         let mut constants = shaders::constants(&self.plan);
         constants.extend(self.ledger.constants());
-        let quiet = !self.plan.steps_read_wall_loads();
+        let quiet = quiet_loads(&self.plan);
         if let Some(w) = self.pipelines.walls.as_mut().filter(|w| w.integrates) {
-            w.forces = wall_forces::pipeline(&self.ctx, &constants, false, true);
-            w.quiet = quiet.then(|| wall_forces::pipeline(&self.ctx, &constants, false, false));
+            w.forces = wall_forces::pipeline(&self.ctx, &constants, false, None);
+            w.quiet = quiet.map(|mask| wall_forces::pipeline(&self.ctx, &constants, false, Some(mask)));
             w.integrates = false;
         }
     }
 
-    /// Sums the walls' loads at every step, as a plan with a servo wall must, where a plan
-    /// without one sums them only at a batch's last step: both give the same bits
+    /// Sums every wall's load at every step, where a plan sums a servo wall's alone (none
+    /// without one) but at a batch's last step: both give the same bits
     /// (`engine/tests/gpu_parity.rs`). Takes effect at the next upload.
     pub fn sum_loads_every_step(&mut self) {
         if let Some(w) = self.pipelines.walls.as_mut() {
@@ -622,8 +630,9 @@ impl GpuBackend {
                 Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
                 Stage::WallForces => {
                     let w = kr.walls.as_ref()?;
-                    // Without a servo the loads are read only by a download, after a batch's
-                    // last step (a moving wall's pass sums stale partials: nothing reads them).
+                    // A step reads only the servo walls' loads; the others are read by a
+                    // download, after a batch's last step (the walls pass sums their stale
+                    // partials too: nothing reads those sums).
                     let kernels = match &w.quiet {
                         Some(quiet) if !last => quiet,
                         _ => &w.forces,

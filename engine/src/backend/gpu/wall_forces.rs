@@ -11,12 +11,13 @@ use crate::plan::Stage;
 
 /// The wall pass; with `integrates`, the one that also moves each particle it finishes
 /// (shaders/wall_forces_integrate.wgsl): for plans with walls and no force stage between the
-/// two, one dispatch a step fewer. Without `loads` it leaves no load partials (no touch mask,
-/// no reduction trees, no barrier): the particles' forces and motion are the same bits.
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], integrates: bool, loads: bool) -> Pipeline {
+/// two, one dispatch a step fewer. With `loads`, it leaves the load partials of those walls
+/// only (bit w for wall w; none: no touch mask, no reduction tree, no barrier), and those of
+/// every wall without: the particles' forces and motion are the same bits either way.
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], integrates: bool, loads: Option<u32>) -> Pipeline {
     let mut constants = constants.to_vec();
-    if !loads {
-        constants.push(("WALL_LOADS", 0.0));
+    if let Some(mask) = loads {
+        constants.push(("STEP_LOADS", f64::from(mask)));
     }
     if integrates {
         let (shader, entry) = (&shaders::WALL_FORCES_INTEGRATE, "compute_wall_forces_and_integrate");
