@@ -119,9 +119,10 @@ pub fn all_shaders() -> impl Iterator<Item = &'static shaders::Shader> {
 const HELD_BY_NAME: [Stage; 3] = [Stage::PoreFlow, Stage::Periodic, Stage::HeatLedger];
 
 /// The walls whose loads a step of `plan` reads (bit w for wall w: the servo walls), when
-/// fewer than all: the steps but a batch's last leave the load partials of those alone.
+/// fewer than all (a scene has at most `walls::MAX_WALLS`): the steps but a batch's last leave
+/// the load partials of those alone.
 fn quiet_loads(plan: &StepPlan) -> Option<u32> {
-    let all = if plan.walls >= 32 { u32::MAX } else { (1 << plan.walls) - 1 };
+    let all = (1u32 << plan.walls) - 1;
     (plan.servo_mask != all).then_some(plan.servo_mask)
 }
 
