@@ -98,9 +98,15 @@ fn sum_wall_loads(@builtin(local_invocation_index) li: u32) {
     sum_loads(li);
 }
 
+// Whether the walls pass sums the last step's loads before it moves the walls: only a servo
+// reads them (off without one; a download sums the run's last loads itself).
+override SUM_LOADS: bool = true;
+
 @compute @workgroup_size(64)
 fn advance_walls(@builtin(local_invocation_index) li: u32) {
-    sum_loads(li);
+    if SUM_LOADS {
+        sum_loads(li);
+    }
     if li != 0u {
         return;
     }

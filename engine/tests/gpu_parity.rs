@@ -421,17 +421,34 @@ fn integration_in_the_wall_pass_changes_no_bit() {
             backend.separate_passes();
         }
         run_steps(&mut backend, &mut m, 2000, 0, &RunControl::default(), &mut |_| {}, &mut |_| {}).unwrap();
-        let p = &m.particles;
-        let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
-        let w = &p.rotation.as_ref().unwrap().ang_vel;
         let loads: Vec<u64> = m.walls.iter().map(|w| w.normal_force.to_bits()).collect();
-        let e = m.clone();
-        let heat = Simulation::new(e).energies();
-        (bits(&p.pos), bits(&p.vel), bits(w), loads, heat.heat_friction.to_bits(), m.clock.step)
+        (state_bits(&m), loads)
     };
     let (fused, separate) = (go(false), go(true));
-    assert_eq!(fused.5, sample.clock.step + 2000);
+    assert_eq!(fused.0.step, sample.clock.step + 2000);
     assert!(fused == separate, "the fused wall pass and integration differ from the separate passes");
+}
+
+/// A rotating model's state as bits: what two ways of stepping it must leave alike.
+#[derive(PartialEq)]
+struct StateBits {
+    pos: Vec<[u64; 3]>,
+    vel: Vec<[u64; 3]>,
+    spin: Vec<[u64; 3]>,
+    heat_friction: u64,
+    step: u64,
+}
+
+fn state_bits(m: &Model) -> StateBits {
+    let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect();
+    let p = &m.particles;
+    StateBits {
+        pos: bits(&p.pos),
+        vel: bits(&p.vel),
+        spin: bits(&p.rotation.as_ref().unwrap().ang_vel),
+        heat_friction: Simulation::new(m.clone()).energies().heat_friction.to_bits(),
+        step: m.clock.step,
+    }
 }
 
 // A step reads only the servo walls' loads; the others are read by a download, after a batch's
@@ -439,9 +456,9 @@ fn integration_in_the_wall_pass_changes_no_bit() {
 // (STEP_LOADS; none without a servo: no touch mask, no trees, no barrier). Four scenes — the
 // oedometer stage with its platen held (a ring, one workgroup) and with its platen a servo (the
 // ring and floor then left out), a stirred lattice in a box of five planes (1,280 grains, 20
-// workgroups), and the same with a side wall pushed in at a set velocity (a moving wall's pass
-// sums partials nobody reads) — in runs of several lengths, so downloads fall at different
-// steps of a batch: the same bits as summing every wall's load at every step (positions,
+// workgroups), and the same with a side wall pushed in at a set velocity (with no servo, the
+// walls pass moves it without summing loads) — in runs of several lengths, so downloads fall at
+// different steps of a batch: the same bits as summing every wall's load at every step (positions,
 // velocities, spins, every wall's load, stiffness, contact count and travel, friction heat).
 #[test]
 fn wall_loads_summed_only_where_read_change_no_bit() {
@@ -468,15 +485,11 @@ fn wall_loads_summed_only_where_read_change_no_bit() {
                 };
                 loads.push(m.walls.iter().map(wall_bits).collect::<Vec<_>>());
             }
-            let p = &m.particles;
-            let bits = |v: &[Vec3]| v.iter().map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()]).collect::<Vec<_>>();
-            let w = &p.rotation.as_ref().unwrap().ang_vel;
-            let heat = Simulation::new(m.clone()).energies();
-            (bits(&p.pos), bits(&p.vel), bits(w), loads, heat.heat_friction.to_bits(), m.clock.step)
+            (state_bits(&m), loads)
         };
         let (quiet, every) = (go(false), go(true));
-        assert_eq!(quiet.5, sample.clock.step + 2000);
-        assert!(quiet.3.iter().flatten().any(|w| w[0] != 0), "the walls carry loads: {:?}", quiet.3);
+        assert_eq!(quiet.0.step, sample.clock.step + 2000);
+        assert!(quiet.1.iter().flatten().any(|w| w[0] != 0), "the walls carry loads: {:?}", quiet.1);
         assert!(quiet == every, "summing the loads only where they are read changed the state");
     }
 }

@@ -154,8 +154,11 @@ struct Pipelines {
 
 /// The pipelines of the walls and wall_forces stages.
 struct WallPipelines {
-    /// Last step's loads summed, then the walls moved.
+    /// Last step's loads summed (only with a servo wall, which steers by them), then the
+    /// walls moved.
     advance: Pipeline,
+    /// `advance` sums the loads first.
+    advance_sums: bool,
     /// The wall pass; with integration in it when `integrates`.
     forces: Pipeline,
     /// The same pass leaving the load partials of the servo walls alone (none without one), the
@@ -183,6 +186,8 @@ struct Kernels {
 /// [`WallPipelines`] bound to one upload; the wall forces one per slab.
 struct WallKernels {
     advance: Kernel,
+    /// [`WallPipelines::advance_sums`].
+    advance_sums: bool,
     forces: Vec<Kernel>,
     /// [`WallPipelines::quiet`]'s kernels.
     quiet: Option<Vec<Kernel>>,
@@ -325,7 +330,8 @@ impl GpuBackend {
             rows: rows::pipelines(device, &constants),
             contact_forces: contact_forces::pipeline(device, &constants),
             walls: (plan.walls > 0).then(|| WallPipelines {
-                advance: walls::pipeline(device, &constants),
+                advance: walls::pipeline(device, &constants, plan.servo_mask != 0),
+                advance_sums: plan.servo_mask != 0,
                 forces: wall_forces::pipeline(device, &constants, !plan.has_force_stage(), None),
                 quiet: quiet_loads(&plan)
                     .map(|mask| wall_forces::pipeline(device, &constants, !plan.has_force_stage(), Some(mask))),
@@ -394,12 +400,17 @@ impl GpuBackend {
         }
     }
 
-    /// Sums every wall's load at every step, where a plan sums a servo wall's alone (none
-    /// without one) but at a batch's last step: both give the same bits
+    /// Sums every wall's load at every step, in the wall pass and in the walls pass that
+    /// follows it, where a plan sums a servo wall's alone (none without one) but at a batch's
+    /// last step: both give the same bits
     /// (`engine/tests/gpu_parity.rs`). Takes effect at the next upload.
     pub fn sum_loads_every_step(&mut self) {
+        let mut constants = shaders::constants(&self.plan);
+        constants.extend(self.ledger.constants());
         if let Some(w) = self.pipelines.walls.as_mut() {
             w.quiet = None;
+            w.advance = walls::pipeline(&self.ctx, &constants, true);
+            w.advance_sums = true;
         }
     }
 
@@ -541,6 +552,7 @@ impl GpuBackend {
             walls: match &p.walls {
                 Some(w) => Some(WallKernels {
                     advance: walls::kernel(device, &w.advance, &lanes)?,
+                    advance_sums: w.advance_sums,
                     forces: wall_forces::kernels(device, &w.forces, &lanes)?,
                     quiet: w.quiet.as_ref().map(|q| wall_forces::kernels(device, q, &lanes)).transpose()?,
                     integrates: w.integrates,
@@ -626,7 +638,8 @@ impl GpuBackend {
                 Stage::Walls if self.plan.fixed_walls_only() => return None,
                 Stage::Walls => {
                     let w = kr.walls.as_ref()?;
-                    StageWork::Kernels(w.summing(&w.advance))
+                    // Without a servo the walls move alone: no fold, no sum.
+                    StageWork::Kernels(if w.advance_sums { w.summing(&w.advance) } else { vec![&w.advance] })
                 }
                 Stage::ContactForces => StageWork::Kernels(kr.contact_forces.iter().collect()),
                 Stage::WallForces => {

@@ -11,8 +11,14 @@ use super::shaders::{self, grid, Kernel, Pipeline};
 use crate::error::Result;
 use crate::plan::Stage;
 
-pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)]) -> Pipeline {
-    shaders::pipeline(device, Stage::Walls.name(), &shaders::WALLS, "advance_walls", constants)
+/// The walls moved by a step; with `sums`, after the last step's loads are summed (what a
+/// servo steers by: a plan without one moves its walls alone).
+pub fn pipeline(device: &GpuContext, constants: &[(&str, f64)], sums: bool) -> Pipeline {
+    let mut constants = constants.to_vec();
+    if !sums {
+        constants.push(("SUM_LOADS", 0.0));
+    }
+    shaders::pipeline(device, Stage::Walls.name(), &shaders::WALLS, "advance_walls", &constants)
 }
 
 /// The loads alone (no move), so the host reads the loads of the run's last step.
