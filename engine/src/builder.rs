@@ -236,9 +236,13 @@ impl BoxSpec {
         let loose_height = (solid / (LOOSE_SOLID_FRACTION * self.cross_section())).max(2.0 * r_max);
         let placed = self.random_sequential_addition(&grains, loose_height, &mut rng, control)?;
         let mut class_ids = vec![Vec::new(); self.classes.len()];
-        for (pos, (class, r)) in placed.iter().zip(&grains) {
-            let id = m.add_particle(*pos, *r, 0)?;
-            class_ids[*class].push(id as u32);
+        // Ids in Z-order, not in the order the grains were placed (at random): a grain's
+        // neighbours are then near it in memory, which at 10⁶ grains steps several times faster.
+        let mean_d = 2.0 * grains.iter().map(|g| g.1).sum::<f64>() / grains.len().max(1) as f64;
+        for k in crate::space_filling::z_order(&placed, mean_d) {
+            let (class, r) = grains[k];
+            let id = m.add_particle(placed[k], r, 0)?;
+            class_ids[class].push(id as u32);
         }
         let loose_height = placed.iter().zip(&grains).map(|(p, g)| p.z + g.1).fold(0.0, f64::max);
         let top = loose_height.max(self.height);
@@ -349,3 +353,55 @@ impl BoxSpec {
 
 /// Solid fraction of the loose column the box builder fills before deposition.
 const LOOSE_SOLID_FRACTION: f64 = 0.3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::Material;
+
+    #[test]
+    fn box_ids_follow_space_and_keep_their_classes() {
+        let mut m = Model::new();
+        m.add_material(Material::from_micro("sand", 2650.0, 2e5, 1e5, 0.0, 0.0, 0.5, 0.25e-3).unwrap()).unwrap();
+        let classes = vec![
+            SizeClass { r_min: 0.3e-3, r_max: 0.4e-3, mass_ratio: 1.0 },
+            SizeClass { r_min: 0.15e-3, r_max: 0.2e-3, mass_ratio: 1.0 },
+        ];
+        let spec = BoxSpec {
+            container: Container::Cuboid { width: 8e-3, length: 8e-3 },
+            height: 8e-3,
+            classes: classes.clone(),
+            target_porosity: 0.4,
+            seed: 3,
+            top_platen: false,
+        };
+        let built = spec.build_into(&mut m).unwrap();
+        let n = m.len();
+        assert!(n > 2000, "{n} grains");
+        // Every id once, in the class its radius belongs to.
+        let mut seen = vec![false; n];
+        for (c, ids) in built.class_ids.iter().enumerate() {
+            for &i in ids {
+                let r = m.particles.radius[i as usize];
+                assert!((classes[c].r_min..=classes[c].r_max).contains(&r), "grain {i} of class {c}: r {r}");
+                assert!(!std::mem::replace(&mut seen[i as usize], true), "grain {i} listed twice");
+            }
+        }
+        assert!(seen.iter().all(|s| *s));
+        // Grains within a large diameter of each other lie a few dozen ids apart on average;
+        // in the order they were placed (at random, largest first) they lay ~n/3 apart.
+        let (mut gap, mut pairs) = (0usize, 0usize);
+        let p = &m.particles.pos;
+        for i in 0..n {
+            for j in i + 1..n {
+                if (p[i] - p[j]).norm() < 0.8e-3 {
+                    gap += j - i;
+                    pairs += 1;
+                }
+            }
+        }
+        let mean = gap as f64 / pairs as f64;
+        assert!(pairs > n, "{pairs} near pairs");
+        assert!(mean < n as f64 / 20.0, "near grains are {mean:.0} ids apart on average, of {n}");
+    }
+}

@@ -66,6 +66,7 @@ pub mod provenance;
 pub mod scaling;
 pub mod settings;
 pub mod simulation;
+pub mod space_filling;
 pub mod state;
 pub mod status;
 pub mod training;
