@@ -572,6 +572,7 @@ impl ZoneSpec {
         let shrink = (START_SOLID_FRACTION / full_solid).cbrt().min(1.0);
         let regions: Vec<ZoneRegion> = counts.iter().map(|(r, _)| r.clone()).collect();
         let placed = place_shrunk(&grains, &regions, r_chamber, self.height, shrink, &mut rng, ctl)?;
+        let (grains, placed) = in_id_order(grains, placed, shrink);
         let mut group_ids: Vec<Vec<u32>> = vec![Vec::new(); regions.len()];
         for (x, &(g, k, r)) in placed.iter().zip(&grains) {
             let id = model.add_particle(*x, r * shrink, k as u32)?;
@@ -661,6 +662,22 @@ fn packing_density_factor(materials: &[Material], grain_d: &[f64], k: usize) -> 
     } else {
         1.0
     }
+}
+
+/// The grains and their places in the order they get their ids: a large chamber's in Z-order,
+/// as a large box's (`builder::SPACE_ORDER_FROM`), so that a grain's partners lie near it in
+/// memory; a small one's as placed (largest first), as before.
+fn in_id_order(
+    grains: Vec<(usize, usize, f64)>,
+    placed: Vec<Vec3>,
+    shrink: f64,
+) -> (Vec<(usize, usize, f64)>, Vec<Vec3>) {
+    if grains.len() <= crate::builder::SPACE_ORDER_FROM {
+        return (grains, placed);
+    }
+    let mean_d = 2.0 * shrink * grains.iter().map(|g| g.2).sum::<f64>() / grains.len() as f64;
+    let order = crate::space_filling::z_order(&placed, mean_d);
+    (order.iter().map(|&k| grains[k]).collect(), order.iter().map(|&k| placed[k]).collect())
 }
 
 /// Random sequential addition of shrunk grains, each with its centre in its own annulus,
@@ -942,5 +959,39 @@ mod tests {
             let e = s.validate().unwrap_err().to_string();
             assert!(e.contains(expect), "expected `{expect}` in: {e}");
         }
+    }
+
+    #[test]
+    fn a_large_chamber_takes_its_ids_in_z_order_with_each_grain_at_its_place() {
+        // Grains on a 24 × 24 × 24 grid in a random order, each one's radius and region
+        // telling where it was placed: after the reordering every grain still stands at its
+        // own place, and grid neighbours are near in id.
+        let n = 24usize;
+        let mut cells: Vec<usize> = (0..n * n * n).collect();
+        let mut rng = Rng::new(9);
+        for i in (1..cells.len()).rev() {
+            cells.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+        }
+        let at = |c: usize| Vec3::new((c % n) as f64, (c / n % n) as f64, (c / (n * n)) as f64) * 1e-3;
+        let grains: Vec<(usize, usize, f64)> = cells.iter().map(|&c| (c % 3, c % 2, 5e-4 + c as f64 * 1e-9)).collect();
+        let placed: Vec<Vec3> = cells.iter().map(|&c| at(c)).collect();
+        assert!(grains.len() > crate::builder::SPACE_ORDER_FROM);
+        let (g, p) = in_id_order(grains, placed, 1.0);
+        let mut id_of = vec![0usize; n * n * n];
+        for (id, (grain, x)) in g.iter().zip(&p).enumerate() {
+            let c = ((grain.2 - 5e-4) / 1e-9).round() as usize;
+            assert_eq!((grain.0, grain.1), (c % 3, c % 2), "grain {id}");
+            assert!((x - at(c)).norm() < 1e-12, "grain {id} moved");
+            id_of[c] = id;
+        }
+        let gaps: Vec<usize> =
+            (0..n * n * n - 1).filter(|c| c % n != n - 1).map(|c| id_of[c].abs_diff(id_of[c + 1])).collect();
+        let mean = gaps.iter().sum::<usize>() as f64 / gaps.len() as f64;
+        // Shuffled they lay ~n³/3 apart.
+        assert!(mean < (n * n * n) as f64 / 20.0, "x neighbours {mean:.0} ids apart on average");
+        // A small chamber keeps the placement order.
+        let small: Vec<(usize, usize, f64)> = (0..50).map(|k| (0, 0, 1.0 - k as f64 * 1e-3)).collect();
+        let (g, _) = in_id_order(small.clone(), vec![Vec3::zeros(); 50], 1.0);
+        assert_eq!(g, small);
     }
 }
