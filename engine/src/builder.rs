@@ -401,7 +401,7 @@ mod tests {
             }
         }
         assert!(seen.iter().all(|s| *s));
-        // Grains within a large diameter of each other lie a few dozen ids apart on average;
+        // Grains within a large diameter of each other lie under n/20 ids apart on average;
         // in the order they were placed (at random, largest first) they lay ~n/3 apart.
         let (mut gap, mut pairs) = (0usize, 0usize);
         let p = &m.particles.pos;
