@@ -113,9 +113,6 @@ pub struct BuiltBox {
 /// under what would exhaust memory (each particle costs about 1 kB with its contact rows).
 pub const MAX_BOX_PARTICLES: usize = 20_000_000;
 
-/// A box of more grains than this numbers them in Z-order ([`crate::space_filling`]).
-pub const SPACE_ORDER_FROM: usize = 10_000;
-
 impl BoxSpec {
     pub fn validate(&self) -> Result<()> {
         check_positive("height", self.height, false)?;
@@ -239,7 +236,8 @@ impl BoxSpec {
         let loose_height = (solid / (LOOSE_SOLID_FRACTION * self.cross_section())).max(2.0 * r_max);
         let placed = self.random_sequential_addition(&grains, loose_height, &mut rng, control)?;
         let mut class_ids = vec![Vec::new(); self.classes.len()];
-        for k in self.id_order(&placed, &grains) {
+        let mean_d = 2.0 * grains.iter().map(|g| g.1).sum::<f64>() / grains.len().max(1) as f64;
+        for k in crate::space_filling::id_order(&placed, mean_d) {
             let (class, r) = grains[k];
             let id = m.add_particle(placed[k], r, 0)?;
             class_ids[class].push(id as u32);
@@ -277,19 +275,6 @@ impl BoxSpec {
             m.add_wall(Wall::plane("top_platen", Vec3::new(0.0, 0.0, top), -z, self.cross_section() * depth)?)?;
         }
         Ok(BuiltBox { class_ids, loose_height })
-    }
-
-    /// The grains' ids: a large box's in Z-order of their places, so that a grain's partners
-    /// are near it in memory (a box of 47,241 grains stepped 2.3× faster so, one of 5,905
-    /// 1.13×: docs/results/bench_cpu_2026-12-07_order.txt); a box of up to `SPACE_ORDER_FROM`
-    /// grains, whose lanes the caches hold anyway, in the order they were placed (largest
-    /// first), as every box was numbered before, so that a small scene's run stays as it was.
-    fn id_order(&self, placed: &[Vec3], grains: &[(usize, f64)]) -> Vec<usize> {
-        if placed.len() <= SPACE_ORDER_FROM {
-            return (0..placed.len()).collect();
-        }
-        let mean_d = 2.0 * grains.iter().map(|g| g.1).sum::<f64>() / grains.len() as f64;
-        crate::space_filling::z_order(placed, mean_d)
     }
 
     /// Places grains one by one at random non-overlapping positions inside the container,
@@ -371,6 +356,7 @@ const LOOSE_SOLID_FRACTION: f64 = 0.3;
 mod tests {
     use super::*;
     use crate::materials::Material;
+    use crate::space_filling::SPACE_ORDER_FROM;
 
     #[test]
     fn box_ids_follow_space_and_keep_their_classes() {

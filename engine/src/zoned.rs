@@ -664,19 +664,15 @@ fn packing_density_factor(materials: &[Material], grain_d: &[f64], k: usize) -> 
     }
 }
 
-/// The grains and their places in the order they get their ids: a large chamber's in Z-order,
-/// as a large box's (`builder::SPACE_ORDER_FROM`), so that a grain's partners lie near it in
-/// memory; a small one's as placed (largest first), as before.
+/// The grains and their places in the order they get their ids (`space_filling::id_order`: a
+/// large chamber's in Z-order, a small one's as placed, largest first).
 fn in_id_order(
     grains: Vec<(usize, usize, f64)>,
     placed: Vec<Vec3>,
     shrink: f64,
 ) -> (Vec<(usize, usize, f64)>, Vec<Vec3>) {
-    if grains.len() <= crate::builder::SPACE_ORDER_FROM {
-        return (grains, placed);
-    }
-    let mean_d = 2.0 * shrink * grains.iter().map(|g| g.2).sum::<f64>() / grains.len() as f64;
-    let order = crate::space_filling::z_order(&placed, mean_d);
+    let mean_d = 2.0 * shrink * grains.iter().map(|g| g.2).sum::<f64>() / grains.len().max(1) as f64;
+    let order = crate::space_filling::id_order(&placed, mean_d);
     (order.iter().map(|&k| grains[k]).collect(), order.iter().map(|&k| placed[k]).collect())
 }
 
@@ -975,7 +971,7 @@ mod tests {
         let at = |c: usize| Vec3::new((c % n) as f64, (c / n % n) as f64, (c / (n * n)) as f64) * 1e-3;
         let grains: Vec<(usize, usize, f64)> = cells.iter().map(|&c| (c % 3, c % 2, 5e-4 + c as f64 * 1e-9)).collect();
         let placed: Vec<Vec3> = cells.iter().map(|&c| at(c)).collect();
-        assert!(grains.len() > crate::builder::SPACE_ORDER_FROM);
+        assert!(grains.len() > crate::space_filling::SPACE_ORDER_FROM);
         let (g, p) = in_id_order(grains, placed, 1.0);
         let mut id_of = vec![0usize; n * n * n];
         for (id, (grain, x)) in g.iter().zip(&p).enumerate() {

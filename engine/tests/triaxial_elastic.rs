@@ -9,11 +9,11 @@
 //! within 0.05 (measured on 2 cores, about 30 s: ~825 grains, E 5.34e7 Pa against the target
 //! 5e7 and the training sample's 4.95e7, ν 0.165 against 0.15 and 0.150; side stress σ3 + 0.8 %).
 //!
-//! The training sample has 600 elements. With 200 the trained material was that small box's,
-//! whose walls soften it: over eight packings (four training seeds, ids in placement and in
-//! Z-order) the cell read E 1.01–1.16 times the training's, so the check passed or failed by
-//! the packing's luck. With 600, five packings read 0.94–1.08 times it and 0.93–1.07 of the
-//! target, ν 0.149–0.170 (four of them numbered in Z-order, as a box of over 10,000 grains is).
+//! The training sample has 600 elements. With 200 the material was fitted to that one small
+//! packing: over eight packings (four training seeds, each with ids as placed and in Z-order)
+//! the cell read E 1.01–1.16 times the training's, so the check passed or failed by the
+//! packing's luck. With 600, five packings (four with ids in Z-order, one as placed) read
+//! 0.94–1.08 times it and 0.93–1.07 of the target, ν 0.149–0.170.
 
 use matdem_engine::backend::RunControl;
 use matdem_engine::effects::confining_pressure::ConfineRequest;
