@@ -15,6 +15,7 @@ pub mod api;
 pub mod atomic_write;
 pub mod bench;
 pub mod calibration;
+pub mod console;
 pub mod memory;
 pub mod metrics;
 pub mod movie;
@@ -55,10 +56,12 @@ pub fn new_engine(host: Rc<Host>) -> Engine {
     engine.set_module_resolver(SandboxModules { root: host.read_root.clone(), stdlib });
     // A resumed run replays the script's start silently: it printed that the first time.
     // What a script prints reaches a terminal: its control characters are shown, not obeyed.
+    // A reader that went away (`matdem-rs run s.rhai | head -1`) must not stop the run, whose
+    // outputs are still being written: `outln!` drops the line (console.rs).
     let h = host.clone();
     engine.on_print(move |text| {
         if !h.replaying() {
-            say(terminal_text::lines(text));
+            outln!("{}", terminal_text::lines(text));
         }
     });
     // Rhai's own `debug` output, the same way (source and position as Rhai prints them).
@@ -68,19 +71,11 @@ pub fn new_engine(host: Rc<Host>) -> Engine {
         }
         let text = terminal_text::lines(text);
         match (source.map(terminal_text::one_line), pos.is_none()) {
-            (Some(source), true) => say(format!("{source} | {text}")),
-            (Some(source), false) => say(format!("{source} @ {pos:?} | {text}")),
-            (None, true) => say(text),
-            (None, false) => say(format!("{pos:?} | {text}")),
+            (Some(source), true) => outln!("{source} | {text}"),
+            (Some(source), false) => outln!("{source} @ {pos:?} | {text}"),
+            (None, true) => outln!("{text}"),
+            (None, false) => outln!("{pos:?} | {text}"),
         }
     });
     engine
-}
-
-/// A line of what a script prints, to stdout. A reader that went away (`matdem-rs run s.rhai |
-/// head -1`) must not stop the run, whose outputs are still being written: the line is dropped
-/// (`println!` would panic on the broken pipe).
-fn say(line: impl std::fmt::Display) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stdout().lock(), "{line}");
 }

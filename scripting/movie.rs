@@ -27,6 +27,7 @@
 //! with the GIF an uninterrupted run writes. (SIGKILL leaves the previous `name.gif`, if any,
 //! and the spool.)
 
+use crate::eoutln;
 use crate::plot::picture::{FixedBuilder, PICTURE_SIZE};
 use crate::plot::ParticlePicture;
 use matdem_engine::plan::StepPlan;
@@ -113,7 +114,7 @@ impl MovieState {
         let Some(s) = &self.settings else { return Ok(()) };
         if self.frames >= s.max_frames {
             if self.left_out == 0 {
-                eprintln!(
+                eoutln!(
                     "warning: movie `{}`: {} frames taken (its max_frames); the later ones are left out — take them less \
                      often or give a larger max_frames",
                     crate::terminal_text::one_line(&file_name(&s.gif)),
@@ -174,7 +175,7 @@ impl MovieState {
         let Some(s) = &self.settings else { return };
         let held = fs::metadata(&s.spool).map(|m| m.len()).unwrap_or(0);
         if held < self.spool_len {
-            eprintln!(
+            eoutln!(
                 "warning: movie `{}`: the frames taken before the interruption are gone ({} is missing or short); it \
                  starts again from here",
                 crate::terminal_text::one_line(&file_name(&s.gif)),
@@ -192,7 +193,7 @@ impl Drop for Movie {
     fn drop(&mut self) {
         if self.is_on() {
             if let Err(e) = self.finish(false) {
-                eprintln!("warning: {}", crate::terminal_text::one_line(&e));
+                eoutln!("warning: {}", crate::terminal_text::one_line(&e));
             }
         }
     }

@@ -7,6 +7,7 @@ use crate::api::docs;
 use crate::api::Host;
 use crate::report::{render, Sources};
 use crate::sandbox::{Limits, ReadRoot};
+use crate::{eout, eoutln, outln};
 use rhai::{Dynamic, Engine, Scope, AST};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -286,13 +287,13 @@ fn report(reply: Reply) -> bool {
     match reply {
         Reply::Out(s) if s.is_empty() => true,
         Reply::Out(s) => {
-            println!("{}", crate::terminal_text::lines(&s));
+            outln!("{}", crate::terminal_text::lines(&s));
             true
         }
         Reply::Err(e) => {
-            eprint!("{}", crate::terminal_text::lines(&e));
+            eout!("{}", crate::terminal_text::lines(&e));
             if !e.ends_with('\n') {
-                eprintln!();
+                eoutln!();
             }
             true
         }
@@ -331,7 +332,7 @@ fn interactive(session: &mut Session) -> Result<u8, String> {
     if let Some(h) = &history {
         let _ = editor.load_history(h);
     }
-    println!("matdem-rs {} — :help for commands and functions, :quit to leave", env!("CARGO_PKG_VERSION"));
+    outln!("matdem-rs {} — :help for commands and functions, :quit to leave", env!("CARGO_PKG_VERSION"));
     let mut buf = String::new();
     loop {
         let prompt = if buf.is_empty() { "matdem> " } else { "   ...> " };

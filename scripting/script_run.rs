@@ -3,6 +3,7 @@
 //! interrupted run (see [`crate::resume`]).
 
 use crate::api::Host;
+use crate::eoutln;
 use crate::out_lock::OutLock;
 use crate::package::Package;
 use crate::report::{render, Sources};
@@ -135,7 +136,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         // An `auto` run continues where the interrupted one stepped, without measuring.
         backend = backend.resumed(&journal.backend);
         if matches!(cfg.backend, RunBackend::Auto(_)) && !matches!(backend, RunBackend::Auto(_)) {
-            eprintln!("auto: {}, where the interrupted run stepped (no speed test)", backend.describe());
+            eoutln!("auto: {}, where the interrupted run stepped (no speed test)", backend.describe());
         }
         let (was, now) = (kind(&journal.backend), backend.describe());
         if !was.is_empty() && was != "auto" && was != kind(&now) {
@@ -157,7 +158,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         let lock = OutLock::acquire(&cfg.out_dir, &format!("run {}", cfg.script.display()))
             .map_err(|e| RunError::Setup(format!("error: {e}")))?;
         if earlier > 0 && cfg.resume.is_none() {
-            eprintln!(
+            eoutln!(
                 "note: {} already holds {earlier} file(s) or folder(s) from an earlier run; those this run does not \
                  write again keep their old contents (give a fresh --out to keep runs apart)",
                 cfg.out_dir.display()
@@ -211,7 +212,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
         record.exit_code = Some(code);
         // The outputs are what matter; a record that cannot be rewritten is only reported.
         if let Err(e) = record.write(&cfg.out_dir) {
-            eprintln!("warning: cannot update the run record in {}: {e}", cfg.out_dir.display());
+            eoutln!("warning: cannot update the run record in {}: {e}", cfg.out_dir.display());
         }
         if result.is_ok() {
             // A finished run leaves nothing to resume.
@@ -224,7 +225,7 @@ pub fn run_script(cfg: &RunConfig) -> Result<Vec<PathBuf>, RunError> {
             error: result.as_ref().err().map(|e| e.to_string()),
         };
         if let Err(e) = write_run_page(&cfg.out_dir, &summary) {
-            eprintln!("warning: cannot write the run's page in {}: {e}", cfg.out_dir.display());
+            eoutln!("warning: cannot write the run's page in {}: {e}", cfg.out_dir.display());
         }
     }
     result
@@ -337,7 +338,7 @@ fn compile_and_run(
         return Err(RunError::Script(format!("error: {}\n", crate::terminal_text::one_line(e))));
     }
     for e in &movie_errors {
-        eprintln!("warning: {}", crate::terminal_text::one_line(e));
+        eoutln!("warning: {}", crate::terminal_text::one_line(e));
     }
     match outcome {
         Ok(()) if host.replaying() => Err(RunError::Script(

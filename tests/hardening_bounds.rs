@@ -270,3 +270,41 @@ fn a_script_whose_reader_went_away_runs_to_its_end() {
     assert!(out.status.success(), "{:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr));
     assert!(dir.join("out/done.csv").is_file());
 }
+
+/// A command whose reader goes away (`matdem-rs doc | head -1`) ends quietly and with
+/// success: the rest of its text is dropped. Before the fix: "failed printing to stdout:
+/// Broken pipe", a panic and exit code 101 (`println!`).
+#[test]
+fn a_command_whose_reader_went_away_ends_without_a_panic() {
+    let mut child =
+        bin().arg("doc").stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    // The reference is more than a pipe holds (64 KiB), so the command writes to a closed pipe
+    // whether it began before the reader left or not.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {err}", out.status.code());
+    assert!(!err.contains("panicked") && !err.contains("internal error"), "{err}");
+}
+
+/// A run with its stderr closed (a detached job whose log went away) runs to its end: the
+/// backend line, warnings and progress are dropped, the outputs written. Before the fix:
+/// the first `eprintln!` (the backend line) panicked before the script ran.
+#[test]
+fn a_run_whose_stderr_went_away_runs_to_its_end() {
+    let dir = temp_dir("bounds_closed_stderr");
+    std::fs::write(dir.join("s.rhai"), "new_table().save(\"done.csv\");").unwrap();
+    let mut child = bin()
+        .arg("run")
+        .arg(dir.join("s.rhai"))
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--backend", "cpu"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{:?}", status.code());
+    assert!(dir.join("out/done.csv").is_file());
+}

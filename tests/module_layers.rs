@@ -8,7 +8,8 @@
 //! counts as a level), and in the binary's files (`main.rs`, `cli.rs`, `commands/`) also
 //! `matdem_rs::a::…`; in a crate's root (`lib.rs`, `main.rs`) also a bare `a::…`. A path to
 //! an item of `lib.rs` itself (`crate::new_engine`) names the crate root, node `lib`; the
-//! binary's root is node `main`.
+//! binary's root is node `main`. A path to a `#[macro_export]` macro (`crate::outln`, which
+//! Rust puts at the crate root) names the module that defines it (`console`).
 //!
 //! A failure names the file and the line of each offending reference. The reader of paths
 //! and circles is the engine's (`engine/tests/module_graph.rs`), shared by both crates' tests.
@@ -37,11 +38,13 @@ const LAYERS: &[(&str, &[&str])] = &[
     // What everything stands on: atomic writes and the output folder's lock, the sandbox (what
     // a script may read and write, its limits, the names the host keeps), the memory budget,
     // the run record, the resume journal's files, the metrics file, the run's backend, Ctrl-C,
-    // error rendering, terminal-safe text and the embedded standard library.
+    // error rendering, the terminal's streams (console) and terminal-safe text, and the
+    // embedded standard library.
     (
         "core",
         &[
             "atomic_write",
+            "console",
             "memory",
             "metrics",
             "out_lock",
@@ -93,6 +96,7 @@ fn graph_of(files: &[(String, String)]) -> (BTreeSet<String>, Graph) {
     let mut nodes: BTreeSet<String> = library.union(&binary).cloned().collect();
     nodes.insert("lib".into());
     nodes.insert("main".into());
+    let exported = exported_macros(files);
     let mut graph = Graph::new();
     for (file, text) in files {
         let here = module_path(file);
@@ -111,6 +115,7 @@ fn graph_of(files: &[(String, String)]) -> (BTreeSet<String>, Graph) {
             let (root, modules) = if r.library || !in_binary { ("lib", &library) } else { ("main", &binary) };
             let to = match r.path.first() {
                 Some(top) if modules.contains(top) => top.clone(),
+                Some(name) if root == "lib" && exported.contains_key(name) => exported[name].clone(),
                 _ => root.to_string(),
             };
             if to != from {
@@ -123,6 +128,25 @@ fn graph_of(files: &[(String, String)]) -> (BTreeSet<String>, Graph) {
         }
     }
     (nodes, graph)
+}
+
+/// The library's `#[macro_export]` macros and the top-level module that defines each.
+fn exported_macros(files: &[(String, String)]) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    for (file, text) in files {
+        let code = code_only(text);
+        for piece in code.split("#[macro_export]").skip(1) {
+            let name = piece
+                .trim_start()
+                .strip_prefix("macro_rules!")
+                .map(|rest| rest.trim_start().chars().take_while(|&c| module_graph::ident_char(c)).collect::<String>());
+            let top = module_path(file).first().cloned().unwrap_or_else(|| "lib".into());
+            if let Some(name) = name.filter(|n| !n.is_empty()) {
+                out.insert(name, top);
+            }
+        }
+    }
+    out
 }
 
 /// The layer (index in [`LAYERS`]) of each module.
@@ -190,7 +214,9 @@ fn the_layer_reader_sees_each_form_of_path() {
         ("a/x.rs", "fn f() { super::super::d::g(); }\n"),
         ("b.rs", "// crate::e::h in a comment\nfn f() { let s = \"crate::e::h\"; let c = '{'; crate::f(); }\n"),
         ("c.rs", "#[cfg(test)]\nmod tests {\n    use super::*;\n    use super::super::e;\n}\n"),
-        ("cli.rs", "use matdem_rs::a::Host;\nuse crate::main_helper;\n"),
+        ("cli.rs", "use matdem_rs::a::Host;\nuse crate::main_helper;\nuse matdem_rs::say;\n"),
+        ("d.rs", "#[macro_export]\nmacro_rules! say { () => {} }\n"),
+        ("e.rs", "use crate::say;\n"),
     ]));
     let edges: Vec<String> = g.iter().map(|((a, b), l)| format!("{a}->{b} {}", l[0])).collect();
     assert_eq!(
@@ -202,7 +228,9 @@ fn the_layer_reader_sees_each_form_of_path() {
             "b->lib scripting/b.rs:2: fn f() { let s = \"crate::e::h\"; let c = '{'; crate::f(); }",
             "c->e scripting/c.rs:4: use super::super::e;",
             "cli->a scripting/cli.rs:1: use matdem_rs::a::Host;",
+            "cli->d scripting/cli.rs:3: use matdem_rs::say;",
             "cli->main scripting/cli.rs:2: use crate::main_helper;",
+            "e->d scripting/e.rs:1: use crate::say;",
             "lib->e scripting/lib.rs:2: use e::Thing;",
         ]
     );

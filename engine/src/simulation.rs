@@ -38,8 +38,19 @@ pub struct Simulation {
     /// The plan for the model's current revision, and the backend prepared for it once a
     /// run needed one.
     prepared: Option<Prepared>,
-    /// The guard warned of a contact too stiff for dt (`GuardMode::Warn`): it warns once.
-    stiff_warned: bool,
+    /// The guard's warning of a contact too stiff for dt (`GuardMode::Warn`): found once per
+    /// model, held for the host to take (the engine writes to no terminal).
+    stiff: StiffWarning,
+}
+
+/// Where the warn-mode guard's one warning stands.
+#[derive(Debug, Default)]
+enum StiffWarning {
+    #[default]
+    NotYet,
+    /// Found and not yet taken by the host.
+    Held(Box<Error>),
+    Taken,
 }
 
 /// A plan and what was derived from it for one revision of the model.
@@ -79,7 +90,7 @@ pub struct RunReport {
 impl Simulation {
     /// A simulation on the CPU backend (f64).
     pub fn new(model: Model) -> Self {
-        Simulation { model, observers: Vec::new(), target: Target::Cpu, prepared: None, stiff_warned: false }
+        Simulation { model, observers: Vec::new(), target: Target::Cpu, prepared: None, stiff: StiffWarning::NotYet }
     }
 
     /// A simulation whose runs step on the GPU device `ctx` (f32); observers (energies,
@@ -110,7 +121,23 @@ impl Simulation {
     pub fn replace_model(&mut self, model: Model) {
         self.model = model;
         self.prepared = None;
-        self.stiff_warned = false;
+        self.stiff = StiffWarning::NotYet;
+    }
+
+    /// The warn-mode guard's warning (a contact too stiff for dt, `GuardMode::Warn`) once it
+    /// was found, for the host to show; it is given once per model, so later calls and later
+    /// runs return `None`.
+    pub fn take_warning(&mut self) -> Option<Error> {
+        match std::mem::take(&mut self.stiff) {
+            StiffWarning::Held(e) => {
+                self.stiff = StiffWarning::Taken;
+                Some(*e)
+            }
+            other => {
+                self.stiff = other;
+                None
+            }
+        }
     }
 
     /// The backend in words: `cpu (f64)` or `gpu (f32) on <adapter>`.
@@ -150,7 +177,7 @@ impl Simulation {
         }
         check_time_step(&self.model)?;
         crate::effects::periodic::check_scene(&self.model)?;
-        let Simulation { model, observers, target, prepared: cache, stiff_warned } = self;
+        let Simulation { model, observers, target, prepared: cache, stiff } = self;
         let p = prepared(cache, model);
         let backend = match &mut p.backend {
             Some(b) => b,
@@ -159,7 +186,7 @@ impl Simulation {
                 slot.insert(target.prepare(model, p.plan.clone(), p.damping.clone())?)
             }
         };
-        run_loop(backend.as_mut(), model, observers, stiff_warned, steps, every, ctl, progress, sample)
+        run_loop(backend.as_mut(), model, observers, stiff, steps, every, ctl, progress, sample)
     }
 
     /// MatDEM's `balance`: lets the model settle under the current loads.
@@ -281,7 +308,9 @@ impl Simulation {
 
 /// Runs `steps` steps of `model` on a backend prepared for its plan: the loop of
 /// [`Simulation::run_sampled`] (without an observer), for programs and tests that hold a
-/// backend of their own. Checks the time step first; an empty model runs no step.
+/// backend of their own. Checks the time step first; an empty model runs no step. A
+/// warn-mode guard goes on past a contact too stiff for dt without keeping the warning
+/// (a [`Simulation`] keeps it: [`Simulation::take_warning`]).
 pub fn run_steps(
     backend: &mut dyn Backend,
     model: &mut Model,
@@ -295,13 +324,13 @@ pub fn run_steps(
         return Ok(RunReport { steps: 0, unbalanced_ratio: None });
     }
     check_time_step(model)?;
-    run_loop(backend, model, &mut [], &mut false, steps, every, ctl, progress, sample)
+    run_loop(backend, model, &mut [], &mut StiffWarning::NotYet, steps, every, ctl, progress, sample)
 }
 
 /// The run loop. Chunks end every `guard_every` steps of the run (where the backend's guard
 /// checks the state), on each observer's steps of the model's clock, and at the end; each
-/// chunk end also compares dt with the stiffest current contact (stop, or warn once when
-/// `stiff_warned` is still false and the model's guard mode is `warn`); between chunks come
+/// chunk end also compares dt with the stiffest current contact (stop, or hold a warning
+/// when none was found yet and the model's guard mode is `warn`); between chunks come
 /// the observers whose step it is (in order, with the model brought up to date once), `progress(done)`, and the cancellation
 /// check, which also brings the model up to date. Energies of every `every`-th step of the
 /// run go to `sample`.
@@ -310,7 +339,7 @@ fn run_loop(
     backend: &mut dyn Backend,
     model: &mut Model,
     observers: &mut [Observer],
-    stiff_warned: &mut bool,
+    stiff: &mut StiffWarning,
     steps: u64,
     every: u64,
     ctl: &RunControl,
@@ -334,17 +363,12 @@ fn run_loop(
         }
         backend.run_chunk(model, chunk, Sampling { every, first: done }, sample)?;
         done += chunk;
-        if !*stiff_warned {
+        if matches!(stiff, StiffWarning::NotYet) {
             if let Some(c) = backend.too_stiff(model)? {
                 let e = stiff_contact_error(model, &c);
                 match model.settings.guard {
                     GuardMode::Stop => return Err(e),
-                    GuardMode::Warn => {
-                        // NOTE: the engine's only warning; a host that wants it elsewhere sets
-                        // the mode to stop and catches the error instead.
-                        eprintln!("warning: {e}");
-                        *stiff_warned = true;
-                    }
+                    GuardMode::Warn => *stiff = StiffWarning::Held(Box::new(e)),
                 }
             }
         }

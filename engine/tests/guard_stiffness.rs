@@ -62,12 +62,18 @@ fn under_the_limit_or_in_warn_mode_the_run_goes_on() {
     let (m, _) = resting_sphere(0.6);
     let mut sim = Simulation::new(m);
     run(&mut sim, 300).expect("0.6 of the contact's critical step is under the limit");
+    assert!(sim.take_warning().is_none(), "nothing to warn of under the limit");
 
-    let (mut m, _) = resting_sphere(0.8);
+    let (mut m, critical) = resting_sphere(0.8);
     m.settings.guard = GuardMode::Warn;
     let mut sim = Simulation::new(m);
     run(&mut sim, 300).expect("warn mode warns once and goes on");
+    // The warning is the stop's message, held for the host (the engine prints nothing).
+    let warning = sim.take_warning().expect("a warning of the too-stiff contact").to_string();
+    check_message(&warning, critical);
+    assert!(sim.take_warning().is_none(), "taken once");
     run(&mut sim, 300).expect("and does not stop later either");
+    assert!(sim.take_warning().is_none(), "given once per model");
     assert_eq!(sim.model.clock.step, 600);
 }
 

@@ -5,6 +5,8 @@
 use super::model::ModelHandle;
 use super::Host;
 #[cfg(feature = "gpu")]
+use crate::eoutln;
+#[cfg(feature = "gpu")]
 use crate::run_backend::RunBackend;
 #[cfg(feature = "gpu")]
 use matdem_engine::backend::speed_test::{measure, Choice};
@@ -31,7 +33,7 @@ pub fn settle(host: &Host, d: &ModelHandle) -> Result<(), String> {
         }
     };
     let line = test.to_string();
-    eprintln!("{line}");
+    eoutln!("{line}");
     let chosen = match test.choice {
         Choice::Cpu => RunBackend::Cpu,
         Choice::Gpu => RunBackend::Gpu(ctx),

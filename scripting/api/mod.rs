@@ -25,6 +25,7 @@ pub mod table;
 pub mod training;
 pub mod zones;
 
+use crate::eoutln;
 use crate::resume::{Entry, Session, Value};
 use crate::run_backend::RunBackend;
 use crate::sandbox::{output_path, Limits, ReadRoot};
@@ -198,7 +199,7 @@ impl Host {
         let mut warnings = self.warnings.borrow_mut();
         if !warnings.iter().any(|(k, _)| k == key) {
             // Warnings quote the script's names and values: escaped for the terminal.
-            eprintln!("warning: {}", crate::terminal_text::lines(&message));
+            eoutln!("warning: {}", crate::terminal_text::lines(&message));
             warnings.push((key.to_string(), message));
         }
     }

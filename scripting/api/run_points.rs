@@ -8,6 +8,7 @@
 //! repeated into the same folder, and `matdem-rs sweep status|collect` work on that folder.
 
 use super::{err, Host, RhaiResult};
+use crate::eoutln;
 use crate::sweep::collect::PointState;
 use crate::sweep::{self, LocalOptions};
 use rhai::{Array, Dynamic, Engine, Map};
@@ -106,7 +107,7 @@ fn run_points(host: &Host, runs: &Array, opts: &Map) -> RhaiResult<Array> {
     )
     .map_err(|e| err(format!("run_points: {e}")))?;
     let options = LocalOptions { jobs, retry_failed: true, exe: me.exe.clone(), control: host.control.clone() };
-    sweep::run_local_held(&lock, &plan, &options, |line| eprintln!("{line}"))
+    sweep::run_local_held(&lock, &plan, &options, |line| eoutln!("{line}"))
         .map_err(|e| err(format!("run_points: {e}")))?;
     drop(lock);
     if host.control.is_cancelled() {

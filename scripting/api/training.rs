@@ -5,6 +5,7 @@
 use super::arrays::{number, to_numbers};
 use super::table::Table;
 use super::{err, raise, write_atomic, Host, RhaiResult};
+use crate::outln;
 use crate::plot::LineChart;
 use matdem_engine::materials::MacroProperties;
 use matdem_engine::training::fit::mohr_coulomb;
@@ -270,7 +271,7 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
     host.out_path(&out)?;
     let mut on_round = |r: &Round| {
         if !quiet {
-            println!("{}", crate::terminal_text::lines(&round_line(&name, r, &t)));
+            outln!("{}", crate::terminal_text::lines(&round_line(&name, r, &t)));
         }
     };
     let training = matdem_engine::training::train(&name, &t, &opts, &host.control, &mut on_round).map_err(raise)?;
@@ -282,7 +283,7 @@ fn train_fn(host: &Host, targets_map: Map, opts_map: Map) -> RhaiResult<Map> {
         } else {
             format!("did NOT converge in {} rounds; closest is round {}", training.rounds.len(), best.round)
         };
-        println!(
+        outln!(
             "train {}: {verdict} ({} elements, d = {:.3e} m); saved {}",
             crate::terminal_text::one_line(&name),
             training.elements,

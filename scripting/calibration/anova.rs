@@ -481,7 +481,7 @@ mod tests {
         ]
         .into_iter()
         .fold(0.0, f64::max);
-        eprintln!("SiRstv: worst relative difference from the certified values {worst:.2e}");
+        crate::eoutln!("SiRstv: worst relative difference from the certified values {worst:.2e}");
         assert!(worst < 1e-8, "{a:?}");
         assert_eq!((a.dof_between, a.dof_within, a.dof_total), (4, 20, 24));
         assert!((a.ss_total - a.ss_between - a.ss_within).abs() < 1e-12);

@@ -286,7 +286,7 @@ mod tests {
         let met = r.iterate(|p| Ok(nonlinear(p)), 1e-8, 8).unwrap();
         let worst: Vec<f64> =
             r.rounds.iter().map(|k| k.relative_errors.iter().fold(0.0_f64, |a, e| a.max(e.abs()))).collect();
-        eprintln!("largest relative error by round: {worst:?}");
+        crate::eoutln!("largest relative error by round: {worst:?}");
         // The plain inversion (round 1) misses by several per cent: the test has work to do.
         assert!(worst[0] > 0.03, "{worst:?}");
         assert!(met, "not within 1e-8 in 8 rounds: {worst:?}");

@@ -3,6 +3,7 @@
 use super::{open_backend, Failure, Outcome};
 use crate::cli::Backend;
 use matdem_rs::bench::{run_bench, BenchConfig};
+use matdem_rs::out;
 use matdem_rs::run_backend::RunBackend;
 use std::process::ExitCode;
 
@@ -15,6 +16,6 @@ pub fn bench(backend: Backend, cfg: BenchConfig) -> Outcome {
         RunBackend::Cpu => None,
     };
     let out = run_bench(&BenchConfig { gpu, ..cfg }).map_err(|msg| Failure::said(2, msg))?;
-    print!("{out}");
+    out!("{out}");
     Ok(ExitCode::SUCCESS)
 }

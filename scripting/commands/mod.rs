@@ -12,6 +12,7 @@ use clap::ValueEnum;
 #[cfg(feature = "gpu")]
 use matdem_engine::backend::gpu::device::{select, BackendChoice, Compute};
 use matdem_engine::backend::RunControl;
+use matdem_rs::eoutln;
 use matdem_rs::run_backend::RunBackend;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -113,7 +114,7 @@ fn stop_on_signals(control: &RunControl, what: &str) {
         Ok(())
     };
     if let Err(e) = install() {
-        eprintln!("warning: Ctrl-C and SIGTERM will stop {what} ({e})");
+        eoutln!("warning: Ctrl-C and SIGTERM will stop {what} ({e})");
     }
 }
 
@@ -131,7 +132,7 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     match select(choice).map_err(Failure::error)? {
         Compute::Gpu(ctx) if choice == BackendChoice::Auto => {
-            eprintln!(
+            eoutln!(
                 "backend: auto, cpu (f64, {threads} threads) or gpu (f32) on {}: a speed test at the first run decides",
                 ctx.describe()
             );
@@ -139,16 +140,16 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
         }
         Compute::Gpu(ctx) => {
             let note = if ctx.is_software() { " — a software device: correct, not fast" } else { "" };
-            eprintln!("backend: gpu (f32) on {}{note}", ctx.describe());
+            eoutln!("backend: gpu (f32) on {}{note}", ctx.describe());
             Ok(RunBackend::Gpu(ctx))
         }
         Compute::Cpu { reason } => {
             // Passing over a software adapter is the right choice, not news on every run;
             // other reasons (no adapter, a device that failed to open) are said.
             if reason.contains("software adapter") {
-                eprintln!("backend: cpu (f64, {threads} threads)");
+                eoutln!("backend: cpu (f64, {threads} threads)");
             } else {
-                eprintln!("backend: cpu (f64, {threads} threads): {reason}");
+                eoutln!("backend: cpu (f64, {threads} threads): {reason}");
             }
             Ok(RunBackend::Cpu)
         }
@@ -166,7 +167,7 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
         ));
     }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    eprintln!("backend: cpu (f64, {threads} threads)");
+    eoutln!("backend: cpu (f64, {threads} threads)");
     Ok(RunBackend::Cpu)
 }
 

@@ -2,12 +2,13 @@
 
 use super::{Failure, Outcome};
 use matdem_rs::package::Package;
+use matdem_rs::{eoutln, out};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 pub fn info(path: &Path) -> Outcome {
     let package = Package::open(path).map_err(Failure::error)?;
-    print!("{}", package.describe());
+    out!("{}", package.describe());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -20,6 +21,6 @@ pub fn pack(dir: &Path, output: Option<PathBuf>) -> Outcome {
         }
     };
     let n = matdem_rs::package::pack(dir, &output).map_err(Failure::error)?;
-    eprintln!("packed {n} file(s) into {}; run it with `matdem-rs run {}`", output.display(), output.display());
+    eoutln!("packed {n} file(s) into {}; run it with `matdem-rs run {}`", output.display(), output.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -7,6 +7,7 @@ use matdem_rs::package::Package;
 use matdem_rs::run_backend::RunBackend;
 use matdem_rs::sandbox::Limits;
 use matdem_rs::script_run::{parse_value, run_script, RunConfig, RunError};
+use matdem_rs::{eoutln, out};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -111,7 +112,7 @@ fn finish(cfg: &RunConfig, result: Result<Vec<PathBuf>, RunError>) -> Outcome {
     match result {
         Ok(written) => {
             if !cfg.plan_only && !written.is_empty() {
-                eprintln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
+                eoutln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -127,7 +128,7 @@ pub fn repl(script: Option<PathBuf>, out: Option<PathBuf>, limits: Limits) -> Ou
 
 pub fn doc() -> Outcome {
     let host = std::rc::Rc::new(matdem_rs::api::Host::new(PathBuf::from("out/doc")));
-    print!("{}", matdem_rs::api::reference::markdown(&matdem_rs::new_engine(host)));
+    out!("{}", matdem_rs::api::reference::markdown(&matdem_rs::new_engine(host)));
     Ok(ExitCode::SUCCESS)
 }
 

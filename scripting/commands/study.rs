@@ -4,6 +4,7 @@ use super::{backend_name, own_exe, stop_on_signals, Failure, Outcome};
 use crate::cli::Backend;
 use matdem_engine::backend::RunControl;
 use matdem_rs::study::{run_study, summary, StudyConfig, Vary};
+use matdem_rs::{eoutln, out};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -38,10 +39,10 @@ pub fn study(args: StudyArgs) -> Outcome {
         max_points: args.max_points,
     };
     // Each setting's run locks its own runNN folder; the sweep holds the folder around them.
-    match run_study(&cfg, |line| eprintln!("{line}")) {
+    match run_study(&cfg, |line| eoutln!("{line}")) {
         Ok((s, written)) => {
-            print!("{}", summary(&s, &cfg.metric));
-            eprintln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
+            out!("{}", summary(&s, &cfg.metric));
+            eoutln!("wrote {} file(s) under {}", written.len(), cfg.out_dir.display());
             Ok(ExitCode::SUCCESS)
         }
         Err(e) => Err(Failure::said(if cfg.control.is_cancelled() { 130 } else { 1 }, format!("error: {e}"))),

@@ -7,6 +7,7 @@ use matdem_rs::out_lock::OutLock;
 use matdem_rs::package::Package;
 use matdem_rs::sweep::point::PointRun;
 use matdem_rs::terminal_text::one_line;
+use matdem_rs::{eout, eoutln, out, outln};
 
 pub fn sweep(action: SweepCommand) -> Result<(), String> {
     use matdem_rs::sweep::{collect, plan, slurm};
@@ -49,7 +50,7 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
                 }
             };
             warn_refused_values(&planned);
-            eprintln!(
+            eoutln!(
                 "planned {} point(s) in {}; run them with `matdem-rs sweep run {} --local -j N` or `matdem-rs sweep \
                  slurm {} --submit`",
                 planned.points.len(),
@@ -65,16 +66,16 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             stop_on_signals(&control, "the sweep without letting its points save");
             let exe = own_exe()?;
             let opts = matdem_rs::sweep::LocalOptions { jobs, retry_failed, exe, control: control.clone() };
-            let result = matdem_rs::sweep::run_local(&dir, &planned, &opts, |line| eprintln!("{line}"));
+            let result = matdem_rs::sweep::run_local(&dir, &planned, &opts, |line| eoutln!("{line}"));
             if let Err(e) = result {
                 if control.is_cancelled() {
-                    eprintln!("error: {e}");
+                    eoutln!("error: {e}");
                     std::process::exit(130);
                 }
                 return Err(e);
             }
             let results = collect::results(&dir, &planned)?;
-            eprint!("{}", collect::status_text(&dir, &planned, &results));
+            eout!("{}", collect::status_text(&dir, &planned, &results));
             Ok(())
         }
         SweepCommand::Slurm {
@@ -93,28 +94,28 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             let _sweep = OutLock::acquire_shared(&dir, "sweep slurm")?;
             let opts = slurm::SlurmOptions { partition, time, cpus_per_task, mem, account, max_parallel, retry_failed };
             let Some((script, tasks)) = slurm::write_script(&dir, &planned, &exe, &opts)? else {
-                eprintln!("every point of {} is finished; nothing to submit", dir.display());
+                eoutln!("every point of {} is finished; nothing to submit", dir.display());
                 return Ok(());
             };
-            eprintln!("wrote {} ({tasks} array task(s))", script.display());
+            eoutln!("wrote {} ({tasks} array task(s))", script.display());
             if submit {
                 let id = slurm::submit(&script)?;
-                println!("{id}");
-                eprintln!(
+                outln!("{id}");
+                eoutln!(
                     "submitted job {id}; follow it with `matdem-rs sweep status {}`, merge with `matdem-rs sweep \
                      collect {}`",
                     dir.display(),
                     dir.display()
                 );
             } else {
-                eprintln!("submit it with `sbatch {}`", script.display());
+                eoutln!("submit it with `sbatch {}`", script.display());
             }
             Ok(())
         }
         SweepCommand::Status { dir } => {
             let planned = plan::load(&dir)?;
             let results = collect::results(&dir, &planned)?;
-            print!("{}", collect::status_text(&dir, &planned, &results));
+            out!("{}", collect::status_text(&dir, &planned, &results));
             Ok(())
         }
         SweepCommand::Collect { dir } => {
@@ -123,8 +124,8 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             let _sweep = OutLock::acquire_shared(&dir, "sweep collect")?;
             let results = collect::results(&dir, &planned)?;
             let written = matdem_rs::study::write_collect(&dir, &planned, &results)?;
-            print!("{}", collect::status_text(&dir, &planned, &results));
-            eprintln!("wrote {} file(s) under {}", written.len(), dir.display());
+            out!("{}", collect::status_text(&dir, &planned, &results));
+            eoutln!("wrote {} file(s) under {}", written.len(), dir.display());
             Ok(())
         }
         SweepCommand::Point { dir, index } => {
@@ -135,7 +136,7 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             matdem_rs::sweep::point::check_source(&planned)?;
             let name = &planned.points[index].name;
             if !matdem_rs::sweep::point::is_pending(&dir, name, true)? {
-                eprintln!("{name} finished already; skipped");
+                eoutln!("{name} finished already; skipped");
                 return Ok(());
             }
             let control = RunControl::default();
@@ -145,10 +146,10 @@ pub fn sweep(action: SweepCommand) -> Result<(), String> {
             let _sweep = OutLock::acquire_shared(&dir, &format!("sweep point {index}"))?;
             let run = matdem_rs::sweep::point::run_point(&dir, &planned, index, &exe, None, &control)?;
             let PointRun::Ran(outcome) = run else {
-                eprintln!("{name} is running in another process; left alone (see `matdem-rs sweep status`)");
+                eoutln!("{name} is running in another process; left alone (see `matdem-rs sweep status`)");
                 return Ok(());
             };
-            eprintln!(
+            eoutln!(
                 "{name}: {:?} in {:.1} s{}",
                 outcome.status,
                 outcome.wall_s,
@@ -172,7 +173,7 @@ fn warn_refused_values(planned: &matdem_rs::sweep::SweepPlan) {
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
         if let Err(e) = package.params(&set) {
-            eprintln!("warning: {} will fail: {}", p.name, one_line(&e));
+            eoutln!("warning: {} will fail: {}", p.name, one_line(&e));
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Running and balancing the model, journaled so an interrupted run can resume.
 
 use super::*;
+use crate::{eoutln, outln};
 // Model names come from the script and are printed: escaped for the terminal.
 use crate::terminal_text::one_line;
 
@@ -19,7 +20,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
             let plan = data.sim.plan_text();
             if host.plan_only {
                 // The plan names the script's groups and materials: escaped like the name.
-                println!(
+                outln!(
                     "model `{}` ({} particles):\n{}",
                     one_line(&data.name),
                     data.sim.model.len(),
@@ -86,12 +87,17 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         if let Some(b) = bar {
             b.finish_and_clear();
         }
+        // The warn-mode guard's warning, after the bar is gone (a run that then failed or
+        // was cancelled still gives it).
+        if let Some(w) = data.sim.take_warning() {
+            host.warn(&format!("stiff contact in {}", data.name), w.to_string());
+        }
         // Without a terminal there is no bar: a log still hears of each long balance.
         let secs = started.elapsed().as_secs_f64();
         if let (false, Ok(r)) = (host.progress, &rep) {
             if secs >= LOG_BALANCE_AFTER_S {
                 let rate = r.steps as f64 * data.sim.model.len() as f64 / secs;
-                eprintln!(
+                eoutln!(
                     "{}: {call} of {} steps in {secs:.1} s ({rate:.3e} particle-steps/s)",
                     one_line(&data.name),
                     r.steps
@@ -121,7 +127,7 @@ fn run_steps(host: &Host, d: &ModelHandle, call: &str, how: Balance) -> RhaiResu
         let saved = SavedBalance::from_balance(how).expect("standard balances were turned into steps above");
         let dir = resume_point::write_resume(host, call, saved, completed).map_err(err)?;
         let name = one_line(&d.data().name).into_owned();
-        eprintln!(
+        eoutln!(
             "interrupted: `{name}` stopped after {completed} step(s) of its {call}; resume data in {}",
             dir.display()
         );

@@ -222,8 +222,9 @@ mod tests {
             };
             let plan = MemoryPlan::new(scene, H100).unwrap();
             let per = plan.bytes_per_particle();
-            eprintln!("longest row {longest}: cap {}, {} slabs, {per:.0} B/particle", plan.cap, plan.slabs().len());
-            assert!(per <= 1024.0, "{per} bytes a particle");
+            let what =
+                format!("longest row {longest}: cap {}, {} slabs, {per:.0} B/particle", plan.cap, plan.slabs().len());
+            assert!(per <= 1024.0, "{what}");
             assert!(plan.slabs().len() > 1, "12.8 GB of pair state cannot sit in one 4 GiB binding");
             assert!(plan.slab as u64 * 16 * plan.cap as u64 <= H100.binding);
             assert_eq!(plan.slab % WORKGROUP, 0);
