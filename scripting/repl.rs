@@ -136,7 +136,7 @@ impl Session {
 
     fn eval_code(&mut self, code: &str, label: &str) -> Reply {
         self.cancel.store(false, Ordering::Relaxed);
-        let sources = Sources { main_path: label, main_text: code };
+        let sources = Sources { main_path: label, main_text: code, hint: crate::api::hints::for_error };
         self.host.limits.compiling(&mut self.engine);
         let ast = match self.engine.compile_with_scope(&self.scope, code) {
             Ok(a) => a,

@@ -6,10 +6,13 @@
 use crate::terminal_text;
 use rhai::{EvalAltResult, Position};
 
-/// Where the script's text came from, to quote lines in reports.
+/// Where the script's text came from, to quote lines in reports, and what to suggest.
 pub struct Sources<'a> {
     pub main_path: &'a str,
     pub main_text: &'a str,
+    /// What to write instead, for an error the script API can advise on (a name it does not
+    /// have: `api::hints::for_error`); the report's `= help:` line.
+    pub hint: fn(&EvalAltResult) -> Option<String>,
 }
 
 impl Sources<'_> {
@@ -98,6 +101,9 @@ pub fn render(e: &EvalAltResult, sources: &Sources<'_>) -> String {
         }
     }
     out.push_str(&snippet(sources, &inner_source, pos));
+    if let Some(hint) = (sources.hint)(inner) {
+        out.push_str(&format!("  = help: {}\n", terminal_text::lines(&hint)));
+    }
     for (k, (name, _, pos)) in chain.iter().enumerate().rev() {
         let caller_src = if k == 0 { String::new() } else { chain[k - 1].1.clone() };
         out.push_str(&format!("  = in call to `{}`\n", terminal_text::one_line(name)));

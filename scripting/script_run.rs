@@ -299,7 +299,7 @@ fn evaluate(
         }
         crate::memory::over_limit()
     });
-    let sources = Sources { main_path: path, main_text: text };
+    let sources = Sources { main_path: path, main_text: text, hint: crate::api::hints::for_error };
     let result = compile_and_run(cfg, &mut engine, &host, &sources);
     let plans = host.plans.take();
     let ran_on = (host.backend.borrow().describe(), host.speed_test.take());

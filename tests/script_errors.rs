@@ -28,6 +28,35 @@ fn unknown_function_names_it_with_caret() {
     assert_eq!(code, 1);
     assert!(err.starts_with("error: Function not found: buld_initial_model (Box)"), "{err}");
     assert!(err.contains("s.rhai:2:3\n  │\n2 │ b.buld_initial_model();\n  │   ^\n"), "{err}");
+    assert!(
+        err.contains("  = help: did you mean `build_initial_model`? `b.build_initial_model() -> Model`\n"),
+        "{err}"
+    );
+}
+
+/// A MatDEM user writes MatDEM's names: the report says what they are called here.
+#[test]
+fn matdem_names_are_answered_with_ours() {
+    let (code, err) = report("matdem_names", "let b = new_box(\"x\");\nb.sampleW = 0.01;\n");
+    assert_eq!(code, 1);
+    assert!(
+        err.ends_with("  │   ^\n  = help: MatDEM's `sampleW` is `sample_w` here (a property of Box (read, set))\n"),
+        "{err}"
+    );
+    let (_, err) = report(
+        "matdem_calls",
+        "let b = new_box(\"x\");\nlet d = b.build_initial_model();\nd.setGroupMat(\"sample\", 1);\n",
+    );
+    assert!(
+        err.contains("= help: MatDEM's `setGroupMat` is `set_group_mat` here: `d.set_group_mat(group, material)`"),
+        "{err}"
+    );
+    // A known name called with other arguments: how it is called.
+    let (_, err) = report("wrong_arguments", "let b = new_box(\"x\");\nb.set_type(3);\n");
+    assert!(
+        err.contains("= help: `set_type` is called as `b.set_type(\"top_platen\")` (it was given (Box, i64))"),
+        "{err}"
+    );
 }
 
 #[test]

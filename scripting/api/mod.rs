@@ -11,6 +11,7 @@ pub mod checkpoint;
 pub mod docs;
 pub mod files;
 pub mod geometry;
+pub mod hints;
 pub mod materials;
 pub mod metrics;
 pub mod model;
