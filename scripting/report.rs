@@ -11,8 +11,9 @@ pub struct Sources<'a> {
     pub main_path: &'a str,
     pub main_text: &'a str,
     /// What to write instead, for an error the script API can advise on (a name it does not
-    /// have: `api::hints::for_error`); the report's `= help:` line.
-    pub hint: fn(&EvalAltResult) -> Option<String>,
+    /// have: `api::hints::for_error`), given the error and the text of the script it is in;
+    /// the report's `= help:` line.
+    pub hint: fn(&EvalAltResult, &str) -> Option<String>,
 }
 
 impl Sources<'_> {
@@ -101,7 +102,8 @@ pub fn render(e: &EvalAltResult, sources: &Sources<'_>) -> String {
         }
     }
     out.push_str(&snippet(sources, &inner_source, pos));
-    if let Some(hint) = (sources.hint)(inner) {
+    let text = sources.text(&inner_source).map_or("", |(_, text)| text);
+    if let Some(hint) = (sources.hint)(inner, text) {
         out.push_str(&format!("  = help: {}\n", terminal_text::lines(&hint)));
     }
     for (k, (name, _, pos)) in chain.iter().enumerate().rev() {

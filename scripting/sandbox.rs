@@ -251,7 +251,21 @@ impl ModuleResolver for SandboxModules {
             return self.stdlib.resolve(engine, source, path, pos);
         }
         let file = if path.ends_with(".rhai") { path.to_string() } else { format!("{path}.rhai") };
-        let bytes = self.root.read(&file).map_err(|msg| EvalAltResult::ErrorRuntime(msg.into(), pos))?;
+        let bytes = self.root.read(&file).map_err(|msg| {
+            // A misspelt stdlib module reads as a missing file of the script's folder: say so.
+            let msg = match path.strip_prefix("std/") {
+                Some(_) => {
+                    let known: Vec<&str> = crate::stdlib::SCRIPTS.iter().map(|(name, _)| *name).collect();
+                    format!(
+                        "{msg}; no stdlib module is called `{path}`{}: the stdlib's are {}",
+                        matdem_engine::error::did_you_mean(path, &known),
+                        known.join(", ")
+                    )
+                }
+                None => msg,
+            };
+            EvalAltResult::ErrorRuntime(msg.into(), pos)
+        })?;
         let text = String::from_utf8(bytes)
             .map_err(|_| EvalAltResult::ErrorRuntime(format!("module `{file}` is not UTF-8 text").into(), pos))?;
         let mut ast = engine.compile(&text).map_err(|e| Box::new(EvalAltResult::from(e)))?;

@@ -116,3 +116,19 @@ fn output_outside_the_run_folder_is_refused() {
     assert_eq!(code, 1);
     assert!(err.contains("outside the allowed folders"), "{err}");
 }
+
+/// A misspelt variable gets the nearest name the script made; a misspelt stdlib module the
+/// nearest module and the list of them.
+#[test]
+fn a_misspelt_variable_or_stdlib_module_gets_the_nearest_name() {
+    let (code, err) = report("misspelt_variable", "let sample = 3;\nprint(sampel);\n");
+    assert_eq!(code, 1);
+    assert!(err.starts_with("error: Variable not found: sampel\n"), "{err}");
+    assert!(err.ends_with("  │       ^\n  = help: did you mean `sample`?\n"), "{err}");
+    let (code, err) = report("misspelt_module", "import \"std/oedometr\" as o;\n");
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("no stdlib module is called `std/oedometr` (did you mean `std/oedometer`?): the stdlib's are"),
+        "{err}"
+    );
+}

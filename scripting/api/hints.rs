@@ -1,32 +1,40 @@
-//! What to write instead, when a script calls a function or uses a property the API does not
-//! have. Users come from MatDEM and write its names (`b.buildInitialModel()`, `b.sampleW`,
-//! `d.setGroupMat`): Rhai only says "Function not found". A hint names, in this order, how a
-//! known name is called (it was called with other arguments), the name MatDEM's call has here
-//! (from the "(MatDEM …)" notes of the reference), the snake_case spelling of a camelCase
-//! name, or the nearest known name; else where every name is listed.
+//! What to write instead, when a script calls a function, uses a property or names a variable
+//! that the API or the script does not have. Users come from MatDEM and write its names
+//! (`b.buildInitialModel()`, `b.sampleW`, `d.setGroupMat`): Rhai only says "Function not
+//! found". A hint names, in this order, how a known name is called (it was called with other
+//! arguments), the name MatDEM's call has here (from the "(MatDEM …)" notes of the
+//! reference), the snake_case spelling of a camelCase name, or the nearest known name; else
+//! where every name is listed. A variable the script never made gets the nearest of its own.
 
 use super::docs::{functions, properties};
 use matdem_engine::error::edit_distance;
 use rhai::EvalAltResult;
 
-/// A hint for an error of a call or a property the API does not have; `None` for any other
-/// error.
-pub fn for_error(e: &EvalAltResult) -> Option<String> {
+/// A hint for an error of a call, a property or a variable the script or the API does not
+/// have (`source`: the text of the script the error is in, for its own variables' names);
+/// `None` for any other error.
+pub fn for_error(e: &EvalAltResult, source: &str) -> Option<String> {
     match e {
+        EvalAltResult::ErrorVariableNotFound(name, _) => variable_hint(name, source),
         EvalAltResult::ErrorFunctionNotFound(signature, _) => {
             // "name (Type, Type)", or for a property reached as a call "get$name (Type)".
             let name = signature.split(" (").next().unwrap_or(signature).trim();
             let args = signature.get(name.len()..).unwrap_or("").trim();
             match name.strip_prefix("get$").or_else(|| name.strip_prefix("set$")) {
-                Some(property) => Some(property_hint(property)),
+                Some(property) => Some(property_hint(property, None)),
                 None => Some(function_hint(name, args)),
             }
         }
         // "Unknown property 'x' - a getter is not registered for type 'Box'", "No writable
-        // property 'x' - a setter …".
+        // property 'x' - a setter is not registered for type 'Box' to handle 'string'".
         EvalAltResult::ErrorDotExpr(message, _) if message.contains("property '") => {
-            let name = message.split('\'').nth(1)?;
-            Some(property_hint(name))
+            let quoted: Vec<&str> = message.split('\'').skip(1).step_by(2).collect();
+            let name = quoted.first()?;
+            let setting = match quoted.as_slice() {
+                [_, whose, given] if message.contains("to handle") => Some((*whose, *given)),
+                _ => None,
+            };
+            Some(property_hint(name, setting))
         }
         _ => None,
     }
@@ -52,9 +60,16 @@ fn function_hint(name: &str, args: &str) -> String {
     }
 }
 
-/// The hint for a property `name`.
-fn property_hint(name: &str) -> String {
+/// The hint for a property `name`; `setting` is (the type, the type of the value) when a
+/// value was set that the property does not take.
+fn property_hint(name: &str, setting: Option<(&str, &str)>) -> String {
     let whose = owners_of(name);
+    if let Some((owner, given)) = setting {
+        let row = properties().find(|(n, w, _)| *n == name && w.split(' ').next() == Some(owner));
+        if let Some((_, _, doc)) = row {
+            return format!("`{name}` of {owner} is {doc}: it cannot be set to a {given}");
+        }
+    }
     if !whose.is_empty() {
         return format!("`{name}` is a property of {}", whose.join(", of "));
     }
@@ -75,6 +90,57 @@ fn property_hint(name: &str) -> String {
         Some(near) => format!("did you mean `{near}`? (a property of {})", owners_of(&near).join(", of ")),
         None => "`matdem-rs doc` lists every function and property a script can use".to_string(),
     }
+}
+
+/// The hint for a variable `name` the script has not made, if there is one to give.
+fn variable_hint(name: &str, source: &str) -> Option<String> {
+    let usages = usages_of(name);
+    if !usages.is_empty() {
+        return Some(format!("`{name}` is a function: call it as {}", usages.join(", or ")));
+    }
+    match name {
+        "mfs" => {
+            return Some(
+                "MatDEM's mfs.makeBox, mfs.makeColumn, mfs.makeRing, … are plain functions here: make_box(…), \
+                 make_column(…), make_ring(…) (`matdem-rs doc`)"
+                    .to_string(),
+            )
+        }
+        "B" | "b" | "d" => {
+            return Some(format!(
+                "a script makes its own objects with let, as MatDEM's scripts do with =: `let b = new_box(\"name\")`, \
+                 `let d = b.build_initial_model()`{}",
+                nearest(name, &declared_names(source))
+                    .map(|n| format!(" (or did you mean `{n}`?)"))
+                    .unwrap_or_default()
+            ))
+        }
+        _ => {}
+    }
+    nearest(name, &declared_names(source)).map(|n| format!("did you mean `{n}`?"))
+}
+
+/// The names a script declares: after `let`, `const` and `for`, and each `fn`'s name and
+/// parameters.
+fn declared_names(source: &str) -> Vec<String> {
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let words: Vec<&str> = source.split(|c: char| !ident(c)).filter(|w| !w.is_empty()).collect();
+    let mut out: Vec<String> = words
+        .windows(2)
+        .filter(|pair| matches!(pair[0], "let" | "const" | "for"))
+        .map(|pair| pair[1].to_string())
+        .collect();
+    // `fn name(a, b)`: every word up to the closing parenthesis.
+    for (k, _) in source.match_indices("fn ") {
+        if source[..k].chars().next_back().is_none_or(|c| !ident(c)) {
+            let head = &source[k + 3..];
+            let head = &head[..head.find(')').unwrap_or(head.len())];
+            out.extend(head.split(|c: char| !ident(c)).filter(|w| !w.is_empty()).map(str::to_string));
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -204,11 +270,37 @@ mod tests {
 
     fn not_found(signature: &str) -> String {
         let e = EvalAltResult::ErrorFunctionNotFound(signature.into(), rhai::Position::NONE);
-        for_error(&e).unwrap()
+        for_error(&e, "").unwrap()
     }
 
     fn no_property(message: &str) -> String {
-        for_error(&EvalAltResult::ErrorDotExpr(message.into(), rhai::Position::NONE)).unwrap()
+        for_error(&EvalAltResult::ErrorDotExpr(message.into(), rhai::Position::NONE), "").unwrap()
+    }
+
+    fn no_variable(name: &str, source: &str) -> Option<String> {
+        for_error(&EvalAltResult::ErrorVariableNotFound(name.into(), rhai::Position::NONE), source)
+    }
+
+    #[test]
+    fn an_unknown_variable_gets_the_scripts_nearest_name() {
+        let script = "let sample = 3;\nconst limit = 2;\nfor step in 0..3 {}\nfn load(stress, opts) {}\nprint(sampel);";
+        assert_eq!(declared_names(script), ["limit", "load", "opts", "sample", "step", "stress"]);
+        assert_eq!(no_variable("sampel", script).unwrap(), "did you mean `sample`?");
+        assert_eq!(no_variable("stres", script).unwrap(), "did you mean `stress`?");
+        assert_eq!(no_variable("unrelated", script), None);
+        // MatDEM's objects: made with let here.
+        assert!(no_variable("B", "").unwrap().starts_with("a script makes its own objects with let"));
+        assert!(no_variable("mfs", "").unwrap().contains("make_box(…)"));
+        // A function named without its call.
+        assert!(no_variable("linspace", "").unwrap().starts_with("`linspace` is a function: call it as"));
+    }
+
+    #[test]
+    fn a_property_set_to_a_value_it_does_not_take_says_what_it_is() {
+        let h =
+            no_property("No writable property 'ball_r' - a setter is not registered for type 'Box' to handle 'string'");
+        assert!(h.starts_with("`ball_r` of Box is "), "{h}");
+        assert!(h.ends_with(": it cannot be set to a string"), "{h}");
     }
 
     #[test]
@@ -254,7 +346,7 @@ mod tests {
         );
         // A two-letter name is not a typo of every other two-letter name.
         assert!(!not_found("qq (i64)").starts_with("did you mean"));
-        assert!(for_error(&EvalAltResult::ErrorRuntime("x".into(), rhai::Position::NONE)).is_none());
+        assert!(for_error(&EvalAltResult::ErrorRuntime("x".into(), rhai::Position::NONE), "").is_none());
     }
 
     #[test]
