@@ -181,7 +181,10 @@ impl Session {
             .filter(|s| s.split('(').next() == Some(name) || s.starts_with(&format!("get${name}(")))
             .collect();
         if sigs.is_empty() {
-            format!("no function `{name}`; :help lists them")
+            match crate::api::hints::for_name(name) {
+                Some(hint) => format!("no function `{name}`: {hint}; :help lists them"),
+                None => format!("no function `{name}`; :help lists them"),
+            }
         } else {
             sigs.join("\n")
         }

@@ -73,8 +73,10 @@ fn a_session_keeps_variables_functions_and_its_model_across_lines_and_errors() {
 
 #[test]
 fn help_prints_a_functions_doc_native_or_stdlib() {
-    let o = repl_with_input("repl_help", ":help balance\n:help sediment\n:help no_such_fn\n:help\n");
+    let o = repl_with_input("repl_help", ":help balance\n:help sediment\n:help no_such_fn\n:help setGroupMat\n:help\n");
     let out = stdout(&o);
+    // A MatDEM name: ours.
+    assert!(out.contains("no function `setGroupMat`: MatDEM's `setGroupMat` is `set_group_mat` here"), "{out}");
     assert!(out.contains("d.balance() / d.balance(\"standard\", n)"), "{out}");
     assert!(out.contains("sediment(d, opts)  (stdlib)") && out.contains("settle under gravity"), "{out}");
     assert!(out.contains("no function `no_such_fn`"), "{out}");

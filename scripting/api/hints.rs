@@ -40,6 +40,15 @@ pub fn for_error(e: &EvalAltResult, source: &str) -> Option<String> {
     }
 }
 
+/// What to look up instead of `name`, a function or property the reference has no entry
+/// for (the REPL's `:help name`), if anything near it is known.
+pub fn for_name(name: &str) -> Option<String> {
+    [function_hint(name, ""), property_hint(name, None)].into_iter().find(|h| h != NO_HINT)
+}
+
+/// The hint when nothing near was found.
+const NO_HINT: &str = "`matdem-rs doc` lists every function and property a script can use";
+
 /// The hint for a function `name` called with `args` (Rhai's "(Type, …)").
 fn function_hint(name: &str, args: &str) -> String {
     let usages = usages_of(name);
@@ -56,7 +65,7 @@ fn function_hint(name: &str, args: &str) -> String {
     }
     match nearest(name, &function_names()) {
         Some(near) => format!("did you mean `{near}`? {}", usages_of(&near).join(", or ")),
-        None => "`matdem-rs doc` lists every function and property a script can use".to_string(),
+        None => NO_HINT.to_string(),
     }
 }
 
@@ -88,7 +97,7 @@ fn property_hint(name: &str, setting: Option<(&str, &str)>) -> String {
     let names: Vec<&str> = properties().map(|(n, _, _)| *n).collect();
     match nearest(name, &names) {
         Some(near) => format!("did you mean `{near}`? (a property of {})", owners_of(&near).join(", of ")),
-        None => "`matdem-rs doc` lists every function and property a script can use".to_string(),
+        None => NO_HINT.to_string(),
     }
 }
 
