@@ -132,3 +132,25 @@ fn a_misspelt_variable_or_stdlib_module_gets_the_nearest_name() {
         "{err}"
     );
 }
+
+/// A stdlib procedure refuses an option it does not read, naming the nearest: before, a typo
+/// was dropped without a word (`max_step: 100` ran the default 200,000 steps).
+#[test]
+fn a_misspelt_option_of_a_stdlib_procedure_is_refused() {
+    let script = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
+                  0.5e-3;\nlet d = b.build_initial_model();\nsediment(d, #{ max_step: 100 });\n";
+    let (code, err) = report("misspelt_option", script);
+    assert_eq!(code, 1);
+    assert!(err.starts_with("error: sediment: unknown option `max_step` (did you mean `max_steps`?)"), "{err}");
+    assert!(err.contains("  = in call to `sediment`\n"), "{err}");
+    // An option a procedure passes on to another is its own too: compact's `tolerance` is
+    // stage_load's, and stage_load is not handed compact's `local_damping`.
+    let script = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
+                  0.5e-3;\nb.set_type(\"top_platen\");\nlet d = b.build_initial_model();\nd.set_group_mat(\"sample\", \
+                  material_micro(\"m\", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.5e-3 }));\nd.set_standard_dt();\n\
+                  compact(d, 1e3, #{ local_damping: 0.7, tolerance: 0.5, max_steps: 200 });\n\
+                  compact(d, 1e3, #{ tolerence: 0.5 });\n";
+    let (_, err) = report("forwarded_option", script);
+    assert!(err.starts_with("error: compact: unknown option `tolerence` (did you mean `tolerance`?)"), "{err}");
+    assert!(err.contains("8 │ compact(d, 1e3, #{ tolerence: 0.5 });"), "{err}");
+}

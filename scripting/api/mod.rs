@@ -16,6 +16,7 @@ pub mod materials;
 pub mod metrics;
 pub mod model;
 pub mod movies;
+pub mod options;
 pub mod plot;
 pub mod reference;
 pub mod resume_point;
@@ -248,6 +249,7 @@ fn error_message(e: &EvalAltResult) -> String {
 /// Registers the whole script API.
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     arrays::register(engine);
+    options::register(engine);
     geometry::register(engine);
     statistics::register(engine);
     table::register(engine, host.clone());

@@ -50,7 +50,8 @@ pub fn stdlib_docs(engine: &Engine) -> Vec<(String, String)> {
     let mut out = Vec::new();
     for (_, source) in crate::stdlib::SCRIPTS {
         let Ok(ast) = engine.compile(*source) else { continue };
-        for f in ast.iter_functions() {
+        // Closures (`|k, v| …`) are functions of the script too, named by a hash: not procedures.
+        for f in ast.iter_functions().filter(|f| !f.name.starts_with("anon$")) {
             let doc: Vec<&str> = f
                 .comments
                 .iter()

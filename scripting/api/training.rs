@@ -3,6 +3,7 @@
 //! rescaling to another element size.
 
 use super::arrays::{number, to_numbers};
+use super::options::check_keys;
 use super::table::Table;
 use super::{err, raise, write_atomic, Host, RhaiResult};
 use crate::outln;
@@ -33,16 +34,6 @@ struct SampleData {
 const TARGET_KEYS: &[&str] = &["name", "E", "nu", "Tu", "Cu", "mu_i", "density"];
 const OPTION_KEYS: &[&str] =
     &["elements", "radius", "distri_rate", "seed", "dimension", "rounds", "confining", "steps_to_peak", "quiet", "out"];
-
-fn check_keys(map: &Map, known: &[&str], what: &str) -> RhaiResult<()> {
-    for k in map.keys() {
-        if !known.contains(&k.as_str()) {
-            let e = matdem_engine::Error::unknown("key", k, known);
-            return Err(err(format!("{what}: {e}")));
-        }
-    }
-    Ok(())
-}
 
 fn num(map: &Map, key: &str, what: &str) -> RhaiResult<Option<f64>> {
     match map.get(key) {
