@@ -253,16 +253,8 @@ fn a_script_whose_reader_went_away_runs_to_its_end() {
     let script = "print(\"first\"); let x = linspace(0.0, 1.0, 5000000); print(`sum ${x.sum()}`); \
                   new_table().save(\"done.csv\"); print(\"last\");";
     std::fs::write(dir.join("s.rhai"), script).unwrap();
-    let mut child = bin()
-        .arg("run")
-        .arg(dir.join("s.rhai"))
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(["--backend", "cpu"])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child =
+        run_in(&dir).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().unwrap();
     let mut first = String::new();
     std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
     assert_eq!(first.trim(), "first");
@@ -294,15 +286,7 @@ fn a_command_whose_reader_went_away_ends_without_a_panic() {
 fn a_run_whose_stderr_went_away_runs_to_its_end() {
     let dir = temp_dir("bounds_closed_stderr");
     std::fs::write(dir.join("s.rhai"), "new_table().save(\"done.csv\");").unwrap();
-    let mut child = bin()
-        .arg("run")
-        .arg(dir.join("s.rhai"))
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(["--backend", "cpu"])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = run_in(&dir).stderr(std::process::Stdio::piped()).spawn().unwrap();
     drop(child.stderr.take());
     let status = child.wait().unwrap();
     assert!(status.success(), "{:?}", status.code());

@@ -154,3 +154,28 @@ fn a_misspelt_option_of_a_stdlib_procedure_is_refused() {
     assert!(err.starts_with("error: compact: unknown option `tolerence` (did you mean `tolerance`?)"), "{err}");
     assert!(err.contains("8 │ compact(d, 1e3, #{ tolerence: 0.5 });"), "{err}");
 }
+
+/// Native functions that read an options map refuse a key they do not read, as the stdlib
+/// procedures do: before, `test_sample`, `lab_test`, `anova` and `least_squares` dropped it.
+#[test]
+fn a_misspelt_option_of_a_native_function_is_refused() {
+    let m = "let m = material(\"rock\", #{ E: 2e10, nu: 0.15, Tu: 5e6, Cu: 5e7, mu_i: 0.6, d: 1e-3 });\n";
+    let (_, err) = report("misspelt_sample", &format!("{m}test_sample(m, #{{ element: 50 }});\n"));
+    assert!(err.starts_with("error: test_sample: unknown key `element` (did you mean `elements`?)"), "{err}");
+    let (_, err) = report(
+        "misspelt_material_test",
+        // Refused before the sample is used: no sample needs packing for the check.
+        "uniaxial_compression((), #{ steps_to_pk: 100 });\n",
+    );
+    assert!(
+        err.starts_with("error: uniaxial_compression: unknown option `steps_to_pk` (did you mean `steps_to_peak`?)"),
+        "{err}"
+    );
+    let (_, err) = report("misspelt_anova", "let d = orthogonal_design([\"a\", \"b\"], [[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);\nanova(d, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], #{ pol: 1 });\n");
+    assert!(err.starts_with("error: anova: unknown key `pol` (did you mean `pool`?)"), "{err}");
+    let (_, err) = report("misspelt_least_squares", "least_squares(|p| [p[0] - 1.0], [0.0], #{ max_iteration: 5 });\n");
+    assert!(
+        err.starts_with("error: least_squares: unknown key `max_iteration` (did you mean `max_iterations`?)"),
+        "{err}"
+    );
+}

@@ -4,6 +4,7 @@
 //! The numerics live in `crate::calibration`; this file converts and draws.
 
 use super::arrays::{to_numbers, Field};
+use super::options::check_keys;
 use super::plot::save_figure;
 use super::table::{Table, TableData};
 use super::{err, write_atomic, Host, RhaiResult};
@@ -350,6 +351,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     // ANOVA.
     let anova_fn = |d: &mut Design, y: Dynamic, opts: Map| -> RhaiResult<AnovaResult> {
         let y = to_numbers(&y, "anova: responses")?;
+        check_keys(&opts, &["pool", "name"], "anova")?;
         let response = opts.get("name").map_or("response".to_string(), |v| v.to_string());
         let runs = d.array.runs();
         // Replicates: the responses of r copies of the design, one after the other.
@@ -531,6 +533,7 @@ pub fn register(engine: &mut Engine, host: Rc<Host>) {
     // Generic Levenberg–Marquardt on a script function: f(params array) -> residuals array.
     engine.register_fn("least_squares", |ctx: NativeCallContext, f: FnPtr, x0: Array, opts: Map| -> RhaiResult<Map> {
         let x0 = to_numbers(&Dynamic::from_array(x0), "least_squares: start")?;
+        check_keys(&opts, &["lower", "upper", "max_iterations"], "least_squares")?;
         let n = x0.len();
         let mut o = Options::unbounded(n);
         if let Some(v) = opts.get("lower") {

@@ -74,6 +74,12 @@ fn targets(map: &Map, dim: Dimension) -> RhaiResult<(String, MacroProperties, f6
     Ok((name, t, density))
 }
 
+/// The keys of `test_sample`'s options.
+const SAMPLE_KEYS: &[&str] = &["elements", "radius", "distri_rate", "seed", "dimension"];
+
+/// The keys of `lab_test`'s options.
+const LAB_KEYS: &[&str] = &["confining", "expected_peak_strain", "steps_to_peak"];
+
 fn sample_spec(map: &Map, what: &str) -> RhaiResult<SampleSpec> {
     let mut s = SampleSpec::default();
     if let Some(n) = count(map, "elements", what)? {
@@ -330,6 +336,7 @@ fn lab_kind(kind: &str, opts: &Map) -> RhaiResult<LabTest> {
 }
 
 fn test_sample(host: &Host, material: Material, opts: Map) -> RhaiResult<TestSample> {
+    check_keys(&opts, SAMPLE_KEYS, "test_sample")?;
     let spec = sample_spec(&opts, "test_sample")?;
     let packed = PackedSample::pack(&spec, &material, &host.control).map_err(raise)?;
     let bonded = packed.bonded(&material, &host.control).map_err(raise)?;
@@ -338,6 +345,7 @@ fn test_sample(host: &Host, material: Material, opts: Map) -> RhaiResult<TestSam
 }
 
 fn lab_test(host: &Host, s: &TestSample, kind: &str, opts: Map) -> RhaiResult<Map> {
+    check_keys(&opts, LAB_KEYS, "lab_test")?;
     let test = lab_kind(kind, &opts)?;
     let lattice = s.0.dimension.lattice_macro(&s.0.material, s.0.diameter);
     let expected = match num(&opts, "expected_peak_strain", "lab_test")? {

@@ -9,6 +9,14 @@ pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_matdem-rs"))
 }
 
+/// `matdem-rs run <dir>/s.rhai --out <dir>/out --backend cpu`, to be given its streams and
+/// started.
+pub fn run_in(dir: &Path) -> Command {
+    let mut c = bin();
+    c.arg("run").arg(dir.join("s.rhai")).arg("--out").arg(dir.join("out")).args(["--backend", "cpu"]);
+    c
+}
+
 /// The binary on a machine with no GPU driver at all: the Vulkan loader and EGL are pointed at
 /// files that do not exist, so wgpu finds no adapter (not even Mesa's software one).
 pub fn bin_without_gpu() -> Command {
@@ -116,12 +124,7 @@ pub fn terminate_after_first_line(name: &str, script: &str, extra: &[&str]) -> (
 pub fn terminate_after_first_line_in(dir: &Path, script: &str, extra: &[&str]) -> (Option<i32>, f64, String) {
     use std::io::BufRead;
     std::fs::write(dir.join("s.rhai"), script).unwrap();
-    let mut child = bin()
-        .arg("run")
-        .arg(dir.join("s.rhai"))
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(["--backend", "cpu"])
+    let mut child = run_in(dir)
         .args(extra)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
