@@ -51,6 +51,12 @@ fn matdem_names_are_answered_with_ours() {
         err.contains("= help: MatDEM's `setGroupMat` is `set_group_mat` here: `d.set_group_mat(group, material)`"),
         "{err}"
     );
+    // MATLAB's single-quoted strings, caught while parsing.
+    let (_, err) = report("matdem_quotes", "let d = 1;\nd.balance('Standard');\n");
+    assert!(
+        err.ends_with("  = help: strings take double quotes here: \"Standard\" (single quotes hold one character)\n"),
+        "{err}"
+    );
     // A known name called with other arguments: how it is called.
     let (_, err) = report("wrong_arguments", "let b = new_box(\"x\");\nb.set_type(3);\n");
     assert!(

@@ -22,9 +22,14 @@ pub fn for_error(e: &EvalAltResult, source: &str) -> Option<String> {
             let args = signature.get(name.len()..).unwrap_or("").trim();
             match name.strip_prefix("get$").or_else(|| name.strip_prefix("set$")) {
                 Some(property) => Some(property_hint(property, None)),
+                // MATLAB indexes with parentheses: `x(1)` of an array the script made.
+                None if usages_of(name).is_empty() && declared_names(source).iter().any(|n| n == name) => {
+                    Some(format!("`{name}` is a variable, not a function: index an array with {name}[0] (from 0)"))
+                }
                 None => Some(function_hint(name, args)),
             }
         }
+        EvalAltResult::ErrorParsing(..) => matlab_habit(&e.to_string()),
         // "Unknown property 'x' - a getter is not registered for type 'Box'", "No writable
         // property 'x' - a setter is not registered for type 'Box' to handle 'string'".
         EvalAltResult::ErrorDotExpr(message, _) if message.contains("property '") => {
@@ -38,6 +43,20 @@ pub fn for_error(e: &EvalAltResult, source: &str) -> Option<String> {
         }
         _ => None,
     }
+}
+
+/// A syntax error that MATLAB's habits make (MatDEM's scripts are MATLAB): `%` comments and
+/// strings in single quotes.
+fn matlab_habit(message: &str) -> Option<String> {
+    if message.contains("Unexpected '%'") {
+        return Some("comments start with // here (MATLAB's % is the remainder operator)".to_string());
+    }
+    // "Invalid character: 'Standard'": Rhai's single quotes hold one character.
+    let rest = message.split("Invalid character: '").nth(1)?;
+    // Rhai's message may end with its position: "… 'Standard' (line 2, position 11)".
+    let quoted = rest.split(" (line ").next()?.strip_suffix('\'')?;
+    (quoted.chars().count() > 1)
+        .then(|| format!("strings take double quotes here: \"{quoted}\" (single quotes hold one character)"))
 }
 
 /// What to look up instead of `name`, a function or property the reference has no entry
@@ -54,7 +73,13 @@ fn function_hint(name: &str, args: &str) -> String {
     let usages = usages_of(name);
     if !usages.is_empty() {
         let given = if args.is_empty() { String::new() } else { format!(" (it was given {args})") };
-        return format!("`{name}` is called as {}{given}", usages.join(", or "));
+        // `d.run(1e5)`: Rhai reads 1e5 as a float, and counts are integers.
+        let count = if args.contains("f64") && usages.iter().any(|u| u.contains("steps") || u.contains("n)")) {
+            "; a count of steps is an integer: 100000, not 1e5 or 100000.0"
+        } else {
+            ""
+        };
+        return format!("`{name}` is called as {}{given}{count}", usages.join(", or "));
     }
     if let Some(ours) = matdem_name(name, Kind::Function) {
         return format!("MatDEM's `{name}` is `{ours}` here: {}", usages_of(&ours).join(", or "));
@@ -369,6 +394,28 @@ mod tests {
         assert_eq!(matdem_names_in("writes a lane (MatDEM d.mo.aX(ids) = v, d.mo.aKN(ids) = v); more"), ["aX", "aKN"]);
         assert_eq!(matdem_names_in("a surface (MatDEM Tool_Cut.addSurf)"), ["Tool_Cut", "addSurf"]);
         assert!(matdem_names_in("no note here").is_empty());
+    }
+
+    #[test]
+    fn matlab_habits_are_named() {
+        let parse = |text: &str| {
+            let e: EvalAltResult = rhai::Engine::new().compile(text).unwrap_err().into();
+            for_error(&e, text)
+        };
+        assert_eq!(
+            parse("% a comment\nlet x = 1;").unwrap(),
+            "comments start with // here (MATLAB's % is the remainder operator)"
+        );
+        assert_eq!(
+            parse("d.balance('Standard');").unwrap(),
+            "strings take double quotes here: \"Standard\" (single quotes hold one character)"
+        );
+        assert_eq!(parse("let x = (1 + ;"), None);
+        // `x(1)` of an array the script made, and a float for a step count.
+        let e = EvalAltResult::ErrorFunctionNotFound("x (i64)".into(), rhai::Position::NONE);
+        assert!(for_error(&e, "let x = [1, 2];\nx(1)").unwrap().starts_with("`x` is a variable, not a function"));
+        assert!(not_found("run (Model, f64)").ends_with("a count of steps is an integer: 100000, not 1e5 or 100000.0"));
+        assert!(!not_found("run (Model, string)").contains("a count of steps"));
     }
 
     #[test]
