@@ -253,16 +253,15 @@ impl ModuleResolver for SandboxModules {
         let file = if path.ends_with(".rhai") { path.to_string() } else { format!("{path}.rhai") };
         let bytes = self.root.read(&file).map_err(|msg| {
             // A misspelt stdlib module reads as a missing file of the script's folder: say so.
-            let msg = match path.strip_prefix("std/") {
-                Some(_) => {
-                    let known: Vec<&str> = crate::stdlib::SCRIPTS.iter().map(|(name, _)| *name).collect();
-                    format!(
-                        "{msg}; no stdlib module is called `{path}`{}: the stdlib's are {}",
-                        matdem_engine::error::did_you_mean(path, &known),
-                        known.join(", ")
-                    )
-                }
-                None => msg,
+            let msg = if path.starts_with("std/") {
+                let known: Vec<&str> = crate::stdlib::SCRIPTS.iter().map(|(name, _)| *name).collect();
+                format!(
+                    "{msg}; no stdlib module is called `{path}`{}: the stdlib's are {}",
+                    matdem_engine::error::did_you_mean(path, &known),
+                    known.join(", ")
+                )
+            } else {
+                msg
             };
             EvalAltResult::ErrorRuntime(msg.into(), pos)
         })?;

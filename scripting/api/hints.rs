@@ -4,7 +4,9 @@
 //! found". A hint names, in this order, how a known name is called (it was called with other
 //! arguments), the name MatDEM's call has here (from the "(MatDEM …)" notes of the
 //! reference), the snake_case spelling of a camelCase name, or the nearest known name; else
-//! where every name is listed. A variable the script never made gets the nearest of its own.
+//! where every name is listed. A variable the script never made gets the nearest of its own,
+//! and MATLAB's habits (`%` comments, 'single-quoted' strings, `x(1)`, `1e5` steps) what Rhai
+//! writes instead.
 
 use super::docs::{functions, properties};
 use matdem_engine::error::edit_distance;
