@@ -185,3 +185,18 @@ fn a_misspelt_option_of_a_native_function_is_refused() {
         "{err}"
     );
 }
+
+/// A step count written as MatDEM writes it (1e3, a float in Rhai) runs that many steps; a
+/// count that is not whole is refused.
+#[test]
+fn a_whole_float_is_a_step_count_and_a_fraction_is_refused() {
+    let scene = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
+                 0.5e-3;\nlet d = b.build_initial_model();\nd.set_group_mat(\"sample\", material_micro(\"m\", #{ kn: \
+                 2e5, ks: 8e4, mu_p: 0.3, r: 0.5e-3 }));\nd.set_standard_dt();\n";
+    let (code, err) = report(
+        "float_steps",
+        &format!("{scene}let r = d.run(1e2);\nif r.steps != 100 || d.step != 100 {{ throw `ran ${{r.steps}}`; }}\nd.balance(5e1);\nd.run(2.5);\n"),
+    );
+    assert_eq!(code, 1);
+    assert!(err.starts_with("error: run: steps must be a whole number of steps ≥ 0, got 2.5"), "{err}");
+}

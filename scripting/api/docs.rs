@@ -54,7 +54,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("set_standard_dt", "d.set_standard_dt() -> dt", "sets MatDEM's standard time step, 1/50 of the smallest element period"),
     ("standard_dt", "d.standard_dt() -> dt", "MatDEM's standard time step, without setting it"),
     ("critical_dt", "d.critical_dt() -> dt", "the critical time step of the stiffest element: beyond it a run is unstable (the guard also checks the stiffest loaded contact at every chunk; d.guard = \"warn\" warns once instead of stopping)"),
-    ("run", "d.run(steps) -> map", "runs a number of steps; Ctrl-C in the REPL cancels it"),
+    ("run", "d.run(steps) -> map", "runs a number of steps (an integer, or a whole float: d.run(1e5) as MatDEM writes it); Ctrl-C in the REPL cancels it"),
     ("balance", "d.balance() / d.balance(\"standard\", n) / d.balance(steps)", "runs until the unbalanced force falls under the tolerance or the standard number of steps passes (MatDEM d.balance)"),
     ("balance_until", "d.balance_until(ratio, max_steps) -> map", "balances until the unbalanced force ratio falls under `ratio`"),
     ("unbalanced_ratio", "d.unbalanced_ratio() -> f64", "the mean unbalanced force over the mean contact force"),

@@ -146,11 +146,9 @@ fn unreachable_in_replay(call: &str) -> RhaiResult<Dynamic> {
 
 pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
     let h = host.clone();
-    engine.register_fn("run", move |d: &mut ModelHandle, steps: INT| {
-        if steps < 0 {
-            return Err(err(format!("steps must be ≥ 0, got {steps}")));
-        }
-        run_steps(&h, d, "run", Balance::Steps(steps as u64))
+    engine.register_fn("run", move |d: &mut ModelHandle, steps: Dynamic| {
+        let steps = step_count(&steps, "run", "steps")?;
+        run_steps(&h, d, "run", Balance::Steps(steps))
     });
     let h = host.clone();
     engine.register_fn("balance", move |d: &mut ModelHandle| {
@@ -168,21 +166,33 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         run_steps(&h, d, "balance", mode)
     });
     let h = host.clone();
-    engine.register_fn("balance_until", move |d: &mut ModelHandle, ratio: FLOAT, max_steps: INT| {
+    engine.register_fn("balance_until", move |d: &mut ModelHandle, ratio: FLOAT, max_steps: Dynamic| {
         positive("ratio", ratio)?;
-        if max_steps <= 0 {
+        let max_steps = step_count(&max_steps, "balance_until", "max_steps")?;
+        if max_steps == 0 {
             return Err(err("balance_until: max_steps must be > 0"));
         }
-        run_steps(&h, d, "balance_until", Balance::Tolerance { ratio, max_steps: max_steps as u64 })
+        run_steps(&h, d, "balance_until", Balance::Tolerance { ratio, max_steps })
     });
 }
 
+/// A count of steps: an integer ≥ 0, or a float that is one (MatDEM's scripts write 1e5, which
+/// Rhai reads as a float), at most 2^53 so that it is exact.
+fn step_count(v: &Dynamic, call: &str, what: &str) -> RhaiResult<u64> {
+    const EXACT: f64 = 9_007_199_254_740_992.0;
+    if let Ok(n) = v.as_int() {
+        return u64::try_from(n).map_err(|_| err(format!("{call}: {what} must be ≥ 0, got {n}")));
+    }
+    match v.as_float() {
+        Ok(x) if x.is_finite() && x >= 0.0 && x.fract() == 0.0 && x <= EXACT => Ok(x as u64),
+        Ok(x) => Err(err(format!("{call}: {what} must be a whole number of steps ≥ 0, got {x}"))),
+        Err(t) => Err(err(format!("{call}: {what} must be a number of steps, got {t}"))),
+    }
+}
+
 fn balance_mode(how: &Dynamic, rounds: f64) -> RhaiResult<Balance> {
-    if let Ok(n) = how.as_int() {
-        if n < 0 {
-            return Err(err(format!("balance: steps must be ≥ 0, got {n}")));
-        }
-        return Ok(Balance::Steps(n as u64));
+    if how.is_int() || how.is_float() {
+        return Ok(Balance::Steps(step_count(how, "balance", "steps")?));
     }
     match how.clone().try_cast::<rhai::ImmutableString>().as_deref() {
         Some("standard") | Some("Standard") => {
