@@ -139,26 +139,29 @@ fn a_misspelt_variable_or_stdlib_module_gets_the_nearest_name() {
     );
 }
 
+/// A small box `d` with a top platen, a material and the standard time step: five lines.
+const SMALL_BOX: &str = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; \
+                         b.ball_r = 0.5e-3; b.set_type(\"top_platen\");\nlet d = b.build_initial_model();\n\
+                         d.set_group_mat(\"sample\", material_micro(\"m\", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.5e-3 \
+                         }));\nd.set_standard_dt();\n";
+
 /// A stdlib procedure refuses an option it does not read, naming the nearest: before, a typo
 /// was dropped without a word (`max_step: 100` ran the default 200,000 steps).
 #[test]
 fn a_misspelt_option_of_a_stdlib_procedure_is_refused() {
-    let script = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
-                  0.5e-3;\nlet d = b.build_initial_model();\nsediment(d, #{ max_step: 100 });\n";
-    let (code, err) = report("misspelt_option", script);
+    let (code, err) = report("misspelt_option", &format!("{SMALL_BOX}sediment(d, #{{ max_step: 100 }});\n"));
     assert_eq!(code, 1);
     assert!(err.starts_with("error: sediment: unknown option `max_step` (did you mean `max_steps`?)"), "{err}");
     assert!(err.contains("  = in call to `sediment`\n"), "{err}");
     // An option a procedure passes on to another is its own too: compact's `tolerance` is
     // stage_load's, and stage_load is not handed compact's `local_damping`.
-    let script = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
-                  0.5e-3;\nb.set_type(\"top_platen\");\nlet d = b.build_initial_model();\nd.set_group_mat(\"sample\", \
-                  material_micro(\"m\", #{ kn: 2e5, ks: 8e4, mu_p: 0.3, r: 0.5e-3 }));\nd.set_standard_dt();\n\
-                  compact(d, 1e3, #{ local_damping: 0.7, tolerance: 0.5, max_steps: 200 });\n\
-                  compact(d, 1e3, #{ tolerence: 0.5 });\n";
-    let (_, err) = report("forwarded_option", script);
+    let script = format!(
+        "{SMALL_BOX}compact(d, 1e3, #{{ local_damping: 0.7, tolerance: 0.5, max_steps: 200 }});\n\
+         compact(d, 1e3, #{{ tolerence: 0.5 }});\n"
+    );
+    let (_, err) = report("forwarded_option", &script);
     assert!(err.starts_with("error: compact: unknown option `tolerence` (did you mean `tolerance`?)"), "{err}");
-    assert!(err.contains("8 │ compact(d, 1e3, #{ tolerence: 0.5 });"), "{err}");
+    assert!(err.contains("7 │ compact(d, 1e3, #{ tolerence: 0.5 });"), "{err}");
 }
 
 /// Native functions that read an options map refuse a key they do not read, as the stdlib
@@ -190,12 +193,9 @@ fn a_misspelt_option_of_a_native_function_is_refused() {
 /// count that is not whole is refused.
 #[test]
 fn a_whole_float_is_a_step_count_and_a_fraction_is_refused() {
-    let scene = "let b = new_box(\"x\");\nb.sample_w = 0.004; b.sample_l = 0.004; b.sample_h = 0.004; b.ball_r = \
-                 0.5e-3;\nlet d = b.build_initial_model();\nd.set_group_mat(\"sample\", material_micro(\"m\", #{ kn: \
-                 2e5, ks: 8e4, mu_p: 0.3, r: 0.5e-3 }));\nd.set_standard_dt();\n";
     let (code, err) = report(
         "float_steps",
-        &format!("{scene}let r = d.run(1e2);\nif r.steps != 100 || d.step != 100 {{ throw `ran ${{r.steps}}`; }}\nd.balance(5e1);\nd.run(2.5);\n"),
+        &format!("{SMALL_BOX}let r = d.run(1e2);\nif r.steps != 100 || d.step != 100 {{ throw `ran ${{r.steps}}`; }}\nd.balance(5e1);\nd.run(2.5);\n"),
     );
     assert_eq!(code, 1);
     assert!(err.starts_with("error: run: steps must be a whole number of steps ≥ 0, got 2.5"), "{err}");
