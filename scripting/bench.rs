@@ -83,7 +83,7 @@ impl BenchField {
                 m.set_thermal_material("bench", props)
             }
             BenchField::Moisture => {
-                m.settings.moisture.initial = 0.2;
+                m.effects.moisture.settings.initial = 0.2;
                 m.enable_moisture();
                 m.set_moisture_material("bench", 1e-3)
             }

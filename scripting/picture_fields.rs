@@ -77,7 +77,7 @@ pub fn field_values(
             t.clone()
         }
         "water" => {
-            let w = &p.moisture.water;
+            let w = &m.effects.moisture.lanes.water;
             if w.len() != n {
                 return Err("no water field: call d.enable(\"moisture\") first (docs/fields.md)".into());
             }

@@ -53,8 +53,8 @@ pub fn vtp(m: &Model) -> String {
     if m.settings.heat.enabled && p.thermal.temperature.len() == n {
         array(&mut s, "Float64", "temperature", 1, p.thermal.temperature.iter().map(|&t| num(t)), "");
     }
-    if m.settings.moisture.enabled && p.moisture.water.len() == n {
-        array(&mut s, "Float64", "water", 1, p.moisture.water.iter().map(|&w| num(w)), "");
+    if m.effects.moisture.settings.enabled && m.effects.moisture.lanes.water.len() == n {
+        array(&mut s, "Float64", "water", 1, m.effects.moisture.lanes.water.iter().map(|&w| num(w)), "");
     }
     s.push_str("      </PointData>\n      <Points>\n");
     array(&mut s, "Float64", "position", 3, vec3(n, |i| p.pos[i]), "");

@@ -1,10 +1,10 @@
-//! Every optional stage of the engine's registry (`plan/registry.rs`) is switched on from a
+//! Every optional stage of the engine's registry (`plan/mod.rs`, `REGISTRY`) is switched on from a
 //! script by the switch its row names: on a small packing the plan's stage list lacks the stage
 //! before the switch and has it after. A stage added to the registry without a script switch,
 //! or with one that does not reach the plan, fails here.
 
 use crate::common::SMALL_BOX;
-use matdem_engine::plan::registry::REGISTRY;
+use matdem_engine::plan::REGISTRY;
 use matdem_rs::api::Host;
 use std::rc::Rc;
 

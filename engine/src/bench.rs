@@ -329,7 +329,7 @@ pub fn model_bytes(m: &Model) -> usize {
     bytes += cap(&p.applied.force) + cap(&p.applied.torque) + cap(&p.applied.offset);
     bytes += p.heat.lanes().iter().map(|l| cap(l)).sum::<usize>();
     // The field stages' lanes (empty unless `bench --field` switched them on).
-    bytes += p.thermal.bytes() + p.moisture.bytes();
+    bytes += p.thermal.bytes() + m.effects.bytes();
     let c = &m.contacts;
     bytes += cap(&c.row_start) + cap(&c.other) + cap(&c.state) + cap(&c.built_at);
     bytes += cap(&c.pair) + cap(&c.pair_start) + cap(&c.wall_near);

@@ -19,7 +19,8 @@
 //! lanes (temperature, capacity, …) when heat is on — after the bonds, from format 4 (an older
 //! file loads with heat off and no water), then the bonds' strength shares (format 6) and the
 //! optional stages' sections — rolling resistance with epsd's springs, pore flow with its
-//! network and fluid, moisture with its water lanes, the pore fluid's heat (its temperatures,
+//! network and fluid, moisture with its water lanes (since 2026-12-07 in the effects' state
+//! sections, one per effect that keeps a state in the model, by its name), the pore fluid's heat (its temperatures,
 //! thermal properties, permeability factors, region temperatures and totals), the applied loads
 //! with their work account, the rotation angles (a file without these sections loads with no
 //! loads and every angle at zero) — from format 7, and
@@ -39,13 +40,14 @@ use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::effects::conduction::HeatSettings;
 use crate::effects::confining_pressure::{Confinement, MAX_CELLS};
 use crate::effects::moisture::lanes::MoistureLanes;
-use crate::effects::moisture::physics::Table;
+use crate::effects::moisture::state::MoistureState;
 use crate::effects::moisture::MoistureSettings;
 use crate::effects::parallel_bond::lanes::ParallelBonds;
 use crate::effects::pore_flow::coupling::PoreSettings;
 use crate::effects::pore_flow::flow::{PoreBoundary, PoreFlow};
 use crate::effects::pore_flow::{Fluid, FluidHeat};
 use crate::effects::rolling_resistance::physics::RollingResistance;
+use crate::effects::EffectState;
 use crate::element_values::MAX_MATERIALS;
 use crate::model::Model;
 use crate::physics::Vec3;
@@ -147,7 +149,8 @@ enum Section {
     /// built (it is rebuilt only after a drift, so it cannot be derived from the positions)
     /// with its fluid.
     PoreFlow { settings: PoreSettings, flow: Option<Box<PoreFlow>> },
-    /// Moisture: the scene's settings (diffusivities, tables) and the water lanes.
+    /// Moisture's settings and water lanes, as files written before the effects' states
+    /// (2026-12-07) carry them; read only: moisture is an [`Section::Effect`] now.
     Moisture { settings: MoistureSettings, lanes: MoistureLanes },
     /// What pore flow gained after its first section (written after it, whenever it is):
     /// the fluid's thermal properties and per-material permeability factors, the boundary
@@ -170,6 +173,10 @@ enum Section {
     Clumps { clumps: Clumps },
     /// The periodic cell. A file without it loads with no periodic axis.
     Periodic { cell: crate::effects::periodic::Periodic },
+    /// The state of an effect that keeps one in the model (`effects::EffectState`), by the
+    /// effect's name, in the effect's own encoding: a new effect needs no variant here. A file
+    /// without it loads with the effect as a new model has it.
+    Effect { name: String, state: Vec<u8> },
 }
 
 /// The pore fluid's settings that [`Section::PoreHeat`] carries.
@@ -230,10 +237,6 @@ impl Section {
             });
             out.push(Section::PoreHeat { settings: PoreHeatSettings::of(&s.fluid, &s.boundaries), flow });
         }
-        if m.settings.moisture != MoistureSettings::default() || m.particles.moisture.allocated(m.len()) {
-            let (settings, lanes) = (m.settings.moisture.clone(), m.particles.moisture.clone());
-            out.push(Section::Moisture { settings, lanes });
-        }
         let applied = &m.particles.applied;
         if applied.allocated(m.len()) || applied.booked != 0.0 {
             out.push(Section::AppliedLoads { lanes: applied.clone() });
@@ -253,6 +256,9 @@ impl Section {
         if let Some(cell) = m.settings.periodic {
             out.push(Section::Periodic { cell });
         }
+        // NOTE: as `encode` says, every type in the model serialises.
+        let effects = m.effects.sections().expect("the effects' states always serialise");
+        out.extend(effects.into_iter().map(|(name, state)| Section::Effect { name, state }));
         out
     }
 
@@ -281,22 +287,11 @@ impl Section {
                 m.pores = flow;
             }
             Section::Moisture { settings, lanes } => {
-                if !lanes.consistent(m.len()) {
-                    return Err("water lanes do not match the particles".into());
-                }
-                check_radii("radius at which the shrinkage table is 1", &lanes.radius0)?;
-                // The tables are read at their first point and searched in order: as the setters
-                // make them (Table::new), or refused.
-                let tables =
-                    [(&settings.radius_table, "radius", f64::MAX), (&settings.strength_table, "strength", 1.0)];
-                for (table, what, hi) in tables {
-                    if let Some(t) = table {
-                        Table::new(t.points.clone(), &format!("the moisture {what} table"), 0.0, hi)?;
-                    }
-                }
-                m.settings.moisture = settings;
-                m.particles.moisture = lanes;
+                let state = MoistureState { settings, lanes };
+                state.check(m.len())?;
+                m.effects.moisture = state;
             }
+            Section::Effect { name, state } => m.effects.load(&name, &state, m.len())?,
             Section::AppliedLoads { lanes } => {
                 if !lanes.consistent(m.len()) {
                     return Err("applied loads do not match the particles, or are not finite".into());
@@ -444,12 +439,12 @@ pub const WRITER: &str = env!("CARGO_PKG_VERSION");
 
 /// Encodes `model` and the host's `annex` as checkpoint bytes.
 pub fn encode(model: &Model, annex: &[u8]) -> Vec<u8> {
-    encode_sections(model, annex, |_| true)
+    encode_sections(model, annex, Some)
 }
 
-/// [`encode`] with only the sections `keep` keeps (a file as an older build wrote it, for
-/// tests).
-fn encode_sections(model: &Model, annex: &[u8], keep: impl Fn(&Section) -> bool) -> Vec<u8> {
+/// [`encode`] with the sections as `older` writes them, `None` for one it leaves out (a file
+/// as an older build wrote it, for tests).
+fn encode_sections(model: &Model, annex: &[u8], older: impl Fn(Section) -> Option<Section>) -> Vec<u8> {
     let fields =
         FieldsOut { heat: &model.settings.heat, water: &model.settings.water, thermal: &model.particles.thermal };
     let provenance = model.materials.iter().map(|m| &m.provenance).collect();
@@ -465,7 +460,7 @@ fn encode_sections(model: &Model, annex: &[u8], keep: impl Fn(&Section) -> bool)
         fields,
         provenance,
         weakened,
-        sections: Section::of(model).into_iter().filter(|s| keep(s)).collect(),
+        sections: Section::of(model).into_iter().filter_map(older).collect(),
         body_work: &model.body_work,
     };
     let payload = postcard::to_stdvec(&out)
@@ -570,7 +565,7 @@ fn check_substeps(m: &Model) -> Result<(), String> {
     let s = &m.settings;
     let mut counts = vec![
         ("heat sub-steps", s.heat.substeps),
-        ("moisture sub-steps", s.moisture.substeps),
+        ("moisture sub-steps", m.effects.moisture.settings.substeps),
         ("the pore fluid's max_substeps", s.pores.fluid.max_substeps),
     ];
     if let Some(f) = &m.pores {
@@ -841,7 +836,7 @@ mod tests {
         m.enable_pore_flow().unwrap();
         let region = PoreRegion::Point(Vec3::repeat(1e-3));
         m.add_pore_boundary_at(region, BoundaryKind::Pressure(1e3), Some(350.0)).unwrap();
-        let old = encode_sections(&m, b"", |s| !matches!(s, Section::PoreHeat { .. }));
+        let old = encode_sections(&m, b"", |s| (!matches!(s, Section::PoreHeat { .. })).then_some(s));
         let loaded = decode(&old).unwrap().model;
         let f = loaded.pores.as_ref().unwrap();
         assert_eq!(loaded.settings.pores.boundaries[0].temperature, None);
@@ -853,5 +848,44 @@ mod tests {
         let loaded = decode(&encode(&m, b"")).unwrap().model;
         assert_eq!(loaded.settings.pores.boundaries[0].temperature, Some(350.0));
         assert_eq!(loaded.pores.as_ref().unwrap().region_mass, m.pores.as_ref().unwrap().region_mass);
+    }
+
+    // A file written before the effects' states (moisture in a section of its own, format 7)
+    // loads moisture's settings and water lanes as the state section does.
+    #[test]
+    fn a_moisture_section_of_an_older_file_loads_into_the_effects_state() {
+        let mut m = Model::new();
+        let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4e-3).unwrap());
+        let mat = mat.unwrap();
+        for i in 0..3 {
+            m.add_particle(Vec3::new(i as f64 * 0.8e-3, 0.0, 0.0), 0.4e-3, mat).unwrap();
+        }
+        m.effects.moisture.settings.initial = 0.25;
+        m.enable_moisture();
+        m.set_moisture_material("grain", 1e-3).unwrap();
+        m.set_radius_table(Some(vec![(0.0, 0.9), (0.3, 1.0)])).unwrap();
+        m.effects.moisture.lanes.water[1] = 0.1;
+        let older = |s: Section| match s {
+            Section::Effect { name, state } if name == "moisture" => {
+                let MoistureState { settings, lanes } = postcard::from_bytes(&state).unwrap();
+                Some(Section::Moisture { settings, lanes })
+            }
+            s => Some(s),
+        };
+        let old = encode_sections(&m, b"", older);
+        assert_ne!(old, encode(&m, b""), "the older file carries moisture in its own section");
+        for file in [old, encode(&m, b"")] {
+            let loaded = decode(&file).unwrap().model;
+            assert_eq!(loaded.effects, m.effects);
+        }
+        // A forged older section is checked as the state section is.
+        let forged = encode_sections(&m, b"", |s| match older(s)? {
+            Section::Moisture { settings, mut lanes } => {
+                lanes.mode.pop();
+                Some(Section::Moisture { settings, lanes })
+            }
+            s => Some(s),
+        });
+        assert!(decode(&forged).is_err());
     }
 }

@@ -15,15 +15,12 @@
 //! breaking displacement times the pair's Kn, the smaller Fs0, the smaller μp.
 
 use crate::error::{Error, Result};
-use crate::materials::Material;
 pub use crate::materials::MAX_MATERIALS;
+use crate::materials::{base_name, clone_parts, Material, CLONE_MARK};
 use crate::model::Model;
 use crate::provenance::Source;
 use std::collections::{HashMap, HashSet};
 use std::str::FromStr;
-
-/// Marks a material cloned by a per-element write: `base~k`.
-pub const CLONE_MARK: char = '~';
 
 /// A micro value an element carries through its material.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -98,16 +95,6 @@ impl FromStr for ElementValue {
             .find(|v| v.name() == s)
             .ok_or_else(|| Error::unknown("per-element value", s, &ElementValue::ALL.map(|v| v.name())))
     }
-}
-
-/// The name a material had before per-element writes cloned it (`rock` for `rock~3`).
-pub fn base_name(name: &str) -> &str {
-    clone_parts(name).map_or(name, |(base, _)| base)
-}
-
-/// `(base, k)` of a clone's name `base~k`; `None` for any other name.
-fn clone_parts(name: &str) -> Option<(&str, &str)> {
-    name.rsplit_once(CLONE_MARK).filter(|(_, k)| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
 }
 
 /// Whether two materials are the same apart from their names' clone numbers and provenance.

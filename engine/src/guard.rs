@@ -42,8 +42,7 @@ pub fn check_time_step(m: &Model) -> Result<()> {
     check_gravity(m)?;
     check_speeds(m)?;
     check_applied_loads(m)?;
-    m.check_conduction()?;
-    m.check_moisture()
+    crate::plan::check_stages(m)
 }
 
 /// Refuses an element whose centre lies beyond [`MAX_LENGTH`] of the origin, whose radius

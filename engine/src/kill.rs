@@ -157,6 +157,7 @@ impl Model {
             });
         }
         let map = self.particles.retain(&keep);
+        self.effects.retain(&keep);
         self.groups.remap(&map);
         self.parallel_bonds.retain(&map);
         // Rows refer to old ids: renumber the survivors' rows (the map keeps the order, so

@@ -23,7 +23,7 @@
 //!   strength (conduction and moisture diffuse through the shared core [`diffusion`]), parallel
 //!   bonds, rolling resistance, applied loads, the energy ledger, and pore density flow (the
 //!   Delaunay pore network of the packing, fluid mass and pressure per pore, flow through the
-//!   throats, pressure on the grains). [`plan::registry`] has a row per stage.
+//!   throats, pressure on the grains). [`plan::REGISTRY`] has a row per stage.
 //! - [`planar`] makes a model 2D (one layer in the x–z plane, MatDEM's `sampleL = 0`): what it
 //!   holds still, porosity by area, the hexagonal lattice's macro ↔ micro conversion.
 //! - [`analysis`] reads a settled model: the contact list by the contact laws, fabric,

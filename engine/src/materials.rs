@@ -321,6 +321,19 @@ pub fn micro_to_macro(m: &MicroParameters, d: f64) -> MacroProperties {
     MacroProperties { young, poisson, tensile, compressive, internal_friction }
 }
 
+/// Marks a material cloned by a per-element write: `base~k`.
+pub const CLONE_MARK: char = '~';
+
+/// The name a material had before per-element writes cloned it (`rock` for `rock~3`).
+pub fn base_name(name: &str) -> &str {
+    clone_parts(name).map_or(name, |(base, _)| base)
+}
+
+/// `(base, k)` of a clone's name `base~k`; `None` for any other name.
+pub(crate) fn clone_parts(name: &str) -> Option<(&str, &str)> {
+    name.rsplit_once(CLONE_MARK).filter(|(_, k)| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

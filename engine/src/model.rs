@@ -2,7 +2,9 @@
 //! Mutating calls validate their input and mark what a run must rebuild.
 
 use crate::effects::parallel_bond::lanes::ParallelBonds;
+use crate::effects::{EffectStates, NewElement};
 use crate::error::{check_positive, Error, Result};
+use crate::materials::base_name;
 use crate::materials::Material;
 use crate::physics::contact_law::{BreakKind, PairState};
 pub use crate::physics::law_kinds::{NormalKind, TangentialKind};
@@ -47,10 +49,6 @@ pub struct Settings {
     /// The water table (the `buoyancy` stage; no water by default); saved as `heat` is.
     #[serde(skip)]
     pub water: crate::effects::buoyancy::settings::WaterTable,
-    /// Moisture diffusion, evaporation and the water content's coupling (the `moisture`
-    /// stage; off by default). Saved in a checkpoint's sections (format 7) with the water lanes.
-    #[serde(skip)]
-    pub moisture: crate::effects::moisture::settings::MoistureSettings,
     /// Rolling resistance (the `rolling_resistance` stage; off by default). Saved in a
     /// checkpoint's sections (format 7), so that older checkpoints still read.
     #[serde(skip)]
@@ -88,7 +86,6 @@ impl Default for Settings {
             heat_ledger: true,
             heat: crate::effects::conduction::settings::HeatSettings::default(),
             water: crate::effects::buoyancy::settings::WaterTable::default(),
-            moisture: crate::effects::moisture::settings::MoistureSettings::default(),
             rolling: None,
             pores: crate::effects::pore_flow::PoreSettings::default(),
             confinement: None,
@@ -150,6 +147,10 @@ pub struct Model {
     /// checkpoint's sections.
     #[serde(skip)]
     pub clumps: crate::effects::clumps::lanes::Clumps,
+    /// The state of each effect that keeps one (its settings and lanes, `effects::EffectState`),
+    /// grown and shrunk with the particles. Saved in a checkpoint's sections, by effect.
+    #[serde(skip)]
+    pub effects: EffectStates,
 }
 
 impl Default for Model {
@@ -176,6 +177,7 @@ impl Model {
             pores: None,
             body_work: Default::default(),
             clumps: Default::default(),
+            effects: EffectStates::default(),
         }
     }
 
@@ -185,6 +187,11 @@ impl Model {
 
     pub fn is_empty(&self) -> bool {
         self.particles.is_empty()
+    }
+
+    /// Heap bytes of the per-particle lanes: the particles' and the effects' states'.
+    pub fn lane_bytes(&self) -> usize {
+        self.particles.bytes() + self.effects.bytes()
     }
 
     pub(crate) fn touch(&mut self) {
@@ -250,10 +257,9 @@ impl Model {
             self.particles.thermal.temperature[id] = self.settings.heat.reference;
             self.init_thermal(id);
         }
-        if self.particles.moisture.allocated(self.len()) {
-            self.particles.moisture.water[id] = self.settings.moisture.initial;
-            self.init_moisture(id);
-        }
+        let name = &self.materials[material as usize].name;
+        let new = NewElement { id, radius, material: name, base_material: base_name(name) };
+        self.effects.push(&new);
         let w = self.walls.len();
         self.wall_contacts.extend(std::iter::repeat_n(PairState::default(), w));
         if !self.wall_rolling.is_empty() {
@@ -309,10 +315,7 @@ impl Model {
             if let Some(r0) = self.particles.thermal.radius0.get_mut(i) {
                 *r0 = r;
             }
-            // And the radius at which the shrinkage table's factor is 1.
-            if let Some(r0) = self.particles.moisture.radius0.get_mut(i) {
-                *r0 = r;
-            }
+            self.effects.radius_set(i, r);
         }
         self.positions_changed();
         self.touch();

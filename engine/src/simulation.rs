@@ -77,7 +77,7 @@ pub type ObserverFn = Box<dyn FnMut(&Model) -> std::result::Result<(), String>>;
 const TOLERANCE_CHUNK: u64 = 100;
 
 /// What a prepared plan depends on.
-type PlanKey = (u64, crate::model::Settings);
+type PlanKey = (u64, crate::model::Settings, crate::effects::EffectSettings);
 
 /// What a run did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -402,10 +402,10 @@ fn prepared<'a>(cache: &'a mut Option<Prepared>, model: &Model) -> &'a mut Prepa
 }
 
 fn plan_key(model: &Model) -> PlanKey {
-    (model.revision, model.settings.clone())
+    (model.revision, model.settings.clone(), model.effects.settings())
 }
 
 /// Whether a plan prepared under `key` still fits the model (same revision and settings).
-fn is_current((rev, settings): &PlanKey, model: &Model) -> bool {
-    *rev == model.revision && *settings == model.settings
+fn is_current((rev, settings, effects): &PlanKey, model: &Model) -> bool {
+    *rev == model.revision && *settings == model.settings && model.effects.settings_are(effects)
 }

@@ -149,7 +149,7 @@ fn counts(m: &Model) -> Vec<u64> {
         pb.other.len(),
         m.groups.names().count(),
         m.particles.thermal.temperature.len(),
-        m.particles.moisture.water.len(),
+        m.effects.moisture.lanes.water.len(),
     ];
     for g in m.groups.names() {
         v.push(m.groups.get(g).unwrap().len());
@@ -244,8 +244,8 @@ const LANES: &[(&str, LaneFn)] = &[
     ("heat ledger", |m, e, v| v.is_none() && set(&mut m.particles.heat.damping, e, None)),
     ("thermal mode", |m, e, v| set(&mut m.particles.thermal.mode, e, v.map(|x| x as u8))),
     ("radius0", |m, e, v| v.is_none() && set(&mut m.particles.thermal.radius0, e, None)),
-    ("moisture mode", |m, e, v| set(&mut m.particles.moisture.mode, e, v.map(|x| x as u8))),
-    ("water", |m, e, v| v.is_none() && set(&mut m.particles.moisture.water, e, None)),
+    ("moisture mode", |m, e, v| set(&mut m.effects.moisture.lanes.mode, e, v.map(|x| x as u8))),
+    ("water", |m, e, v| v.is_none() && set(&mut m.effects.moisture.lanes.water, e, None)),
     ("group", |m, _, v| {
         m.groups.set("forged", v.into_iter().collect());
         true
@@ -395,8 +395,9 @@ fn load_and_step(file: &[u8]) -> Result<(), CheckpointError> {
     // a script asking for them would (a long run, not a fault). Capped here so the test ends.
     let s = &mut model.settings;
     s.heat.substeps = s.heat.substeps.min(64);
-    s.moisture.substeps = s.moisture.substeps.min(64);
     s.pores.fluid.max_substeps = s.pores.fluid.max_substeps.min(5000);
+    let w = &mut model.effects.moisture.settings;
+    w.substeps = w.substeps.min(64);
     if let Some(f) = model.pores.as_deref_mut() {
         f.fluid.max_substeps = f.fluid.max_substeps.min(5000);
     }

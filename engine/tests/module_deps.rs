@@ -18,7 +18,7 @@ use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use matdem_engine::plan::registry::{Entry, REGISTRY};
+use matdem_engine::plan::{Entry, REGISTRY};
 use matdem_engine::plan::{Role, Stage};
 
 use crate::module_graph::{self, a_circle_through, circles, describe_circle, module_path, references, Graph};
@@ -76,7 +76,7 @@ fn an_effects_cpu_and_gpu_passes_are_told_apart() {
     assert!(on_side("effects/moisture/cpu.rs", "cpu") && on_side("effects/pore_flow/cpu/heat.rs", "cpu"));
     assert!(on_side("effects/moisture/gpu.rs", "gpu") && !on_side("effects/moisture/gpu.rs", "cpu"));
     assert!(!on_side("effects/moisture/mod.rs", "cpu") && !on_side("effects/moisture/lanes.rs", "gpu"));
-    assert!(on_side("backend/cpu/fused.rs", "cpu") && !on_side("plan/registry.rs", "cpu"));
+    assert!(on_side("backend/cpu/fused.rs", "cpu") && !on_side("plan/mod.rs", "cpu"));
 }
 
 /// The host's crates, as paths in Rust source and as Cargo dependency names.
@@ -177,10 +177,15 @@ fn the_registry_is_the_step_order_and_names_its_effects() {
 }
 
 /// A row's checkpoint section exists: `Section::<Variant>` a variant of checkpoint.rs's
-/// `Section`, `record.<field>` a field of its record.
+/// `Section`, `record.<field>` a field of its record, `effects.<name>` the effect's state in the
+/// effects' list (`effect_states!`, which a checkpoint carries by the state's name, the effect's).
 #[test]
 fn every_registered_checkpoint_section_is_in_the_checkpoint() {
-    let text = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/checkpoint.rs")).unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let text = fs::read_to_string(src.join("checkpoint.rs")).unwrap();
+    let effects = fs::read_to_string(src.join("effects/mod.rs")).unwrap();
+    let states = &effects[effects.find("effect_states! {").expect("effects/mod.rs lists the effects' states")..];
+    let states = &states[..states.find("\n}").unwrap()];
     let section = &text[text.find("enum Section {").expect("checkpoint.rs has `enum Section`")..];
     let section = &section[..section.find("\n}").unwrap()];
     let mut missing = Vec::new();
@@ -188,6 +193,12 @@ fn every_registered_checkpoint_section_is_in_the_checkpoint() {
         let found = match e.checkpoint.split_once(['.', ':']) {
             Some(("Section", v)) => section.contains(&format!("    {} {{", v.trim_start_matches(':'))),
             Some(("record", field)) => text.contains(&format!("    {field}: ")),
+            Some(("effects", name)) => {
+                let state = fs::read_to_string(src.join(format!("effects/{name}/state.rs"))).unwrap_or_default();
+                name == e.name
+                    && states.contains(&format!("    {name}: {name}::state::"))
+                    && state.contains(&format!("const NAME: &'static str = \"{name}\";"))
+            }
             _ => false,
         };
         if !found {

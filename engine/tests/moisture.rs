@@ -32,7 +32,7 @@ fn chain(lambda: f64, dt: f64) -> (Model, f64) {
     m.fix(&all, dof::ALL, true).unwrap();
     m.enable_moisture();
     // A bond's neck of 0.5·R: G = α·π·(R/2)² for α = 1.
-    let g1 = pair_moisture_conductance(1.0, 1.0, R, R, 2.0 * R, true, m.settings.moisture.bond_radius);
+    let g1 = pair_moisture_conductance(1.0, 1.0, R, R, 2.0 * R, true, m.effects.moisture.settings.bond_radius);
     assert!((g1 - PI * R * R / 4.0).abs() < 1e-15);
     let mass = m.particles.mass[0];
     m.set_moisture_material("soil", lambda * mass / g1).unwrap();
@@ -79,7 +79,7 @@ fn a_chain_with_fixed_water_ends_settles_to_the_exact_linear_profile() {
     let (mut m, _) = chain(1.0, 0.4);
     fix_ends(&mut m);
     let m = run(m, 3000);
-    for (i, w) in m.particles.moisture.water.iter().enumerate() {
+    for (i, w) in m.effects.moisture.lanes.water.iter().enumerate() {
         assert!((w - i as f64 / N as f64).abs() < 1e-12, "node {i}: {w}");
     }
 }
@@ -92,7 +92,7 @@ fn the_water_chains_transient_at_ten_seconds_matches_the_series_solution() {
     fix_ends(&mut m);
     let m = run(m, 10_000);
     assert!((m.clock.time - 10.0).abs() < 1e-9);
-    for (i, (w, e)) in m.particles.moisture.water.iter().zip(&expected).enumerate() {
+    for (i, (w, e)) in m.effects.moisture.lanes.water.iter().zip(&expected).enumerate() {
         assert!((w - e).abs() < 1e-4, "node {i}: {w} against {e}");
     }
 }
@@ -105,11 +105,11 @@ fn at_a_large_step_the_water_chain_follows_forward_eulers_exact_discrete_form() 
     for (every, substeps, steps) in [(1u32, 1u32, 25u64), (4, 4, 24)] {
         let (mut m, _) = chain(1.0, dt);
         fix_ends(&mut m);
-        m.settings.moisture.every = every;
-        m.settings.moisture.substeps = substeps;
+        m.effects.moisture.settings.every = every;
+        m.effects.moisture.settings.substeps = substeps;
         let m = run(m, steps);
         let discrete = series(1.0, |lk| (1.0 - dt * lk).powi(steps as i32));
-        for (i, (w, e)) in m.particles.moisture.water.iter().zip(&discrete).enumerate() {
+        for (i, (w, e)) in m.effects.moisture.lanes.water.iter().zip(&discrete).enumerate() {
             assert!((w - e).abs() < 1e-12, "every {every}: node {i}: {w} against {e}");
         }
     }
@@ -128,7 +128,7 @@ fn sealed_ends_conserve_the_water_to_round_off() {
     let m = run(m, 10_000);
     let total = m.total_water();
     assert!(((total - total0) / total0).abs() < 1e-13, "{total} against {total0}");
-    let w = &m.particles.moisture.water;
+    let w = &m.effects.moisture.lanes.water;
     assert_eq!((w[0], w[N]), (w0[0], w0[N]));
     let mean = w0[1..N].iter().sum::<f64>() / (N - 1) as f64;
     for x in &w[1..N] {
@@ -147,7 +147,7 @@ fn a_drying_element_loses_water_at_the_rate_its_evaporation_sets() {
     let r = 0.01;
     m.add_particle(Vec3::zeros(), r, k).unwrap();
     m.fix(&[0], dof::ALL, true).unwrap();
-    m.settings.moisture.initial = 0.3;
+    m.effects.moisture.settings.initial = 0.3;
     m.enable_moisture();
     m.groups.set("surface", vec![0]);
     let (chi, ambient) = (0.05, 0.02);
@@ -156,7 +156,7 @@ fn a_drying_element_loses_water_at_the_rate_its_evaporation_sets() {
     let dt = 1e-4 / rate;
     m.clock.dt = dt;
     let m = run(m, 10_000);
-    let w = m.particles.moisture.water[0];
+    let w = m.effects.moisture.lanes.water[0];
     let discrete = ambient + (0.3 - ambient) * (1.0 - dt * rate).powi(10_000);
     assert!((w - discrete).abs() < 1e-12, "{w} against {discrete}");
     let exact = ambient + (0.3 - ambient) * (-rate * 10_000.0 * dt).exp();
@@ -182,7 +182,7 @@ fn a_drying_layer_loses_water_at_the_rate_its_boundary_condition_sets() {
     let mut sim = Simulation::new(m);
     for _ in 0..200 {
         let before = sim.model.total_water();
-        let top = sim.model.particles.moisture.water[N];
+        let top = sim.model.effects.moisture.lanes.water[N];
         sim.run(1, &RunControl::default(), &mut |_| {}).unwrap();
         let lost = before - sim.model.total_water();
         let set = e * (top - ambient) * dt;
@@ -204,7 +204,7 @@ fn a_free_element_shrinks_by_the_tables_amount() {
     let k = m.add_material(material("soil", 2000.0, 1.0, 1.0, 0.0)).unwrap();
     let r0 = 0.01;
     m.add_particle(Vec3::zeros(), r0, k).unwrap();
-    m.settings.moisture.initial = 0.3;
+    m.effects.moisture.settings.initial = 0.3;
     m.enable_moisture();
     m.set_radius_table(Some(vec![(0.0, 0.9), (0.3, 1.0)])).unwrap();
     let mass = m.particles.mass[0];
@@ -217,7 +217,7 @@ fn a_free_element_shrinks_by_the_tables_amount() {
     sim.model.groups.set("all", vec![0]);
     sim.model.set_evaporation("all", 1e3, 0.0).unwrap();
     sim.run(2000, &RunControl::default(), &mut |_| {}).unwrap();
-    let w = sim.model.particles.moisture.water[0];
+    let w = sim.model.effects.moisture.lanes.water[0];
     assert!(w < 1e-9, "dried: {w}");
     assert!((sim.model.particles.radius[0] - 0.9 * r0).abs() < 1e-9 * r0);
     // The plan shows it.
@@ -235,7 +235,7 @@ fn bonds_take_their_share_of_strength_from_the_water_content() {
     m.set_strength_table(Some(vec![(0.0, 1.0), (0.3, 0.4)])).unwrap();
     let m = run(m, 1);
     let c = &m.contacts;
-    let w = &m.particles.moisture.water;
+    let w = &m.effects.moisture.lanes.water;
     for i in 0..N {
         let e = c.find(i, i as u32 + 1).unwrap();
         let f = c.find(i + 1, i as u32).unwrap();
@@ -257,7 +257,7 @@ fn a_moisture_step_above_the_stability_limit_is_refused_with_the_fix() {
         msg.contains("element 1") && msg.contains("5.000e-1 s") && msg.contains("d.moisture_substeps to 2"),
         "{msg}"
     );
-    sim.model.settings.moisture.substeps = 2;
+    sim.model.effects.moisture.settings.substeps = 2;
     sim.run(10, &RunControl::default(), &mut |_| {}).unwrap();
 }
 
@@ -274,19 +274,19 @@ fn moisture_lanes_exist_only_when_the_scene_enables_it() {
     let plan = StepPlan::build(&m);
     assert!(!plan.has(Stage::Moisture) && plan.to_string().contains("moisture"));
     let m = run(m, 2);
-    assert_eq!(m.particles.moisture.bytes(), 0);
+    assert_eq!(m.effects.moisture.lanes.bytes(), 0);
     let mut m = m;
     m.enable_moisture();
     let plan = StepPlan::build(&m);
     assert!(plan.has(Stage::Moisture));
     let set = plan.lane_sets().into_iter().find(|s| s.stage == "moisture").unwrap();
     assert_eq!(set.lanes, ["water", "diffusivity", "transfer", "ambient", "conductance", "mode"]);
-    assert_eq!(m.particles.moisture.bytes(), 4 * set.bytes_per_particle);
+    assert_eq!(m.effects.moisture.lanes.bytes(), 4 * set.bytes_per_particle);
     // A particle added later gets its lanes too, at the initial water content.
-    m.settings.moisture.initial = 0.2;
+    m.effects.moisture.settings.initial = 0.2;
     m.add_particle(Vec3::new(9.0, 0.0, 0.0), 0.5, k).unwrap();
-    assert_eq!(m.particles.moisture.water[4], 0.2);
-    assert!(m.particles.moisture.consistent(5));
+    assert_eq!(m.effects.moisture.lanes.water[4], 0.2);
+    assert!(m.effects.moisture.lanes.consistent(5));
 }
 
 // A drying chain saved mid-way and loaded continues bit for bit (format 7 carries the
@@ -303,7 +303,7 @@ fn a_drying_model_continues_bitwise_after_a_checkpoint() {
         m.set_evaporation("top", 50.0, 0.02).unwrap();
         m.set_radius_table(Some(vec![(0.0, 0.97), (0.3, 1.0)])).unwrap();
         m.set_strength_table(Some(vec![(0.0, 1.0), (0.3, 0.5)])).unwrap();
-        m.settings.moisture.every = 2;
+        m.effects.moisture.settings.every = 2;
         m
     };
     let mut straight = Simulation::new(scene());
@@ -311,12 +311,13 @@ fn a_drying_model_continues_bitwise_after_a_checkpoint() {
     let bytes = encode(&straight.model, b"");
     straight.run(300, &RunControl::default(), &mut |_| {}).unwrap();
     let loaded = decode(&bytes).unwrap().model;
-    assert!(loaded.settings.moisture.enabled && loaded.settings.moisture.radius_table.is_some());
+    assert!(loaded.effects.moisture.settings.enabled && loaded.effects.moisture.settings.radius_table.is_some());
     let mut resumed = Simulation::new(loaded);
     resumed.run(300, &RunControl::default(), &mut |_| {}).unwrap();
     let (a, b) = (&straight.model.particles, &resumed.model.particles);
-    assert!(a.moisture.water[N] < 0.3 && a.radius[N] < R);
-    assert_eq!(a.moisture, b.moisture);
+    let (wa, wb) = (&straight.model.effects.moisture.lanes, &resumed.model.effects.moisture.lanes);
+    assert!(wa.water[N] < 0.3 && a.radius[N] < R);
+    assert_eq!(wa, wb);
     assert_eq!(a.radius, b.radius);
     assert!(encode(&straight.model, b"") == encode(&resumed.model, b""));
 }
@@ -332,8 +333,8 @@ fn a_free_element_with_expansion_and_shrinkage_changes_radius_by_the_product() {
     let k = m.add_material(material("soil", 2000.0, 1.0, 1.0, 0.0)).unwrap();
     let r0 = 0.01;
     m.add_particle(Vec3::zeros(), r0, k).unwrap();
-    m.settings.moisture.initial = 0.15;
-    m.settings.moisture.every = 2;
+    m.effects.moisture.settings.initial = 0.15;
+    m.effects.moisture.settings.every = 2;
     m.enable_moisture();
     m.set_radius_table(Some(vec![(0.0, 0.9), (0.3, 1.0)])).unwrap();
     m.settings.heat.reference = 20.0;
@@ -386,7 +387,7 @@ fn a_bonded_bars_length_changes_by_the_product_of_both_factors() {
     let length =
         |m: &Model| m.particles.pos[n - 1].x - m.particles.pos[0].x + m.particles.radius[0] + m.particles.radius[n - 1];
     let l0 = length(&m);
-    m.settings.moisture.initial = 0.15;
+    m.effects.moisture.settings.initial = 0.15;
     m.enable_moisture();
     m.set_radius_table(Some(vec![(0.0, 0.98), (0.3, 1.0)])).unwrap();
     m.settings.heat.reference = 20.0;
@@ -419,8 +420,8 @@ mod gpu {
         m.materials[0].xb = 1.0;
         m.materials[0].fs0 = 1e3;
         fix_ends(&mut m);
-        m.settings.moisture.every = every;
-        m.settings.moisture.substeps = substeps;
+        m.effects.moisture.settings.every = every;
+        m.effects.moisture.settings.substeps = substeps;
         m.groups.set("surface", vec![7]);
         m.set_evaporation("surface", 0.5, 0.1).unwrap();
         m.set_radius_table(Some(vec![(0.0, 0.98), (1.0, 1.0)])).unwrap();
@@ -455,8 +456,9 @@ mod gpu {
         gpu.run(50, &RunControl::default(), &mut |_| {}).unwrap();
         assert!(gpu.plan().to_string().contains("drying shrinkage × thermal expansion"), "{}", gpu.plan());
         let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+        let wa = &cpu.model.effects.moisture.lanes;
         let t0 = cpu.model.settings.heat.reference;
-        let table = cpu.model.settings.moisture.radius_table.clone().unwrap();
+        let table = cpu.model.effects.moisture.settings.radius_table.clone().unwrap();
         for i in 0..=N {
             assert!(
                 ((a.radius[i] - b.radius[i]) / a.radius[i]).abs() < 1e-6,
@@ -468,8 +470,7 @@ mod gpu {
             assert!(((ra - rb) / ra).abs() < 1e-6, "expansion's r0 {i}: {rb} against {ra}");
             // The CPU's radius is the product, to round-off: the water last stepped at step 48,
             // the heat at step 50, each with the other's factor.
-            let product =
-                a.moisture.radius0[i] * table.at(a.moisture.water[i]) * (1.0 + 1e-3 * (a.thermal.temperature[i] - t0));
+            let product = wa.radius0[i] * table.at(wa.water[i]) * (1.0 + 1e-3 * (a.thermal.temperature[i] - t0));
             assert!(((a.radius[i] - product) / product).abs() < 1e-12, "radius {i}: {} against {product}", a.radius[i]);
         }
         assert!(a.radius[N] > a.radius[1], "the hot end is larger: {:?}", a.radius);
@@ -487,14 +488,15 @@ mod gpu {
             gpu.run(50, &RunControl::default(), &mut |_| {}).unwrap();
             assert!(gpu.plan().has(Stage::Moisture));
             let (a, b) = (&cpu.model.particles, &gpu.model.particles);
+            let (la, lb) = (&cpu.model.effects.moisture.lanes, &gpu.model.effects.moisture.lanes);
             for i in 0..=N {
-                let (wa, wb) = (a.moisture.water[i], b.moisture.water[i]);
+                let (wa, wb) = (la.water[i], lb.water[i]);
                 assert!((wa - wb).abs() < 2e-6, "every {every}: node {i}: {wb} against {wa}");
-                let (ga, gb) = (a.moisture.conductance[i], b.moisture.conductance[i]);
+                let (ga, gb) = (la.conductance[i], lb.conductance[i]);
                 assert!((ga - gb).abs() < 1e-5 * ga.max(1e-30), "conductance {i}: {gb} against {ga}");
                 assert!(((a.radius[i] - b.radius[i]) / a.radius[i]).abs() < 1e-6, "radius {i}");
             }
-            assert!(a.moisture.water[5] > 0.0 && a.radius[3] < R, "{:?} {:?}", a.moisture.water, a.radius);
+            assert!(la.water[5] > 0.0 && a.radius[3] < R, "{:?} {:?}", la.water, a.radius);
             let (ca, cb) = (&cpu.model.contacts, &gpu.model.contacts);
             for i in 0..N {
                 let sa = ca.state[ca.find(i, i as u32 + 1).unwrap()].strength();

@@ -1,6 +1,19 @@
-//! The step plan: which stages and effects this scene needs, decided once before a run.
+//! The step plan: which stages and effects this scene needs, decided once before a run, and
+//! the stage registry: one row per stage of a step ([`REGISTRY`]), in the order the stages run.
+//! A row owns what the engine knows of its stage beyond the stage's own files — its name (the
+//! files'), its place in a step (role), its plan switch, its lanes and their bytes, its checks,
+//! where a checkpoint carries its state, how a script switches it on and how the plan words it.
+//! [`Stage::ALL`], [`Stage::name`], [`Stage::role`], [`StepPlan::has`],
+//! [`StepPlan::lane_sets`] and the plan's words read it, and both backends walk a plan's stages
+//! in its order ([`StepPlan::runs`]): the order is written here, once. An effect's variant,
+//! its row and its field of [`StepPlan`] sit in this one file.
+//!
 //! An effect that is off has no lane, no loop and no branch in a hot loop: the CPU backend
-//! picks a loop monomorphised for the plan's laws.
+//! picks a loop monomorphised for the plan's laws. An optional effect's files are in
+//! `effects/<name>/` (CPU pass `cpu.rs`, GPU kernel `gpu.rs`) beside `shaders/<name>.wgsl`;
+//! the core's stages live in the backends. `tests/module_deps.rs` fails when a row's files, its
+//! parity test or its checkpoint section are missing, and the host's tests when its script
+//! switch is not in the script reference.
 
 use crate::effects::applied_loads::AppliedLoadsPlan;
 use crate::effects::buoyancy::BuoyancyPlan;
@@ -8,22 +21,27 @@ use crate::effects::clumps::ClumpsPlan;
 use crate::effects::conduction::ConductionPlan;
 use crate::effects::confining_pressure::ConfiningPlan;
 use crate::effects::moisture::MoisturePlan;
+use crate::effects::parallel_bond;
 use crate::effects::parallel_bond::physics::ParallelBondParams;
 use crate::effects::periodic::setting::Periodic;
 use crate::effects::pore_flow::PoreFlowPlan;
-use crate::effects::rolling_resistance::physics::RollingResistance;
-use crate::materials::Material;
+use crate::effects::rolling_resistance::physics::{RollingModel, RollingResistance};
+use crate::error::Result;
 use crate::model::{Model, NormalKind, TangentialKind};
 use crate::physics::contact_law::PairParams;
-use crate::physics::restitution::{hertz_damping_alpha, linear_damping_ratio};
 use crate::physics::Vec3;
 use crate::state::particles::HeatCauses;
 use crate::walls::{Wall, WallMotion};
 use std::fmt;
+use std::mem::size_of;
 
-pub mod registry;
+mod pair_constants;
+mod words;
 
-/// The named stages of one time step, in the order they run ([`registry::REGISTRY`] holds a
+pub use pair_constants::{pair_params, rigid_wall_params};
+pub use words::PlanText;
+
+/// The named stages of one time step, in the order they run ([`REGISTRY`] holds a
 /// row per stage, in this order). A stage's name is its files': `shaders/<name>.wgsl` and,
 /// for an optional effect, the folder `effects/<name>/` (CPU pass `cpu.rs`, GPU kernel
 /// `gpu.rs`, where its name also labels the pipeline); a core stage's kernel is
@@ -110,6 +128,304 @@ pub enum Role {
     Ledger,
     /// The stability guard, every `guard_every` steps.
     Guard,
+}
+
+/// What the engine knows of one stage.
+pub struct Entry {
+    pub stage: Stage,
+    /// Its files' name: `shaders/<name>.wgsl`, the GPU kernel and the CPU pass.
+    pub name: &'static str,
+    pub role: Role,
+    /// An optional effect with a folder of its own, `effects/<name>/` (false: a core stage,
+    /// in the backends).
+    pub effect: bool,
+    /// Whether a step of the plan runs the stage.
+    pub runs: fn(&StepPlan) -> bool,
+    /// The stage's own lanes in the plan, on the CPU (f64); none for a stage that keeps none.
+    pub lanes: fn(&StepPlan) -> Option<LaneSet>,
+    /// Where a checkpoint carries the stage's state: `effects.<name>` (its state in the model's
+    /// `effects`, a section by its name), `Section::<Variant>` (a section of its own) or
+    /// `record.<field>` (a field of the checkpoint's record); "" for a stage whose state is the
+    /// core's or is derived again on load.
+    pub checkpoint: &'static str,
+    /// How a script switches the stage on ("" for the core's, which always run).
+    pub script: &'static str,
+    /// The stage with its parameters in the plan's words, when the plan runs it (none for the
+    /// core's, which the plan words itself, and the heat ledger, whose lanes say it all).
+    pub words: fn(&StepPlan) -> Option<String>,
+    /// What the plan's `not simulated:` list calls the effect when the plan does not run it
+    /// ("" for the core's stages, which the plan words itself).
+    pub off: &'static str,
+    /// The stage's checks of the model before and during a run (a field stage's stable
+    /// sub-step), which [`check_stages`] runs; `Ok` when the scene has the stage off.
+    pub check: fn(&Model) -> Result<()>,
+}
+
+/// A stage without checks of its own.
+fn unchecked(_: &Model) -> Result<()> {
+    Ok(())
+}
+
+/// Every stage's checks of the model ([`Entry::check`]), in step order: the guard runs them
+/// before a run and the CPU backend after each batch.
+pub fn check_stages(m: &Model) -> Result<()> {
+    REGISTRY.iter().try_for_each(|e| (e.check)(m))
+}
+
+const fn core(stage: Stage, name: &'static str, runs: fn(&StepPlan) -> bool) -> Entry {
+    let role = if matches!(stage, Stage::Guard) { Role::Guard } else { Role::Core };
+    Entry {
+        stage,
+        name,
+        role,
+        effect: false,
+        runs,
+        lanes: |_| None,
+        checkpoint: "",
+        script: "",
+        words: |_| None,
+        off: "",
+        check: unchecked,
+    }
+}
+
+/// A lane set of per-particle lanes only.
+fn per_particle(stage: Stage, lanes: Vec<&'static str>, bytes: usize) -> LaneSet {
+    LaneSet { stage: stage.name(), lanes, bytes_per_particle: bytes, bytes_per_entry: 0, bytes_per_row_entry: 0 }
+}
+
+/// Every stage, in step order.
+pub const REGISTRY: [Entry; 17] = [
+    core(Stage::Walls, "walls", |p| p.walls > 0),
+    core(Stage::Neighbours, "neighbours", |_| true),
+    core(Stage::ContactForces, "contact_forces", |_| true),
+    core(Stage::WallForces, "wall_forces", |p| p.walls > 0),
+    Entry {
+        stage: Stage::ParallelBond,
+        name: "parallel_bond",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.parallel_bond.is_some(),
+        // One row start per particle; per bond entry the partner and the state.
+        lanes: |p| {
+            p.parallel_bond.map(|_| LaneSet {
+                stage: Stage::ParallelBond.name(),
+                lanes: vec!["row_start", "other", "shear", "normal", "bending", "twist", "status"],
+                bytes_per_particle: size_of::<u32>(),
+                bytes_per_entry: crate::effects::parallel_bond::lanes::ParallelBonds::ENTRY_BYTES,
+                bytes_per_row_entry: 0,
+            })
+        },
+        checkpoint: "record.parallel_bonds",
+        script: "d.bond_parallel",
+        words: |p| p.parallel_bond.as_ref().map(|b| parallel_bond::words(b, p.parallel_bond_entries / 2)),
+        off: "parallel bonds",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::RollingResistance,
+        name: "rolling_resistance",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.rolling.is_some(),
+        // epsd: a rolling spring per row entry, and one per particle and wall; cdt keeps none.
+        lanes: |p| {
+            let v = size_of::<Vec3>();
+            p.rolling.filter(|r| r.model == RollingModel::Epsd).map(|_| LaneSet {
+                stage: Stage::RollingResistance.name(),
+                lanes: vec!["rolling_spring", "wall_rolling_spring"],
+                bytes_per_particle: p.walls * v,
+                bytes_per_entry: 0,
+                bytes_per_row_entry: v,
+            })
+        },
+        checkpoint: "Section::Rolling",
+        script: "d.rolling_resistance",
+        words: |p| p.rolling.as_ref().map(RollingResistance::words),
+        off: "rolling resistance",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::PoreFlow,
+        name: "pore_flow",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.pore_flow.is_some(),
+        // The pore network's lanes are per pore and per throat, not per particle: the plan's
+        // words give their bytes (`PoreFlowPlan`).
+        lanes: |_| None,
+        checkpoint: "Section::PoreFlow",
+        script: "d.enable(\"pore_flow\")",
+        words: |p| p.pore_flow.as_ref().map(PoreFlowPlan::words),
+        off: "fluid flow",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::AppliedLoads,
+        name: "applied_loads",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.applied_loads.is_some(),
+        lanes: |p| {
+            let (v, f) = (size_of::<Vec3>(), size_of::<f64>());
+            p.applied_loads.map(|_| {
+                let lanes = vec!["applied_force", "applied_torque", "applied_work_offset"];
+                per_particle(Stage::AppliedLoads, lanes, 2 * v + f)
+            })
+        },
+        checkpoint: "Section::AppliedLoads",
+        script: "d.apply_force",
+        words: |p| p.applied_loads.as_ref().map(AppliedLoadsPlan::words),
+        off: "applied loads",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::ConfiningPressure,
+        name: "confining_pressure",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.confining.is_some(),
+        // It reads the core's lanes and keeps none per particle (the GPU three words per cell).
+        lanes: |_| None,
+        checkpoint: "Section::Confinement",
+        script: "d.confine",
+        words: |p| p.confining.as_ref().map(ConfiningPlan::words),
+        off: "confining pressure",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::Buoyancy,
+        name: "buoyancy",
+        role: Role::Force,
+        effect: true,
+        runs: |p| p.buoyancy.is_some(),
+        // It reads the core's lanes and keeps none of its own.
+        lanes: |_| None,
+        checkpoint: "record.water",
+        script: "d.water_level",
+        words: |p| p.buoyancy.as_ref().map(BuoyancyPlan::words),
+        off: "buoyancy",
+        check: unchecked,
+    },
+    core(Stage::Integrate, "integrate", |_| true),
+    Entry {
+        stage: Stage::Clumps,
+        name: "clumps",
+        role: Role::Body,
+        effect: true,
+        runs: |p| p.clumps.is_some(),
+        // Per element its clump; per member its number and offset, and its share of its
+        // body: counted on every element, a bound (a scene of clumps is mostly members).
+        lanes: |p| {
+            p.clumps.map(|c| {
+                let body = size_of::<crate::effects::clumps::lanes::Body>() * c.clumps;
+                let member = size_of::<u32>() + size_of::<Vec3>() + body.div_ceil(c.members.max(1));
+                per_particle(Stage::Clumps, vec!["clump_of", "member", "offset", "body"], size_of::<u32>() + member)
+            })
+        },
+        checkpoint: "Section::Clumps",
+        script: "d.clump",
+        words: |p| p.clumps.as_ref().map(ClumpsPlan::words),
+        off: "clumps",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::Periodic,
+        name: "periodic",
+        role: Role::Body,
+        effect: true,
+        runs: |p| p.periodic.is_some(),
+        // It moves the core's lanes and keeps none of its own.
+        lanes: |_| None,
+        checkpoint: "Section::Periodic",
+        script: "d.periodic",
+        words: |p| p.periodic.as_ref().map(crate::effects::periodic::words),
+        off: "periodic cell",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::HeatLedger,
+        name: "heat_ledger",
+        role: Role::Ledger,
+        effect: true,
+        runs: |p| p.heat.lanes() > 0,
+        lanes: |p| {
+            (p.heat.lanes() > 0)
+                .then(|| per_particle(Stage::HeatLedger, p.heat.names(), p.heat.lanes() * size_of::<f64>()))
+        },
+        checkpoint: "record.model",
+        script: "d.heat_ledger",
+        words: |_| None,
+        off: "heat ledger",
+        check: unchecked,
+    },
+    Entry {
+        stage: Stage::Conduction,
+        name: "conduction",
+        role: Role::Field,
+        effect: true,
+        runs: |p| p.conduction.is_some(),
+        lanes: |p| p.conduction.as_ref().map(|c| per_particle(Stage::Conduction, c.lanes(), c.bytes_per_particle())),
+        checkpoint: "record.thermal",
+        script: "d.enable(\"heat\")",
+        words: |p| p.conduction.as_ref().map(ConductionPlan::words),
+        off: "heat conduction",
+        check: Model::check_conduction,
+    },
+    Entry {
+        stage: Stage::Moisture,
+        name: "moisture",
+        role: Role::Field,
+        effect: true,
+        runs: |p| p.moisture.is_some(),
+        lanes: |p| p.moisture.as_ref().map(|w| per_particle(Stage::Moisture, w.lanes(), w.bytes_per_particle())),
+        checkpoint: "effects.moisture",
+        script: "d.enable(\"moisture\")",
+        words: |p| p.moisture.as_ref().map(MoisturePlan::words),
+        off: "moisture",
+        check: Model::check_moisture,
+    },
+    core(Stage::Guard, "guard", |_| true),
+];
+
+// A row's position is its stage's discriminant, so `Stage::name` and `role` index the table.
+const _: () = {
+    let mut k = 0;
+    while k < REGISTRY.len() {
+        assert!(REGISTRY[k].stage as usize == k, "the registry's rows are in the order of `Stage`'s variants");
+        k += 1;
+    }
+};
+
+/// The registry as a slice that lives for the program.
+const ROWS: &[Entry] = &REGISTRY;
+
+impl Stage {
+    /// Every stage, in step order.
+    pub const ALL: [Stage; REGISTRY.len()] = {
+        let mut all = [Stage::Walls; REGISTRY.len()];
+        let mut k = 0;
+        while k < all.len() {
+            all[k] = REGISTRY[k].stage;
+            k += 1;
+        }
+        all
+    };
+
+    /// The stage's row of the registry.
+    pub const fn entry(self) -> &'static Entry {
+        &ROWS[self as usize]
+    }
+
+    /// The stage's name, as its files are named.
+    pub const fn name(self) -> &'static str {
+        self.entry().name
+    }
+
+    /// Where the stage sits in a step.
+    pub const fn role(self) -> Role {
+        self.entry().role
+    }
 }
 
 /// A set of stages, walked in step order ([`StepPlan::runs`]): bit k is `Stage::ALL[k]`.
@@ -319,7 +635,7 @@ impl StepPlan {
                 bytes_per_row_entry: 0,
             });
         }
-        sets.extend(registry::REGISTRY.iter().filter_map(|e| (e.lanes)(self)));
+        sets.extend(REGISTRY.iter().filter_map(|e| (e.lanes)(self)));
         sets
     }
 
@@ -381,195 +697,10 @@ impl StepPlan {
     }
 }
 
-/// Two elements in contact: springs in series, the smaller strength, the smaller restitution.
-pub fn pair_params(a: &Material, b: &Material) -> PairParams {
-    let series = |x: f64, y: f64| if x + y > 0.0 { x * y / (x + y) } else { 0.0 };
-    // Each element carries twice the lattice spring, so identical elements give back kn.
-    let kn = series(2.0 * a.kn, 2.0 * b.kn);
-    let ks = series(2.0 * a.ks, 2.0 * b.ks);
-    let e_star = 1.0 / ((1.0 - a.poisson.powi(2)) / a.young + (1.0 - b.poisson.powi(2)) / b.young);
-    let ga = a.young / (2.0 * (1.0 + a.poisson));
-    let gb = b.young / (2.0 * (1.0 + b.poisson));
-    let g_star = 1.0 / ((2.0 - a.poisson) / ga + (2.0 - b.poisson) / gb);
-    let e = a.restitution.min(b.restitution);
-    PairParams {
-        kn,
-        ks,
-        breaking_force: kn * a.xb.min(b.xb),
-        fs0: a.fs0.min(b.fs0),
-        mu: a.mu_p.min(b.mu_p),
-        e_star,
-        g_star,
-        zeta: linear_damping_ratio(e),
-        alpha: hertz_damping_alpha(e),
-    }
-}
-
-/// An element against a rigid wall: the element's own springs, E* = E/(1−ν²).
-pub fn rigid_wall_params(a: &Material) -> PairParams {
-    let g = a.young / (2.0 * (1.0 + a.poisson));
-    PairParams {
-        kn: 2.0 * a.kn,
-        ks: 2.0 * a.ks,
-        breaking_force: 0.0,
-        fs0: 0.0,
-        mu: a.mu_p,
-        e_star: a.young / (1.0 - a.poisson * a.poisson),
-        g_star: g / (2.0 - a.poisson),
-        zeta: linear_damping_ratio(a.restitution),
-        alpha: hertz_damping_alpha(a.restitution),
-    }
-}
-
-/// A plan in words for one backend ([`StepPlan::on`]): the bytes the pore network takes are the
-/// backend's (the CPU's f64 lanes or the GPU's f32 buffers).
-pub struct PlanText<'a> {
-    plan: &'a StepPlan,
-    gpu: bool,
-}
-
-impl StepPlan {
-    /// The plan in words as the GPU backend (`gpu`) or the CPU backend runs it; `Display` is
-    /// the CPU's.
-    pub fn on(&self, gpu: bool) -> PlanText<'_> {
-        PlanText { plan: self, gpu }
-    }
-}
-
-impl fmt::Display for StepPlan {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        self.on(false).fmt(f)
-    }
-}
-
-impl fmt::Display for PlanText<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        self.plan.write_text(f, self.gpu)
-    }
-}
-
-impl StepPlan {
-    /// The words of the stages of `role` this plan runs, in step order (each effect's own,
-    /// from its registry row).
-    fn words_of(&self, role: Role) -> impl Iterator<Item = String> + '_ {
-        self.runs(role).filter_map(|s| (s.entry().words)(self))
-    }
-
-    fn write_text(&self, f: &mut fmt::Formatter<'_>, gpu: bool) -> fmt::Result {
-        let mut stages = Vec::new();
-        if self.walls > 0 {
-            stages.push(format!(
-                "walls({} fixed, {} moving, {} servo)",
-                self.walls - self.moving_walls - self.servo_walls,
-                self.moving_walls,
-                self.servo_walls
-            ));
-        }
-        stages.push(if self.planar.is_some() {
-            // The packing has no extent in y: its cell grid is one layer.
-            "neighbours(cell list, one layer of cells: 2D, skin rebuild)".to_string()
-        } else {
-            "neighbours(cell list, skin rebuild)".to_string()
-        });
-        let (normal, tangential) = (self.normal.name(), self.tangential.description());
-        // With no material below e = 1 the tangential dashpot's coefficient is zero: the plan
-        // says so.
-        let idle = if self.tangential.damped() && !self.dashpot { " (0: every e = 1)" } else { "" };
-        let mut c = format!("contacts({normal} + {tangential}{idle} + coulomb");
-        if self.bonds {
-            c.push_str(", bonds");
-        }
-        if self.dashpot {
-            c.push_str(", normal dashpot");
-        }
-        if self.rotation {
-            c.push_str(", torques");
-        }
-        if self.planar.is_some() {
-            // The pair arithmetic in the x–z plane: two components (CPU lanes, GPU constants).
-            c.push_str("; 2D: in the x–z plane");
-        }
-        c.push(')');
-        stages.push(c);
-        // The force stages, in step order, before the body forces and the move.
-        stages.extend(self.words_of(Role::Force));
-        let mut body = Vec::new();
-        if self.gravity {
-            body.push("gravity".to_string());
-        }
-        if self.damping > 0.0 {
-            body.push(format!("viscous damping {:.3} of critical", self.damping));
-        }
-        if self.local_damping > 0.0 {
-            body.push(format!("local damping α = {:.2}", self.local_damping));
-        }
-        if !body.is_empty() {
-            stages.push(body.join(" + "));
-        }
-        let integrate = match (self.rotation, self.planar) {
-            (true, Some(_)) => "integrate(leapfrog, rotation about y; 2D: y and spin about x, z held)",
-            (false, Some(_)) => "integrate(leapfrog; 2D: y held)",
-            (true, None) => "integrate(leapfrog, rotation)",
-            (false, None) => "integrate(leapfrog)",
-        };
-        stages.push(integrate.to_string());
-        stages.extend(self.words_of(Role::Body));
-        stages.extend(self.words_of(Role::Field));
-        writeln!(f, "step plan: {}", stages.join(" → "))?;
-        let names: Vec<&str> = self.stages().iter().map(|s| s.name()).collect();
-        writeln!(f, "stages: {}", names.join(" → "))?;
-        let sets: Vec<String> = self
-            .lane_sets()
-            .iter()
-            .map(|s| match (s.bytes_per_entry, s.bytes_per_row_entry) {
-                (0, 0) => format!("{} {} B ({})", s.stage, s.bytes_per_particle, s.lanes.join(", ")),
-                (0, r) => {
-                    format!("{} {} B + {r} B per row entry ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
-                }
-                (e, _) => {
-                    format!("{} {} B + {e} B per bond end ({})", s.stage, s.bytes_per_particle, s.lanes.join(", "))
-                }
-            })
-            .collect();
-        writeln!(f, "lanes per particle (cpu, f64): {} = {} B", sets.join(" + "), self.bytes_per_particle())?;
-        if let Some(p) = &self.pore_flow {
-            if gpu {
-                writeln!(f, "pore network (gpu, f32): about {} B ({})", p.device_bytes(), p.device_lanes().join("; "))?;
-            } else {
-                writeln!(f, "pore network (cpu, f64): about {} B ({})", p.bytes(), p.lanes().join("; "))?;
-            }
-        }
-        let mut off = Vec::new();
-        if !self.rotation {
-            off.push("rotation");
-        }
-        if !self.bonds {
-            off.push("bonds");
-        }
-        if !self.dashpot {
-            off.push("contact dashpot");
-        }
-        if !self.gravity {
-            off.push("gravity");
-        }
-        if self.damping == 0.0 {
-            off.push("viscous damping");
-        }
-        if self.local_damping == 0.0 {
-            off.push("local damping");
-        }
-        if self.walls == 0 {
-            off.push("walls");
-        }
-        // Then the effects the plan does not run, in step order.
-        off.extend(registry::REGISTRY.iter().filter(|e| e.effect && !(e.runs)(self)).map(|e| e.off));
-        write!(f, "not simulated: {}", off.join(", "))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::materials::Material;
     use crate::walls::Wall;
     use crate::Vec3;
 

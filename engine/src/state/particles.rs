@@ -3,7 +3,6 @@
 
 use crate::effects::applied_loads::lanes::AppliedLoads;
 use crate::effects::conduction::lanes::ThermalLanes;
-use crate::effects::moisture::lanes::MoistureLanes;
 use crate::physics::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -55,10 +54,6 @@ pub struct Particles {
     /// Saved after the model in a checkpoint (format 4), so that older checkpoints still read.
     #[serde(skip)]
     pub thermal: ThermalLanes,
-    /// The `moisture` stage's lanes: water content, diffusivity, … (empty while moisture is
-    /// off). Saved in a checkpoint's sections (format 7).
-    #[serde(skip)]
-    pub moisture: MoistureLanes,
     /// The `applied_loads` stage's lanes: external forces and torques and their work account
     /// (empty until a scene applies a load). Saved in a checkpoint's sections.
     #[serde(skip)]
@@ -126,7 +121,6 @@ impl Particles {
         }
         // The reference temperature is the model's: it sets it after the push.
         self.thermal.push(n, 0.0, radius);
-        self.moisture.push(n, 0.0, radius);
         n
     }
 
@@ -164,7 +158,6 @@ impl Particles {
             }
         }
         self.thermal.retain(keep);
-        self.moisture.retain(keep);
         map
     }
 
@@ -176,8 +169,8 @@ impl Particles {
         }
     }
 
-    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal, moisture,
-    /// applied loads).
+    /// Heap bytes of the lanes as allocated (core, rotation, heat ledger, thermal, applied
+    /// loads; the effects' states count theirs, `Model::lane_bytes`).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         let core = self.pos.len() * (4 * size_of::<Vec3>() + 2 * size_of::<f64>() + size_of::<u32>() + 1);
@@ -185,7 +178,7 @@ impl Particles {
             .rotation
             .as_ref()
             .map_or(0, |r| (r.ang_vel.len() + r.torque.len() + r.angle.len()) * size_of::<Vec3>());
-        core + rotation + self.heat.bytes() + self.thermal.bytes() + self.moisture.bytes() + self.applied.bytes()
+        core + rotation + self.heat.bytes() + self.thermal.bytes() + self.applied.bytes()
     }
 
     /// Element `i`'s accumulated rotation (zero without the rotation lanes).

@@ -52,8 +52,8 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             "water",
             observed!(host, "water", |d| {
                 let m = d.model();
-                let w = &m.particles.moisture.water;
-                if !m.settings.moisture.enabled || w.len() != m.len() {
+                let w = &m.effects.moisture.lanes.water;
+                if !m.effects.moisture.settings.enabled || w.len() != m.len() {
                     return Err(err("d.water: moisture is off; call d.enable(\"moisture\") first"));
                 }
                 Field::new(w.clone())
@@ -132,25 +132,27 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             };
             d.model().set_evaporation(group, chi, ambient).map_err(raise)
         })
-        .register_get("initial_water", |d: &mut ModelHandle| d.model().settings.moisture.initial)
+        .register_get("initial_water", |d: &mut ModelHandle| d.model().effects.moisture.settings.initial)
         .register_set("initial_water", |d: &mut ModelHandle, w: FLOAT| -> RhaiResult<()> {
             if !(w.is_finite() && w >= 0.0) {
                 return Err(err(format!("initial_water is a water content ≥ 0 (kg/kg), got {w}")));
             }
-            d.model().settings.moisture.initial = w;
+            d.model().effects.moisture.settings.initial = w;
             Ok(())
         })
-        .register_get("moisture_every", |d: &mut ModelHandle| INT::from(d.model().settings.moisture.every))
+        .register_get("moisture_every", |d: &mut ModelHandle| INT::from(d.model().effects.moisture.settings.every))
         .register_set("moisture_every", |d: &mut ModelHandle, n: INT| -> RhaiResult<()> {
-            d.model().settings.moisture.every = count("moisture_every", n)?;
+            d.model().effects.moisture.settings.every = count("moisture_every", n)?;
             Ok(())
         })
-        .register_get("moisture_substeps", |d: &mut ModelHandle| INT::from(d.model().settings.moisture.substeps))
+        .register_get("moisture_substeps", |d: &mut ModelHandle| {
+            INT::from(d.model().effects.moisture.settings.substeps)
+        })
         .register_set("moisture_substeps", |d: &mut ModelHandle, n: INT| -> RhaiResult<()> {
-            d.model().settings.moisture.substeps = super::fields::substeps("moisture_substeps", n)?;
+            d.model().effects.moisture.settings.substeps = super::fields::substeps("moisture_substeps", n)?;
             Ok(())
         })
-        .register_get("moisture_bond_radius", |d: &mut ModelHandle| d.model().settings.moisture.bond_radius)
+        .register_get("moisture_bond_radius", |d: &mut ModelHandle| d.model().effects.moisture.settings.bond_radius)
         .register_set("moisture_bond_radius", |d: &mut ModelHandle, beta: FLOAT| -> RhaiResult<()> {
             if !(beta.is_finite() && (0.0..=1.0).contains(&beta)) {
                 return Err(err(format!(
@@ -158,18 +160,18 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                      got {beta}"
                 )));
             }
-            d.model().settings.moisture.bond_radius = beta;
+            d.model().effects.moisture.settings.bond_radius = beta;
             Ok(())
         })
         .register_get("water_radius_table", |d: &mut ModelHandle| {
-            table_value(&d.model().settings.moisture.radius_table)
+            table_value(&d.model().effects.moisture.settings.radius_table)
         })
         .register_set("water_radius_table", |d: &mut ModelHandle, v: Dynamic| -> RhaiResult<()> {
             let t = table(&v, "d.water_radius_table")?;
             d.model().set_radius_table(t).map_err(raise)
         })
         .register_get("water_strength_table", |d: &mut ModelHandle| {
-            table_value(&d.model().settings.moisture.strength_table)
+            table_value(&d.model().effects.moisture.settings.strength_table)
         })
         .register_set("water_strength_table", |d: &mut ModelHandle, v: Dynamic| -> RhaiResult<()> {
             let t = table(&v, "d.water_strength_table")?;

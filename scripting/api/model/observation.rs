@@ -147,8 +147,8 @@ fn record(d: &ModelHandle, extra: &Map) -> RhaiResult<Array> {
         row.push(("mean_temperature".to_string(), alive.iter().sum::<f64>() / alive.len() as f64));
         row.push(("max_temperature".to_string(), alive.iter().copied().fold(f64::NEG_INFINITY, f64::max)));
     }
-    let w = &m.particles.moisture.water;
-    if m.settings.moisture.enabled && w.len() == m.len() && !w.is_empty() {
+    let w = &m.effects.moisture.lanes.water;
+    if m.effects.moisture.settings.enabled && w.len() == m.len() && !w.is_empty() {
         // Σ m·ω / Σ m: the mass-weighted mean, so that it follows the total water.
         let total = m.total_water();
         row.push(("mean_water".to_string(), total / m.particles.mass.iter().sum::<f64>()));

@@ -108,7 +108,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
             match effect {
                 // The lanes stay (a later enable continues from them); the plan drops the stage.
                 "heat" => m.settings.heat.enabled = false,
-                "moisture" => m.settings.moisture.enabled = false,
+                "moisture" => m.effects.moisture.settings.enabled = false,
                 "water" => {
                     m.book_body_work();
                     m.settings.water.level = None;

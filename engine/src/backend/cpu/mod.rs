@@ -29,21 +29,16 @@ use integrate::{integrate, Observed};
 use stage::{CpuStage, StageInput};
 use wall_forces::compute_wall_forces;
 
-/// Every optional stage's pass (`stage`), each in its effect's folder (`effects/<name>/cpu.rs`),
-/// in step order: a new stage is a row here. The heat ledger has none: it is booked inside the
-/// passes that dissipate.
-const CPU_STAGES: [(Stage, stage::Build); 10] = [
-    (Stage::ParallelBond, effects::parallel_bond::cpu::stage),
-    (Stage::RollingResistance, effects::rolling_resistance::cpu::stage),
-    (Stage::PoreFlow, effects::pore_flow::cpu::stage),
-    (Stage::AppliedLoads, effects::applied_loads::cpu::stage),
-    (Stage::ConfiningPressure, effects::confining_pressure::cpu::stage),
-    (Stage::Buoyancy, effects::buoyancy::cpu::stage),
-    (Stage::Clumps, effects::clumps::cpu::stage),
-    (Stage::Periodic, effects::periodic::cpu::stage),
-    (Stage::Conduction, effects::conduction::cpu::stage),
-    (Stage::Moisture, effects::moisture::cpu::stage),
-];
+/// The rows of [`CPU_STAGES`] from the effects' list (`effects::with_cpu_passes!`).
+macro_rules! cpu_stages {
+    ($($stage:ident $name:ident,)*) => {
+        /// Every optional stage's pass (`stage`), each in its effect's folder
+        /// (`effects/<name>/cpu.rs`), in step order. The heat ledger has none: it is booked
+        /// inside the passes that dissipate.
+        const CPU_STAGES: &[(Stage, stage::Build)] = &[$((Stage::$stage, effects::$name::cpu::stage),)*];
+    };
+}
+crate::with_cpu_passes!(cpu_stages);
 
 /// Per-run derived data: the plan and each particle's viscous damping coefficient.
 pub struct CpuBackend {
@@ -300,8 +295,7 @@ impl Backend for CpuBackend {
             return Err(m.pore_fluid_cause(e, true));
         }
         check_state(m).map_err(|e| m.pore_fluid_cause(e, false))?;
-        m.check_conduction()?;
-        m.check_moisture()
+        crate::plan::check_stages(m)
     }
 
     /// The model is the state: the stiffest contact is found on it directly, O(contacts).
@@ -340,7 +334,7 @@ fn record_breaks(m: &mut Model, breaks: Breaks) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::registry::REGISTRY;
+    use crate::plan::REGISTRY;
 
     /// A stage added to the registry without its CPU pass fails here; the heat ledger is booked
     /// inside the passes that dissipate.

@@ -61,7 +61,7 @@ use crate::model::{Breakage, Model};
 use crate::neighbours::{is_stale, rebuild, rebuild_wall_mask, steps_until_rebuild, steps_until_rebuild_sheared};
 use crate::physics::contact_law::BreakKind;
 use crate::physics::Vec3;
-use crate::plan::registry::REGISTRY;
+use crate::plan::REGISTRY;
 use crate::plan::{Stage, StepPlan};
 use crate::status::{kinetic_energy, potential_energies, EnergySample};
 use buffers::{
@@ -92,20 +92,17 @@ const HELD_SHADERS: [&shaders::Shader; 13] = [
     &pore_flow::heat::SHADER,
 ];
 
-/// The optional stages an upload builds through their `gpu.rs` (`device_stage`): the stage, its
-/// WGSL and its `upload`, in step order, which is also the order they are built and downloaded
-/// in (moisture binds the conduction stage's lanes, so it comes after it): a new such stage is a
-/// row here. Each step dispatches them in the plan's order.
-const DEVICE_STAGES: [(Stage, &shaders::Shader, device_stage::Upload); 8] = [
-    (Stage::ParallelBond, &effects::parallel_bond::gpu::SHADER, effects::parallel_bond::gpu::upload),
-    (Stage::RollingResistance, &effects::rolling_resistance::gpu::SHADER, effects::rolling_resistance::gpu::upload),
-    (Stage::AppliedLoads, &effects::applied_loads::gpu::SHADER, effects::applied_loads::gpu::upload),
-    (Stage::ConfiningPressure, &effects::confining_pressure::gpu::SHADER, effects::confining_pressure::gpu::upload),
-    (Stage::Buoyancy, &effects::buoyancy::gpu::SHADER, effects::buoyancy::gpu::upload),
-    (Stage::Clumps, &effects::clumps::gpu::SHADER, effects::clumps::gpu::upload),
-    (Stage::Conduction, &effects::conduction::gpu::SHADER, effects::conduction::gpu::upload),
-    (Stage::Moisture, &effects::moisture::gpu::SHADER, effects::moisture::gpu::upload),
-];
+/// The rows of [`DEVICE_STAGES`] from the effects' list (`effects::with_device_stages!`).
+macro_rules! device_stages {
+    ($($stage:ident $name:ident,)*) => {
+        /// The optional stages an upload builds through their `gpu.rs` (`device_stage`): the
+        /// stage, its WGSL and its `upload`, in step order, which is also the order they are
+        /// built and downloaded in. Each step dispatches them in the plan's order.
+        const DEVICE_STAGES: &[(Stage, &shaders::Shader, device_stage::Upload)] =
+            &[$((Stage::$stage, &effects::$name::gpu::SHADER, effects::$name::gpu::upload),)*];
+    };
+}
+crate::with_device_stages!(device_stages);
 
 /// Every WGSL stage, the core's and the effects', for validation without a device
 /// (`shaders.rs`'s tests).
@@ -516,7 +513,7 @@ impl GpuBackend {
         let limit = limits.binding.min(limits.buffer);
         let lanes = DeviceLanes::upload(&self.ctx, &host, params, &layout, limit)?;
         let mut stages = DeviceStages::default();
-        for (stage, _, upload) in DEVICE_STAGES {
+        for &(stage, _, upload) in DEVICE_STAGES {
             let u = UploadContext {
                 ctx: &self.ctx,
                 constants: &self.constants,

@@ -19,8 +19,8 @@ pub mod settings;
 use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::effects::conduction::physics::pair_conductance;
 pub use crate::effects::conduction::settings::{HeatSettings, ThermalProps};
-use crate::element_values::base_name;
 use crate::error::{Error, Result};
+use crate::materials::base_name;
 use crate::model::Model;
 
 /// What a plan with the `conduction` stage runs.

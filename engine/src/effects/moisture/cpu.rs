@@ -35,14 +35,13 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
     next.resize(m.len(), 0.0);
     for _ in 0..plan.substeps {
         substep(m, plan, dt, next);
-        std::mem::swap(&mut m.particles.moisture.water, next);
+        std::mem::swap(&mut m.effects.moisture.lanes.water, next);
     }
     if let Some(t) = &plan.radius_table {
         match plan.expansion {
             None => {
-                let p = &mut m.particles;
-                let w = &p.moisture;
-                for (i, r) in p.radius.iter_mut().enumerate() {
+                let w = &m.effects.moisture.lanes;
+                for (i, r) in m.particles.radius.iter_mut().enumerate() {
                     *r = w.radius0[i] * t.at(w.water[i]);
                 }
             }
@@ -51,7 +50,7 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
             Some(t0) => {
                 m.fit_thermal();
                 let p = &mut m.particles;
-                let (w, th) = (&p.moisture, &mut p.thermal);
+                let (w, th) = (&m.effects.moisture.lanes, &mut p.thermal);
                 for (i, r) in p.radius.iter_mut().enumerate() {
                     let base = w.radius0[i] * t.at(w.water[i]);
                     th.radius0[i] = base;
@@ -61,7 +60,7 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
         }
     }
     if let Some(t) = &plan.strength_table {
-        let w = &m.particles.moisture.water;
+        let w = &m.effects.moisture.lanes.water;
         let c = &mut m.contacts;
         let (row_start, other) = (&c.row_start, &c.other);
         for_blocks(0..w.len(), Rows::Csr(row_start), (), &mut c.state[..], &|range, (), state| {
@@ -82,9 +81,9 @@ pub fn moisture(m: &mut Model, plan: &MoisturePlan, next: &mut Vec<f64>) {
 /// One forward-Euler sub-step: `next` gets each element's new water content.
 fn substep(m: &mut Model, plan: &MoisturePlan, dt: f64, next: &mut [f64]) {
     let sep = m.separations();
-    let p = &mut m.particles;
+    let p = &m.particles;
     let c = &m.contacts;
-    let w = &mut p.moisture;
+    let w = &mut m.effects.moisture.lanes;
     let (pos, mass, radius) = (&p.pos, &p.mass, &p.radius);
     let water = WaterExchange {
         radius,

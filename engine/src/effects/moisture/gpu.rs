@@ -156,7 +156,7 @@ const STORAGE: wgpu::BufferUsages =
 impl Lanes {
     /// The model's moisture lanes in f32 (the model's lanes must be fitted).
     fn upload(ctx: &GpuContext, m: &Model, plan: &MoisturePlan) -> Self {
-        let w = &m.particles.moisture;
+        let w = &m.effects.moisture.lanes;
         let n = m.len();
         let mut bytes = 0u64;
         let mut make = |label: &str, data: &[u8]| {
@@ -220,7 +220,7 @@ impl Lanes {
         let n = d.n;
         let water: Vec<[f32; 4]> = crate::backend::gpu::buffers::read(ctx, &self.water, n)?;
         let g: Vec<f32> = crate::backend::gpu::buffers::read(ctx, &self.conductance, n)?;
-        let w = &mut m.particles.moisture;
+        let w = &mut m.effects.moisture.lanes;
         for i in 0..n {
             w.water[i] = f64::from(water[i][0]);
             w.conductance[i] = f64::from(g[i]);

@@ -4,9 +4,10 @@
 //! each as a table of the water content the script gives. The optional `moisture` stage: a
 //! scene that does not enable it has no lane, no pass and no pipeline for it.
 //!
-//! The effect's folder: the pair law (`physics.rs`), the scene's settings (`settings.rs`, part
-//! of [`crate::model::Settings`]), the lanes (`lanes.rs`), the CPU pass (`cpu.rs`) and the GPU
-//! kernel (`gpu.rs`, with `shaders/moisture.wgsl`). This file holds what a plan takes from the
+//! The effect's folder: the pair law (`physics.rs`), the scene's settings (`settings.rs`) and
+//! the lanes (`lanes.rs`), held together as its state in the model (`state.rs`,
+//! `m.effects.moisture`), the CPU pass (`cpu.rs`) and the GPU kernel (`gpu.rs`, with
+//! `shaders/moisture.wgsl`). This file holds what a plan takes from the
 //! settings, the model-level calls that switch it on and write its lanes, and the field's terms
 //! of the shared diffusion core ([`WaterExchange`]).
 
@@ -16,13 +17,14 @@ pub mod gpu;
 pub mod lanes;
 pub mod physics;
 pub mod settings;
+pub mod state;
 
 use crate::diffusion::{self, Exchange};
 use crate::effects::moisture::lanes::{MoistureLanes, FIXED, FREE, SEALED};
 use crate::effects::moisture::physics::{evaporation_conductance, pair_moisture_conductance, Table};
 pub use crate::effects::moisture::settings::MoistureSettings;
-use crate::element_values::base_name;
 use crate::error::{Error, Result};
+use crate::materials::base_name;
 use crate::model::Model;
 
 /// What a plan with the `moisture` stage runs.
@@ -45,7 +47,7 @@ pub struct MoisturePlan {
 impl MoisturePlan {
     /// The plan's moisture, when the scene enables it.
     pub fn of(m: &Model) -> Option<Self> {
-        let s = &m.settings.moisture;
+        let s = &m.effects.moisture.settings;
         s.enabled.then(|| MoisturePlan {
             every: s.every.max(1),
             substeps: s.substeps.max(1),
@@ -149,21 +151,21 @@ impl Model {
     /// Switches moisture on and allocates its lanes (every element at the initial water
     /// content, with its material's diffusivity).
     pub fn enable_moisture(&mut self) {
-        self.settings.moisture.enabled = true;
+        self.effects.moisture.settings.enabled = true;
         self.fit_moisture();
     }
 
     /// Allocates the moisture lanes the settings call for, for every element (a no-op once
     /// they are); `radius0` only with a radius table.
     pub fn fit_moisture(&mut self) {
-        let s = &self.settings.moisture;
+        let s = &self.effects.moisture.settings;
         if !s.enabled {
             return;
         }
         let n = self.len();
         let shrink = s.radius_table.is_some();
         let initial = s.initial;
-        let w = &mut self.particles.moisture;
+        let w = &mut self.effects.moisture.lanes;
         if w.water.len() != n {
             *w = MoistureLanes {
                 water: vec![initial; n],
@@ -178,12 +180,12 @@ impl Model {
                 self.init_moisture(i);
             }
         }
-        if shrink && self.particles.moisture.radius0.len() != n {
+        if shrink && self.effects.moisture.lanes.radius0.len() != n {
             // With thermal expansion on, the table's r0 is the expansion's: the radius at the
             // reference temperature (so the two factors multiply one r0, not each other's).
             let th = &self.particles.thermal.radius0;
             let r0 = if th.len() == n { th } else { &self.particles.radius };
-            self.particles.moisture.radius0 = r0.clone();
+            self.effects.moisture.lanes.radius0 = r0.clone();
         }
     }
 
@@ -191,27 +193,26 @@ impl Model {
     pub(crate) fn init_moisture(&mut self, i: usize) {
         let name = &self.materials[self.particles.material[i] as usize].name;
         // A clone made by a per-element write (`rock~3`) has its base material's diffusivity.
-        let known = &self.settings.moisture.materials;
-        let a = known.get(name).or_else(|| known.get(base_name(name))).copied().unwrap_or(0.0);
-        if let Some(d) = self.particles.moisture.diffusivity.get_mut(i) {
+        let a = self.effects.moisture.settings.diffusivity(name, base_name(name));
+        if let Some(d) = self.effects.moisture.lanes.diffusivity.get_mut(i) {
             *d = a;
         }
     }
 
     /// The moisture lanes, or an error saying moisture is off.
     pub fn moisture_lanes(&mut self, to: &str) -> Result<&mut MoistureLanes> {
-        if !self.settings.moisture.enabled {
+        if !self.effects.moisture.settings.enabled {
             return Err(Error::InvalidScene(format!("moisture is off: call d.enable(\"moisture\") before you {to}")));
         }
         self.fit_moisture();
-        Ok(&mut self.particles.moisture)
+        Ok(&mut self.effects.moisture.lanes)
     }
 
     /// Sets a material's moisture diffusivity α_w (kg/(m²·s)), and its elements'.
     pub fn set_moisture_material(&mut self, material: &str, diffusivity: f64) -> Result<()> {
         let k = self.material_index(material)?;
         check_rate(&format!("moisture diffusivity of material `{material}`"), diffusivity)?;
-        self.settings.moisture.materials.insert(material.to_string(), diffusivity);
+        self.effects.moisture.settings.materials.insert(material.to_string(), diffusivity);
         self.fit_moisture();
         for i in 0..self.len() {
             let mi = self.particles.material[i];
@@ -297,8 +298,8 @@ impl Model {
     pub fn set_radius_table(&mut self, points: Option<Vec<(f64, f64)>>) -> Result<()> {
         let table =
             points.map(|p| Table::new(p, "radius table", 0.0, f64::MAX)).transpose().map_err(Error::InvalidScene)?;
-        self.settings.moisture.radius_table = table;
-        self.particles.moisture.radius0.clear();
+        self.effects.moisture.settings.radius_table = table;
+        self.effects.moisture.lanes.radius0.clear();
         self.fit_moisture();
         self.revision += 1;
         Ok(())
@@ -309,14 +310,14 @@ impl Model {
     pub fn set_strength_table(&mut self, points: Option<Vec<(f64, f64)>>) -> Result<()> {
         let table =
             points.map(|p| Table::new(p, "strength table", 0.0, 1.0)).transpose().map_err(Error::InvalidScene)?;
-        self.settings.moisture.strength_table = table;
+        self.effects.moisture.settings.strength_table = table;
         self.revision += 1;
         Ok(())
     }
 
     /// Total water Σ m_i·ω_i (kg); 0 with moisture off.
     pub fn total_water(&self) -> f64 {
-        let w = &self.particles.moisture.water;
+        let w = &self.effects.moisture.lanes.water;
         if w.len() != self.len() {
             return 0.0;
         }
@@ -327,7 +328,7 @@ impl Model {
     /// without rows nothing more is checked). The error names the element, its limit and the fix.
     pub fn check_moisture(&self) -> Result<()> {
         let Some(plan) = MoisturePlan::of(self) else { return Ok(()) };
-        let w = &self.particles.moisture;
+        let w = &self.effects.moisture.lanes;
         let n = self.len();
         if w.water.len() != n {
             return Ok(());

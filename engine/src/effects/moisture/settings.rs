@@ -1,5 +1,5 @@
-//! Moisture's settings (the `moisture` stage), held by the model's
-//! [`Settings`](crate::model::Settings); the model-level calls are in this folder's `mod.rs`.
+//! Moisture's settings (the `moisture` stage), part of its state in the model (`state.rs`);
+//! the model-level calls are in this folder's `mod.rs`.
 
 use crate::effects::moisture::physics::Table;
 use serde::{Deserialize, Serialize};
@@ -37,5 +37,13 @@ impl Default for MoistureSettings {
             radius_table: None,
             strength_table: None,
         }
+    }
+}
+
+impl MoistureSettings {
+    /// The diffusivity of an element of `material`: its own, or that of the material it was
+    /// cloned from (`base`), or none.
+    pub fn diffusivity(&self, material: &str, base: &str) -> f64 {
+        self.materials.get(material).or_else(|| self.materials.get(base)).copied().unwrap_or(0.0)
     }
 }
