@@ -159,6 +159,21 @@ pub struct Entry {
     /// The stage's checks of the model before and during a run (a field stage's stable
     /// sub-step), which [`check_stages`] runs; `Ok` when the scene has the stage off.
     pub check: fn(&Model) -> Result<()>,
+    /// How `d.enable(name)` and `d.disable(name)` switch the effect, for one a script switches
+    /// by name.
+    pub switch: Option<Switch>,
+}
+
+/// An effect a script switches by name: `d.enable(name)`, `d.disable(name)`.
+#[derive(Clone, Copy)]
+pub struct Switch {
+    /// The script's name for it (`"heat"` for the conduction stage).
+    pub name: &'static str,
+    /// On, with its lanes allocated (`None`: another call switches it on, `d.water_level`).
+    pub enable: Option<fn(&mut Model) -> Result<()>>,
+    /// Off: the plan drops the stage (a field's lanes stay, and a later enable continues from
+    /// them).
+    pub disable: fn(&mut Model),
 }
 
 /// A stage without checks of its own.
@@ -186,6 +201,7 @@ const fn core(stage: Stage, name: &'static str, runs: fn(&StepPlan) -> bool) -> 
         words: |_| None,
         off: "",
         check: unchecked,
+        switch: None,
     }
 }
 
@@ -221,6 +237,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.parallel_bond.as_ref().map(|b| parallel_bond::words(b, p.parallel_bond_entries / 2)),
         off: "parallel bonds",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::RollingResistance,
@@ -244,6 +261,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.rolling.as_ref().map(RollingResistance::words),
         off: "rolling resistance",
         check: unchecked,
+        switch: Some(Switch { name: "rolling_resistance", enable: None, disable: |m| m.settings.rolling = None }),
     },
     Entry {
         stage: Stage::PoreFlow,
@@ -259,6 +277,11 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.pore_flow.as_ref().map(PoreFlowPlan::words),
         off: "fluid flow",
         check: unchecked,
+        switch: Some(Switch {
+            name: "pore_flow",
+            enable: Some(Model::enable_pore_flow),
+            disable: Model::disable_pore_flow,
+        }),
     },
     Entry {
         stage: Stage::AppliedLoads,
@@ -278,6 +301,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.applied_loads.as_ref().map(AppliedLoadsPlan::words),
         off: "applied loads",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::ConfiningPressure,
@@ -292,6 +316,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.confining.as_ref().map(ConfiningPlan::words),
         off: "confining pressure",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::Buoyancy,
@@ -306,6 +331,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.buoyancy.as_ref().map(BuoyancyPlan::words),
         off: "buoyancy",
         check: unchecked,
+        switch: Some(Switch { name: "water", enable: None, disable: |m| m.set_water_level(None) }),
     },
     core(Stage::Integrate, "integrate", |_| true),
     Entry {
@@ -328,6 +354,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.clumps.as_ref().map(ClumpsPlan::words),
         off: "clumps",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::Periodic,
@@ -342,6 +369,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.periodic.as_ref().map(crate::effects::periodic::words),
         off: "periodic cell",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::HeatLedger,
@@ -358,6 +386,7 @@ pub const REGISTRY: [Entry; 17] = [
         words: |_| None,
         off: "heat ledger",
         check: unchecked,
+        switch: None,
     },
     Entry {
         stage: Stage::Conduction,
@@ -371,6 +400,14 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.conduction.as_ref().map(ConductionPlan::words),
         off: "heat conduction",
         check: Model::check_conduction,
+        switch: Some(Switch {
+            name: "heat",
+            enable: Some(|m| {
+                m.enable_heat();
+                Ok(())
+            }),
+            disable: |m| m.settings.heat.enabled = false,
+        }),
     },
     Entry {
         stage: Stage::Moisture,
@@ -384,6 +421,14 @@ pub const REGISTRY: [Entry; 17] = [
         words: |p| p.moisture.as_ref().map(MoisturePlan::words),
         off: "moisture",
         check: Model::check_moisture,
+        switch: Some(Switch {
+            name: "moisture",
+            enable: Some(|m| {
+                m.enable_moisture();
+                Ok(())
+            }),
+            disable: |m| m.effects.moisture.settings.enabled = false,
+        }),
     },
     core(Stage::Guard, "guard", |_| true),
 ];

@@ -165,12 +165,7 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
         })
         .register_set("water_level", |d: &mut ModelHandle, z: FLOAT| -> RhaiResult<()> {
             let z = finite("water_level", z)?;
-            // Moving the table does work on the elements where they stand (the energy account's
-            // body work): booked before and after the change.
-            let mut m = d.model();
-            m.book_body_work();
-            m.settings.water.level = Some(z);
-            m.book_body_work();
+            d.model().set_water_level(Some(z));
             Ok(())
         })
         .register_get("fluid_density", |d: &mut ModelHandle| d.model().settings.water.density)

@@ -79,55 +79,42 @@ pub(super) fn register(engine: &mut Engine, host: &Rc<Host>) {
                 None => Dynamic::UNIT,
             }
         })
+        // The effects a script switches by name are the registry's (`Entry::switch`); rotation
+        // is the core's.
         .register_fn("enable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
             let mut m = d.model();
-            match effect {
-                "rotation" => {
-                    m.settings.rotation = true;
-                    m.particles.enable_rotation();
-                    Ok(())
+            if effect == "rotation" {
+                m.settings.rotation = true;
+                m.particles.enable_rotation();
+                return Ok(());
+            }
+            let on = switches().filter_map(|s| Some((s.name, s.enable?)));
+            match on.clone().find(|(name, _)| *name == effect) {
+                Some((_, enable)) => enable(&mut m).map_err(|e| err(format!("d.enable(\"{effect}\"): {e}"))),
+                None => {
+                    let known: Vec<&str> = std::iter::once("rotation").chain(on.map(|(name, _)| name)).collect();
+                    Err(raise(matdem_engine::Error::unknown("effect", effect, &known)))
                 }
-                "heat" => {
-                    m.enable_heat();
-                    Ok(())
-                }
-                "moisture" => {
-                    m.enable_moisture();
-                    Ok(())
-                }
-                "pore_flow" => m.enable_pore_flow().map_err(|e| err(format!("d.enable(\"pore_flow\"): {e}"))),
-                other => Err(raise(matdem_engine::Error::unknown(
-                    "effect",
-                    other,
-                    &["rotation", "heat", "moisture", "pore_flow"],
-                ))),
             }
         })
         .register_fn("disable", |d: &mut ModelHandle, effect: &str| -> RhaiResult<()> {
-            let mut m = d.model();
-            match effect {
-                // The lanes stay (a later enable continues from them); the plan drops the stage.
-                "heat" => m.settings.heat.enabled = false,
-                "moisture" => m.effects.moisture.settings.enabled = false,
-                "water" => {
-                    m.book_body_work();
-                    m.settings.water.level = None;
-                    m.book_body_work();
+            match switches().find(|s| s.name == effect) {
+                Some(s) => {
+                    (s.disable)(&mut d.model());
+                    Ok(())
                 }
-                "rolling_resistance" => m.settings.rolling = None,
-                // The network and its fluid go; a later enable builds them afresh.
-                "pore_flow" => m.disable_pore_flow(),
-                other => {
-                    return Err(raise(matdem_engine::Error::unknown(
-                        "effect",
-                        other,
-                        &["heat", "moisture", "water", "rolling_resistance", "pore_flow"],
-                    )))
+                None => {
+                    let known: Vec<&str> = switches().map(|s| s.name).collect();
+                    Err(raise(matdem_engine::Error::unknown("effect", effect, &known)))
                 }
             }
-            Ok(())
         })
         .register_fn("plan", |d: &mut ModelHandle| d.data().sim.plan_text());
+}
+
+/// The effects a script switches by name, in step order.
+fn switches() -> impl Iterator<Item = matdem_engine::plan::Switch> + Clone {
+    matdem_engine::plan::REGISTRY.iter().filter_map(|e| e.switch)
 }
 
 /// The keys of `d.rolling_resistance`'s map.

@@ -39,3 +39,14 @@ impl BuoyancyPlan {
         format!("buoyancy(water level z = {} m, ρ_f = {} kg/m³{drag})", self.level, self.density)
     }
 }
+
+impl crate::model::Model {
+    /// Puts the water table at `level` (m), or removes it (`None`). Moving the table does work
+    /// on the elements where they stand (the energy account's body work), booked before and
+    /// after the change.
+    pub fn set_water_level(&mut self, level: Option<f64>) {
+        self.book_body_work();
+        self.settings.water.level = level;
+        self.book_body_work();
+    }
+}
