@@ -38,7 +38,8 @@ use crate::effects::buoyancy::WaterTable;
 use crate::effects::clumps::lanes::Clumps;
 use crate::effects::conduction::lanes::{ThermalLanes, FIXED, FREE, INSULATED};
 use crate::effects::conduction::HeatSettings;
-use crate::effects::confining_pressure::{Confinement, MAX_CELLS};
+use crate::effects::confining_pressure::state::ConfiningState;
+use crate::effects::confining_pressure::Confinement;
 use crate::effects::moisture::lanes::MoistureLanes;
 use crate::effects::moisture::state::MoistureState;
 use crate::effects::moisture::MoistureSettings;
@@ -47,7 +48,7 @@ use crate::effects::pore_flow::coupling::PoreSettings;
 use crate::effects::pore_flow::flow::{PoreBoundary, PoreFlow};
 use crate::effects::pore_flow::{Fluid, FluidHeat};
 use crate::effects::rolling_resistance::physics::RollingResistance;
-use crate::effects::EffectState;
+use crate::effects::{EffectState, Fit};
 use crate::element_values::MAX_MATERIALS;
 use crate::model::Model;
 use crate::physics::Vec3;
@@ -164,8 +165,9 @@ enum Section {
     /// The rotation lanes' accumulated angles (with rotation on). A file without it loads with
     /// every angle at zero.
     RotationAngle { angle: Vec<Vec3> },
-    /// The confining pressure on a cylindrical sample (its pressure, axis, platens and cells).
-    /// A file without it loads unconfined.
+    /// The confining pressure on a cylindrical sample (its pressure, axis, platens and cells),
+    /// as files written before the effects' states (2026-12-07) carry it; read only: it is an
+    /// [`Section::Effect`] now.
     Confinement { settings: Confinement },
     /// A 2D model's plate. A file without it loads 3D.
     Planar { setting: crate::planar::setting::Planar },
@@ -244,9 +246,6 @@ impl Section {
         if let Some(r) = &m.particles.rotation {
             out.push(Section::RotationAngle { angle: r.angle.clone() });
         }
-        if let Some(c) = &m.settings.confinement {
-            out.push(Section::Confinement { settings: c.clone() });
-        }
         if let Some(setting) = m.settings.planar {
             out.push(Section::Planar { setting });
         }
@@ -288,26 +287,23 @@ impl Section {
             }
             Section::Moisture { settings, lanes } => {
                 let state = MoistureState { settings, lanes };
-                state.check(m.len())?;
+                state.check(&Fit { elements: m.len(), walls: Vec::new() })?;
                 m.effects.moisture = state;
             }
-            Section::Effect { name, state } => m.effects.load(&name, &state, m.len())?,
+            Section::Effect { name, state } => {
+                let fit = Fit { elements: m.len(), walls: m.walls.iter().map(|w| w.name.as_str()).collect() };
+                m.effects.load(&name, &state, &fit)?
+            }
             Section::AppliedLoads { lanes } => {
                 if !lanes.consistent(m.len()) {
                     return Err("applied loads do not match the particles, or are not finite".into());
                 }
                 m.particles.applied = lanes;
             }
-            Section::Confinement { settings: c } => {
-                let cells = c.bands as usize * c.sectors as usize;
-                let sound = c.pressure.is_finite() && c.pressure > 0.0 && c.axis.iter().all(|v| v.is_finite());
-                if !sound || cells == 0 || cells > MAX_CELLS {
-                    return Err("the confining pressure is not a finite pressure > 0 on 1 to 2^20 cells".into());
-                }
-                if m.wall_index(&c.bottom).is_err() || m.wall_index(&c.top).is_err() {
-                    return Err("the confining pressure names a platen the model does not have".into());
-                }
-                m.settings.confinement = Some(c);
+            Section::Confinement { settings } => {
+                let state = ConfiningState { confinement: Some(settings) };
+                state.check(&Fit { elements: m.len(), walls: m.walls.iter().map(|w| w.name.as_str()).collect() })?;
+                m.effects.confining_pressure = state;
             }
             Section::Planar { setting } => {
                 let t = setting.thickness;
@@ -887,5 +883,39 @@ mod tests {
             s => Some(s),
         });
         assert!(decode(&forged).is_err());
+    }
+
+    // The same for the confining pressure's section of its own, checked against the walls.
+    #[test]
+    fn a_confinement_section_of_an_older_file_loads_into_the_effects_state() {
+        use crate::effects::confining_pressure::Confinement;
+        use crate::walls::Wall;
+        let mut m = Model::new();
+        let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4e-3).unwrap());
+        m.add_particle(Vec3::zeros(), 0.4e-3, mat.unwrap()).unwrap();
+        for (name, z, n) in [("bottom", -1e-3, 1.0), ("top", 1e-3, -1.0)] {
+            m.add_wall(Wall::plane(name, Vec3::new(0.0, 0.0, z), Vec3::new(0.0, 0.0, n), 1e-4).unwrap()).unwrap();
+        }
+        let (bottom, top) = ("bottom".to_string(), "top".to_string());
+        let c = Confinement { pressure: 1e5, axis: [0.0, 0.0], bottom, top, bands: 2, sectors: 6 };
+        m.effects.confining_pressure.confinement = Some(c);
+        let older = |s: Section| match s {
+            Section::Effect { name, state } if name == "confining_pressure" => {
+                let ConfiningState { confinement } = postcard::from_bytes(&state).unwrap();
+                Some(Section::Confinement { settings: confinement.unwrap() })
+            }
+            s => Some(s),
+        };
+        for file in [encode_sections(&m, b"", older), encode(&m, b"")] {
+            assert_eq!(decode(&file).unwrap().model.effects, m.effects);
+        }
+        // A platen the model lacks is refused, in either section.
+        m.walls.pop();
+        m.wall_contacts.truncate(m.len());
+        for file in [encode_sections(&m, b"", older), encode(&m, b"")] {
+            let Err(e) = decode(&file) else { panic!("a missing platen loads") };
+            let e = e.to_string();
+            assert!(e.contains("names a platen the model does not have"), "{e}");
+        }
     }
 }

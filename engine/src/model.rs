@@ -57,10 +57,6 @@ pub struct Settings {
     /// its fluid, in a checkpoint's sections (format 7).
     #[serde(skip)]
     pub pores: crate::effects::pore_flow::PoreSettings,
-    /// A confining pressure on a cylindrical sample (the `confining_pressure` stage; off by
-    /// default). Saved in a checkpoint's sections, so that older checkpoints still read.
-    #[serde(skip)]
-    pub confinement: Option<crate::effects::confining_pressure::settings::Confinement>,
     /// A 2D model's plate (`None`: 3D). Saved in a checkpoint's sections, so that older
     /// checkpoints still read.
     #[serde(skip)]
@@ -88,7 +84,6 @@ impl Default for Settings {
             water: crate::effects::buoyancy::settings::WaterTable::default(),
             rolling: None,
             pores: crate::effects::pore_flow::PoreSettings::default(),
-            confinement: None,
             planar: None,
             periodic: None,
         }
@@ -440,7 +435,7 @@ impl Model {
     /// account. A platen the confining pressure spans is refused until the sample is unconfined.
     pub fn remove_wall(&mut self, name: &str) -> Result<()> {
         let k = self.wall_index(name)?;
-        if let Some(c) = &self.settings.confinement {
+        if let Some(c) = &self.effects.confining_pressure.confinement {
             if c.bottom == name || c.top == name {
                 return Err(Error::InvalidScene(format!(
                     "wall `{name}` is a platen of the confining pressure: d.unconfine() first"

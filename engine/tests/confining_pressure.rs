@@ -324,7 +324,7 @@ fn bad_confinements_are_refused_with_what_to_give() {
     assert!(e.contains("lid") && e.contains("top_platen"), "{e}");
     let e = m.confine(request(1e4, Some(0), None)).unwrap_err().to_string();
     assert!(e.contains("at least 1"), "{e}");
-    assert!(m.settings.confinement.is_none(), "a refused confinement changes nothing");
+    assert!(m.effects.confining_pressure.confinement.is_none(), "a refused confinement changes nothing");
     // A platen of the confinement cannot be removed while it holds.
     m.confine(request(1e4, None, None)).unwrap();
     let e = m.remove_wall("top_platen").unwrap_err().to_string();
@@ -337,7 +337,7 @@ fn a_checkpoint_carries_the_confinement() {
     run(&mut sim, 100);
     let bytes = encode(&sim.model, &[]);
     let back = decode(&bytes).unwrap().model;
-    assert_eq!(back.settings.confinement, sim.model.settings.confinement);
+    assert_eq!(back.effects.confining_pressure.confinement, sim.model.effects.confining_pressure.confinement);
     let mut again = Simulation::new(back);
     run(&mut again, 100);
     run(&mut sim, 100);

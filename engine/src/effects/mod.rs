@@ -35,6 +35,13 @@ pub struct NewElement<'a> {
     pub base_material: &'a str,
 }
 
+/// What a state read from a checkpoint must fit: the model's elements and walls.
+pub struct Fit<'a> {
+    pub elements: usize,
+    /// The walls' names, in order.
+    pub walls: Vec<&'a str>,
+}
+
 /// The state an effect keeps in the model, one object: the scene's settings for it and its
 /// per-particle lanes (empty until a plan with its stage allocates them). The model grows and
 /// shrinks it with the particles, counts its bytes and compares its settings to decide whether
@@ -53,9 +60,9 @@ pub trait EffectState: Default + Clone + PartialEq + Serialize + DeserializeOwne
     fn radius_set(&mut self, _i: usize, _r: f64) {}
     /// Heap bytes of the lanes.
     fn bytes(&self) -> usize;
-    /// The checks a state read from a checkpoint passes for a model of `n` elements before
-    /// the model is stepped.
-    fn check(&self, n: usize) -> Result<(), String>;
+    /// The checks a state read from a checkpoint passes before the model is stepped: it fits
+    /// the model (`fit`) and holds only what the setters allow.
+    fn check(&self, fit: &Fit) -> Result<(), String>;
 }
 
 /// Declares [`EffectStates`] and [`EffectSettings`], one field per effect that keeps its state
@@ -111,13 +118,13 @@ macro_rules! effect_states {
                 Ok(out)
             }
 
-            /// Reads the state of the effect `name` from a checkpoint's bytes and checks it
-            /// for a model of `n` elements.
-            pub fn load(&mut self, name: &str, bytes: &[u8], n: usize) -> Result<(), String> {
+            /// Reads the state of the effect `name` from a checkpoint's bytes and checks that it
+            /// fits the model.
+            pub fn load(&mut self, name: &str, bytes: &[u8], fit: &Fit) -> Result<(), String> {
                 $(if name == <$state as EffectState>::NAME {
                     let state: $state = postcard::from_bytes(bytes)
                         .map_err(|e| format!("the {name} section does not read: {e}"))?;
-                    state.check(n)?;
+                    state.check(fit)?;
                     self.$name = state;
                     return Ok(());
                 })*
@@ -128,6 +135,8 @@ macro_rules! effect_states {
 }
 
 effect_states! {
+    /// The confining pressure's setting (a triaxial cell's membrane).
+    confining_pressure: confining_pressure::state::ConfiningState,
     /// Moisture's settings and water lanes.
     moisture: moisture::state::MoistureState,
 }
@@ -178,6 +187,9 @@ macro_rules! with_device_stages {
 mod tests {
     use super::*;
 
+    /// A model without elements or walls.
+    const NONE: Fit = Fit { elements: 0, walls: Vec::new() };
+
     #[test]
     fn a_checkpoint_carries_only_the_states_a_new_model_lacks() {
         let mut states = EffectStates::default();
@@ -186,16 +198,16 @@ mod tests {
         let sections = states.sections().unwrap();
         assert_eq!(sections.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["moisture"]);
         let mut loaded = EffectStates::default();
-        loaded.load(&sections[0].0, &sections[0].1, 0).unwrap();
+        loaded.load(&sections[0].0, &sections[0].1, &NONE).unwrap();
         assert_eq!(loaded, states);
     }
 
     #[test]
     fn a_section_of_an_unknown_effect_or_bytes_that_do_not_read_are_refused_by_name() {
         let mut states = EffectStates::default();
-        let e = states.load("magnetism", &[], 0).unwrap_err();
+        let e = states.load("magnetism", &[], &NONE).unwrap_err();
         assert!(e.contains("`magnetism`") && e.contains("does not know"), "{e}");
-        let e = states.load("moisture", &[0xff; 3], 0).unwrap_err();
+        let e = states.load("moisture", &[0xff; 3], &NONE).unwrap_err();
         assert!(e.contains("moisture section does not read"), "{e}");
         assert_eq!(states, EffectStates::default());
     }

@@ -311,7 +311,7 @@ pub const REGISTRY: [Entry; 17] = [
         runs: |p| p.confining.is_some(),
         // It reads the core's lanes and keeps none per particle (the GPU three words per cell).
         lanes: |_| None,
-        checkpoint: "Section::Confinement",
+        checkpoint: "effects.confining_pressure",
         script: "d.confine",
         words: |p| p.confining.as_ref().map(ConfiningPlan::words),
         off: "confining pressure",

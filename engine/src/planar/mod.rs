@@ -49,7 +49,7 @@ impl Model {
                 "must be a finite length > 0 m (the mean element diameter, as MatDEM)",
             ));
         }
-        if self.settings.confinement.is_some() || self.pores.is_some() {
+        if self.effects.confining_pressure.confinement.is_some() || self.pores.is_some() {
             return Err(Error::InvalidScene(
                 "the model has a confining pressure set round a 3D cylinder, or pore flow, which needs 3D: remove \
                  them (d.unconfine(), d.disable(\"pore_flow\")) before making it 2D, then confine the 2D model again"

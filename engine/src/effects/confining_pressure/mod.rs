@@ -21,16 +21,14 @@ pub mod cpu;
 pub mod gpu;
 pub mod physics;
 pub mod settings;
+pub mod state;
 
 use crate::effects::confining_pressure::physics::{picks, Cells, NONE};
-pub use crate::effects::confining_pressure::settings::Confinement;
+pub use crate::effects::confining_pressure::settings::{Confinement, MAX_CELLS};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::state::particles::dof;
 use crate::walls::{Wall, WallShape};
-
-/// The most cells a membrane may have (each is three words on the device).
-pub const MAX_CELLS: usize = 1 << 20;
 
 /// What a plan with the `confining_pressure` stage runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,7 +47,7 @@ pub struct ConfiningPlan {
 impl ConfiningPlan {
     /// The plan's confinement, when the scene confines a sample.
     pub fn of(m: &Model) -> Option<Self> {
-        let c = m.settings.confinement.as_ref()?;
+        let c = m.effects.confining_pressure.confinement.as_ref()?;
         Some(ConfiningPlan {
             pressure: c.pressure,
             axis: c.axis,
@@ -191,7 +189,7 @@ impl Model {
                  {MAX_CELLS} cells (a cell about one grain diameter, {diameter:.3e} m, suits)"
             )));
         }
-        self.settings.confinement =
+        self.effects.confining_pressure.confinement =
             Some(Confinement { pressure: p, axis: req.axis, bottom: req.bottom, top: req.top, bands, sectors });
         self.touch();
         Ok(())
@@ -199,7 +197,7 @@ impl Model {
 
     /// Removes the confining pressure.
     pub fn unconfine(&mut self) {
-        if self.settings.confinement.take().is_some() {
+        if self.effects.confining_pressure.confinement.take().is_some() {
             self.touch();
         }
     }

@@ -1,7 +1,10 @@
-//! The confining pressure's settings (the `confining_pressure` stage), held by the model's
-//! [`Settings`](crate::model::Settings); the model-level calls are in `mod.rs`.
+//! The confining pressure's settings (the `confining_pressure` stage), its state in the model
+//! (`state.rs`); the model-level calls are in `mod.rs`.
 
 use serde::{Deserialize, Serialize};
+
+/// The most cells a membrane may have (each is three words on the device).
+pub const MAX_CELLS: usize = 1 << 20;
 
 /// A confining pressure on the side of a vertical cylindrical sample between two platens, as a
 /// triaxial cell's membrane and water apply it: off until a script confines the sample.

@@ -5,7 +5,7 @@
 use crate::effects::moisture::lanes::MoistureLanes;
 use crate::effects::moisture::physics::Table;
 use crate::effects::moisture::settings::MoistureSettings;
-use crate::effects::{EffectState, NewElement};
+use crate::effects::{EffectState, Fit, NewElement};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -45,8 +45,8 @@ impl EffectState for MoistureState {
         self.lanes.bytes()
     }
 
-    fn check(&self, n: usize) -> Result<(), String> {
-        if !self.lanes.consistent(n) {
+    fn check(&self, fit: &Fit) -> Result<(), String> {
+        if !self.lanes.consistent(fit.elements) {
             return Err("water lanes do not match the particles".into());
         }
         if let Some((i, r)) = self.lanes.radius0.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {

@@ -130,7 +130,8 @@ impl Model {
 /// The effects whose pairs or geometry do not yet measure through a periodic cell's images.
 fn check_effects(m: &Model) -> Result<()> {
     let s = &m.settings;
-    let blocked = [(s.pores.enabled, "pore flow"), (s.confinement.is_some(), "a confining pressure")];
+    let blocked =
+        [(s.pores.enabled, "pore flow"), (m.effects.confining_pressure.confinement.is_some(), "a confining pressure")];
     match blocked.iter().find(|(on, _)| *on) {
         Some((_, what)) => Err(Error::InvalidScene(format!(
             "periodic boundaries do not yet work with {what}: run the scene without one of them"
