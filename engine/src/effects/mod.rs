@@ -5,7 +5,7 @@
 //! `mod.rs`, what a plan takes from the scene and the model-level calls that write its lanes.
 //! The core step (walls, neighbour rows, contacts, integration, guard) stays in the backends.
 //!
-//! This file is the effects' table: a new effect is its folder, its line below, its line in
+//! This file is the effects' table: a new effect is its folder, its `pub mod` line, its line in
 //! `effect_states!` when it keeps state in the model (settings, lanes), and its lines in
 //! `with_cpu_passes!` and `with_device_stages!`; its variant, registry row and plan field
 //! are in `plan/mod.rs`. The backends, the model and the checkpoint are made from these lists
