@@ -37,7 +37,7 @@ impl Model {
             self.contacts.skin = self.contacts.skin.max(skin_needed * 1.01);
             crate::neighbours::rebuild(self);
         }
-        let image = self.settings.periodic.map(|cell| cell.image());
+        let image = self.effects.periodic.cell.map(|cell| cell.image());
         let p = &self.particles;
         let c = &mut self.contacts;
         let mut count = 0;

@@ -44,6 +44,7 @@ use crate::effects::moisture::lanes::MoistureLanes;
 use crate::effects::moisture::state::MoistureState;
 use crate::effects::moisture::MoistureSettings;
 use crate::effects::parallel_bond::lanes::ParallelBonds;
+use crate::effects::periodic::state::PeriodicState;
 use crate::effects::pore_flow::coupling::PoreSettings;
 use crate::effects::pore_flow::flow::{PoreBoundary, PoreFlow};
 use crate::effects::pore_flow::{Fluid, FluidHeat};
@@ -173,7 +174,8 @@ enum Section {
     Planar { setting: crate::planar::setting::Planar },
     /// The clumps' bodies, members and offsets. A file without it loads with none.
     Clumps { clumps: Clumps },
-    /// The periodic cell. A file without it loads with no periodic axis.
+    /// The periodic cell, as files written before the effects' states (2026-12-07) carry it;
+    /// read only: it is an [`Section::Effect`] now.
     Periodic { cell: crate::effects::periodic::Periodic },
     /// The state of an effect that keeps one in the model (`effects::EffectState`), by the
     /// effect's name, in the effect's own encoding: a new effect needs no variant here. A file
@@ -252,9 +254,6 @@ impl Section {
         if !m.clumps.is_empty() {
             out.push(Section::Clumps { clumps: m.clumps.clone() });
         }
-        if let Some(cell) = m.settings.periodic {
-            out.push(Section::Periodic { cell });
-        }
         // NOTE: as `encode` says, every type in the model serialises.
         let effects = m.effects.sections().expect("the effects' states always serialise");
         out.extend(effects.into_iter().map(|(name, state)| Section::Effect { name, state }));
@@ -321,16 +320,9 @@ impl Section {
                 m.clumps = clumps;
             }
             Section::Periodic { cell } => {
-                let sound = cell.axes.iter().flatten().all(|[lo, hi]| lo.is_finite() && hi.is_finite() && hi > lo)
-                    && cell.shear.is_none_or(|s| {
-                        [s.rate, s.offset, s.offset_at_build].iter().all(|v| v.is_finite())
-                            && cell.axes[0].is_some()
-                            && cell.axes[2].is_some()
-                    });
-                if !sound || cell.axes.iter().all(Option::is_none) {
-                    return Err("the periodic cell's spans are not finite [lo, hi) with lo < hi".into());
-                }
-                m.settings.periodic = Some(cell);
+                let state = PeriodicState { cell: Some(cell) };
+                state.check(&Fit { elements: m.len(), walls: Vec::new() })?;
+                m.effects.periodic = state;
             }
             Section::RotationAngle { angle } => {
                 let n = m.len();
@@ -916,6 +908,31 @@ mod tests {
             let Err(e) = decode(&file) else { panic!("a missing platen loads") };
             let e = e.to_string();
             assert!(e.contains("names a platen the model does not have"), "{e}");
+        }
+    }
+
+    // The same for the periodic cell's section of its own.
+    #[test]
+    fn a_periodic_section_of_an_older_file_loads_into_the_effects_state() {
+        use crate::effects::periodic::Periodic;
+        let mut m = Model::new();
+        let mat = m.add_material(Material::from_micro("grain", 2650.0, 1e6, 4e5, 0.0, 0.0, 0.5, 0.4e-3).unwrap());
+        m.add_particle(Vec3::repeat(1e-3), 0.4e-3, mat.unwrap()).unwrap();
+        m.effects.periodic.cell = Some(Periodic { axes: [Some([0.0, 2e-3]), None, None], shear: None });
+        let older = |s: Section| match s {
+            Section::Effect { name, state } if name == "periodic" => {
+                let PeriodicState { cell } = postcard::from_bytes(&state).unwrap();
+                Some(Section::Periodic { cell: cell.unwrap() })
+            }
+            s => Some(s),
+        };
+        for file in [encode_sections(&m, b"", older), encode(&m, b"")] {
+            assert_eq!(decode(&file).unwrap().model.effects, m.effects);
+        }
+        m.effects.periodic.cell = Some(Periodic { axes: [Some([2e-3, 0.0]), None, None], shear: None });
+        for file in [encode_sections(&m, b"", older), encode(&m, b"")] {
+            let Err(e) = decode(&file) else { panic!("an empty span loads") };
+            assert!(e.to_string().contains("not finite [lo, hi) with lo < hi"), "{e}");
         }
     }
 }

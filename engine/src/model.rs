@@ -61,9 +61,6 @@ pub struct Settings {
     /// checkpoints still read.
     #[serde(skip)]
     pub planar: Option<crate::planar::setting::Planar>,
-    /// The periodic cell (`None`: no axis repeats). Saved in a checkpoint's sections.
-    #[serde(skip)]
-    pub periodic: Option<crate::effects::periodic::setting::Periodic>,
 }
 
 impl Default for Settings {
@@ -85,7 +82,6 @@ impl Default for Settings {
             rolling: None,
             pores: crate::effects::pore_flow::PoreSettings::default(),
             planar: None,
-            periodic: None,
         }
     }
 }

@@ -300,7 +300,7 @@ impl Simulation {
     /// particles added, or drifted past half the skin), so observers see every contact.
     fn refresh_rows(&mut self) {
         use crate::neighbours::{is_stale, rebuild};
-        if is_stale(&self.model.contacts, &self.model.particles.pos, self.model.settings.periodic.as_ref()) {
+        if is_stale(&self.model.contacts, &self.model.particles.pos, self.model.effects.periodic.cell.as_ref()) {
             rebuild(&mut self.model);
         }
     }

@@ -231,7 +231,7 @@ pub fn porosity(m: &Model, region: &Region) -> f64 {
     }
     let p = &m.particles;
     // In a periodic cell a sphere reaching out through a face comes in through the other.
-    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
+    let shifts = m.effects.periodic.cell.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
     let solid: f64 = (0..p.len())
         .filter(|&i| !m.is_killed(i))
         .map(|i| shifts.iter().map(|s| region.shared_volume(p.pos[i] + s, p.radius[i])).sum::<f64>())

@@ -326,7 +326,7 @@ fn a_checkpoint_carries_the_periodic_cell() {
     let mut sim = Simulation::new(gas());
     run(&mut sim, 300);
     let mut back = Simulation::new(decode(&encode(&sim.model, b"")).unwrap().model);
-    assert_eq!(back.model.settings.periodic, sim.model.settings.periodic);
+    assert_eq!(back.model.effects.periodic.cell, sim.model.effects.periodic.cell);
     run(&mut sim, 300);
     run(&mut back, 300);
     assert_eq!(back.model.particles.pos, sim.model.particles.pos);
@@ -438,7 +438,7 @@ fn lees_edwards_shear_keeps_the_peculiar_momentum_to_round_off() {
     let m = &sim.model;
     let p1 = peculiar_momentum(m, rate);
     let crossed_z = (0..m.len()).filter(|&i| m.particles.origin[i].z != start[i].z).count();
-    let offset = m.settings.periodic.unwrap().shear.unwrap().offset;
+    let offset = m.effects.periodic.cell.unwrap().shear.unwrap().offset;
     eprintln!(
         "peculiar momentum {p0:?} -> {p1:?} (scale {scale:e}); {crossed_z} crossed a z face; offset {offset:e} m"
     );
@@ -488,7 +488,7 @@ fn check_sheared_ball(sim: &Simulation, tol: f64) {
 
 /// How far the images have slid (m).
 fn offset(sim: &Simulation) -> f64 {
-    sim.model.settings.periodic.and_then(|c| c.shear).map_or(f64::NAN, |s| s.offset)
+    sim.model.effects.periodic.cell.and_then(|c| c.shear).map_or(f64::NAN, |s| s.offset)
 }
 
 #[test]
@@ -672,7 +672,7 @@ fn rows_built_on_the_gpu_for_a_sheared_cell_are_the_hosts() {
     let (mut m, a) = strained_fcc(4, 1e-3);
     m.lees_edwards(5.0).unwrap();
     let span = 4.0 * a;
-    if let Some(s) = m.settings.periodic.as_mut().and_then(|c| c.shear.as_mut()) {
+    if let Some(s) = m.effects.periodic.cell.as_mut().and_then(|c| c.shear.as_mut()) {
         s.offset = 0.37 * span * (1.0 - 1e-3);
     }
     matdem_engine::neighbours::rebuild(&mut m);

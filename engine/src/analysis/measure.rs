@@ -73,7 +73,7 @@ pub fn measure(m: &Model, list: &ContactList, region: &Region) -> Result<Measure
     let mut contacts = 0.0;
     let p = &m.particles;
     // In a periodic cell a branch reaching out through a face comes in through the other.
-    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
+    let shifts = m.effects.periodic.cell.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
     for row in list.rows.iter().filter(|r| r.is_active()) {
         let x = p.pos[row.i as usize];
         let share: f64 = shifts.iter().map(|s| region.segment_share(x + s, x + s + row.branch)).sum();

@@ -139,6 +139,8 @@ effect_states! {
     confining_pressure: confining_pressure::state::ConfiningState,
     /// Moisture's settings and water lanes.
     moisture: moisture::state::MoistureState,
+    /// The periodic cell's setting.
+    periodic: periodic::state::PeriodicState,
 }
 
 /// Lists the effects with a CPU pass (`effects::<name>::cpu::stage`), as `Stage` variant and

@@ -35,8 +35,11 @@ pub fn rebuild(m: &mut Model) {
         m.contacts.skin = m.settings.skin_ratio * m.mean_radius();
     }
     let skin = m.contacts.skin;
-    let mut pairs =
-        if n == 0 { Vec::new() } else { find_pairs(&p.pos, &p.radius, &p.fixed, skin, m.settings.periodic.as_ref()) };
+    let mut pairs = if n == 0 {
+        Vec::new()
+    } else {
+        find_pairs(&p.pos, &p.radius, &p.fixed, skin, m.effects.periodic.cell.as_ref())
+    };
     // Keep bonded pairs whatever their distance.
     let old = &m.contacts;
     for i in 0..old.row_start.len().saturating_sub(1) {
@@ -119,7 +122,7 @@ pub fn rebuild(m: &mut Model) {
         stale: false,
         rolling,
     };
-    if let Some(s) = m.settings.periodic.as_mut().and_then(|c| c.shear.as_mut()) {
+    if let Some(s) = m.effects.periodic.cell.as_mut().and_then(|c| c.shear.as_mut()) {
         s.offset_at_build = s.offset;
     }
     rebuild_wall_mask(m);

@@ -364,7 +364,7 @@ pub const REGISTRY: [Entry; 17] = [
         runs: |p| p.periodic.is_some(),
         // It moves the core's lanes and keeps none of its own.
         lanes: |_| None,
-        checkpoint: "Section::Periodic",
+        checkpoint: "effects.periodic",
         script: "d.periodic",
         words: |p| p.periodic.as_ref().map(crate::effects::periodic::words),
         off: "periodic cell",
@@ -643,7 +643,7 @@ impl StepPlan {
             confining: ConfiningPlan::of(m),
             planar: m.settings.planar.map(|p| p.thickness),
             clumps: ClumpsPlan::of(m),
-            periodic: m.settings.periodic,
+            periodic: m.effects.periodic.cell,
         }
     }
 

@@ -57,7 +57,7 @@ fn lens_area(d: f64, r: f64, s: f64) -> f64 {
 pub fn porosity_by_area(m: &Model, region: &Region) -> f64 {
     let p = &m.particles;
     let cut = section(region);
-    let shifts = m.settings.periodic.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
+    let shifts = m.effects.periodic.cell.map_or_else(|| vec![Vec3::zeros()], |c| c.image_shifts());
     let area = |c: Vec3, r: f64| match cut {
         Section::Rectangle { x, z } => disc_rectangle_area(c.x, c.z, r, x, z),
         Section::Disc { cx, cz, r: s } => lens_area(((c.x - cx).powi(2) + (c.z - cz).powi(2)).sqrt(), r, s),

@@ -43,7 +43,7 @@ fn periodic(d: &mut ModelHandle, axes: Map) -> RhaiResult<()> {
 /// The periodic cell as a map of its axes' spans (an empty map without one).
 fn periodic_cell(d: &mut ModelHandle) -> Map {
     let mut map = Map::new();
-    if let Some(c) = d.model().settings.periodic {
+    if let Some(c) = d.model().effects.periodic.cell {
         for (name, axis) in ["x", "y", "z"].iter().zip(c.axes) {
             if let Some([lo, hi]) = axis {
                 map.insert((*name).into(), Dynamic::from_array(vec![lo.into(), hi.into()]));

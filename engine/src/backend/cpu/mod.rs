@@ -98,7 +98,7 @@ impl CpuBackend {
         }
         times.add(Stage::Walls, t.elapsed());
         let t = Instant::now();
-        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
+        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.effects.periodic.cell.as_ref()) {
             neighbours::rebuild(m);
         } else if neighbours::walls_stale(&m.contacts, &m.walls, m.particles.len()) {
             neighbours::rebuild_wall_mask(m);
@@ -156,7 +156,7 @@ impl CpuBackend {
         for w in &mut m.walls {
             w.advance(dt);
         }
-        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
+        if neighbours::is_stale(&m.contacts, &m.particles.pos, m.effects.periodic.cell.as_ref()) {
             // The rebuild carries each pair's state over from the rows.
             sync_rows(m, &mut self.pairs);
             self.pairs.forget_records();

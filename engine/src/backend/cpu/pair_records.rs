@@ -97,8 +97,8 @@ impl<'a> PairInputs<'a> {
             ang_vel: p.rotation.as_ref().filter(|_| rotation).map(|r| &r.ang_vel[..]),
             plan,
             dt: m.clock.dt,
-            image: m.settings.periodic.map(|c| c.image()).unwrap_or_default(),
-            periodic: m.settings.periodic.is_some(),
+            image: m.effects.periodic.cell.map(|c| c.image()).unwrap_or_default(),
+            periodic: m.effects.periodic.cell.is_some(),
             planar: m.settings.planar.is_some(),
         }
     }

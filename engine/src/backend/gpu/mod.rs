@@ -429,7 +429,7 @@ impl GpuBackend {
     /// Brings the model to what an upload needs: rows that cover it, the core's lanes the plan
     /// reads (a stage of `DEVICE_STAGES` fits its own at its upload).
     fn ready(&self, m: &mut Model) {
-        if is_stale(&m.contacts, &m.particles.pos, m.settings.periodic.as_ref()) {
+        if is_stale(&m.contacts, &m.particles.pos, m.effects.periodic.cell.as_ref()) {
             rebuild(m);
         }
         if self.plan.rotation && m.particles.rotation.is_none() {
@@ -484,7 +484,7 @@ impl GpuBackend {
         let wall_groups = wall_forces::partial_groups(n);
         let r_max = m.particles.radius.iter().copied().fold(0.0, f64::max);
         let skin = m.contacts.skin;
-        let image = m.settings.periodic.map(|c| c.image()).unwrap_or_default();
+        let image = m.effects.periodic.cell.map(|c| c.image()).unwrap_or_default();
         let v4 = |v: &Vec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
         let params = Params {
             n: n as u32,
@@ -506,7 +506,7 @@ impl GpuBackend {
             pad: [0.0; 2],
             period: v4(&image.len),
             period_inv: v4(&image.inv),
-            period_lo: v4(&Vec3::from_fn(|k, _| m.settings.periodic.and_then(|c| c.axes[k]).map_or(0.0, |a| a[0]))),
+            period_lo: v4(&Vec3::from_fn(|k, _| m.effects.periodic.cell.and_then(|c| c.axes[k]).map_or(0.0, |a| a[0]))),
             // Written by the periodic stage's session under Lees–Edwards shear.
             shear: [0.0; 4],
         };

@@ -100,7 +100,7 @@ impl Model {
         }
         // In a periodic cell the members may lie on either side of a face: each is brought to
         // the image nearest the first, so that they are one body (the cell wraps its centre).
-        if let Some(cell) = self.settings.periodic {
+        if let Some(cell) = self.effects.periodic.cell {
             let image = cell.image();
             let first = self.particles.pos[ids[0] as usize];
             let p = &mut self.particles;
@@ -168,7 +168,7 @@ impl Model {
             self.particles.enable_rotation();
         }
         cpu::place_members(self, number);
-        if let Some(cell) = self.settings.periodic {
+        if let Some(cell) = self.effects.periodic.cell {
             crate::effects::periodic::wrap::wrap_clump(&cell, &mut self.clumps, &mut self.particles, number);
         }
         // The members' pairs among themselves leave the rows (with any bond between them).

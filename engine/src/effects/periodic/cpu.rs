@@ -22,7 +22,7 @@ pub fn stage(_: &StepPlan) -> Option<Box<dyn CpuStage>> {
 /// Advances the shear's offset and wraps every element and clump into the cell.
 pub fn periodic(m: &mut Model) {
     let dt = m.clock.dt;
-    let Some(cell) = m.settings.periodic.as_mut() else { return };
+    let Some(cell) = m.effects.periodic.cell.as_mut() else { return };
     if let (Some(s), Some([x0, x1]), Some([z0, z1])) = (cell.shear.as_mut(), cell.axes[0], cell.axes[2]) {
         s.offset = (s.offset + s.rate * (z1 - z0) * dt).rem_euclid(x1 - x0);
     }

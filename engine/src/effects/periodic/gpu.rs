@@ -120,7 +120,7 @@ impl Session {
             // COPY_DST: a download clears it on the device.
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         });
-        let cell = m.settings.periodic.expect("the plan has the periodic stage");
+        let cell = m.effects.periodic.cell.expect("the plan has the periodic stage");
         let span = |k: usize| cell.axes[k].map_or(0.0, |[lo, hi]| hi - lo);
         let shear = cell.shear.map(|s| {
             let room = batch + 1;
@@ -219,10 +219,10 @@ impl Session {
     /// `rewind`).
     pub fn download(&self, ctx: &GpuContext, m: &mut Model) -> Result<()> {
         let k = read::<[i32; 4]>(ctx, &self.crossings, self.n)?;
-        let image = match (&self.shear, m.settings.periodic.as_mut().and_then(|c| c.shear.as_mut())) {
+        let image = match (&self.shear, m.effects.periodic.cell.as_mut().and_then(|c| c.shear.as_mut())) {
             (Some(sh), Some(s)) => {
                 (s.offset, s.offset_at_build) = (sh.offset, sh.offset_at_build);
-                m.settings.periodic.map(|c| c.image()).unwrap_or_default()
+                m.effects.periodic.cell.map(|c| c.image()).unwrap_or_default()
             }
             _ => self.cell.image(),
         };

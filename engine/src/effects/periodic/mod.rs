@@ -28,6 +28,7 @@ pub mod cpu;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod setting;
+pub mod state;
 pub mod wrap;
 
 pub use setting::{Image, Periodic, Separations};
@@ -74,7 +75,7 @@ impl Model {
         let cell = Periodic { axes, shear: None };
         check_effects(self)?;
         wrap::wrap_all(&cell, &mut self.particles, &mut self.clumps);
-        self.settings.periodic = Some(cell);
+        self.effects.periodic.cell = Some(cell);
         self.contacts.stale = true;
         crate::neighbours::rebuild(self);
         self.touch();
@@ -87,7 +88,7 @@ impl Model {
     /// streaming profile v_x = γ̇·(z − z_mid) to start in steady shear. A rate of 0 stops the
     /// slide where it is (the images stay offset). Both backends.
     pub fn lees_edwards(&mut self, rate: f64) -> Result<()> {
-        let Some(cell) = self.settings.periodic.as_mut() else {
+        let Some(cell) = self.effects.periodic.cell.as_mut() else {
             return Err(Error::InvalidScene(
                 "Lees–Edwards shear slides a periodic cell's images: make x and z periodic first (d.periodic)".into(),
             ));
@@ -109,7 +110,7 @@ impl Model {
 
     /// Makes every axis non-periodic again (elements stay where the cell put them).
     pub fn unperiodic(&mut self) {
-        if self.settings.periodic.take().is_some() {
+        if self.effects.periodic.cell.take().is_some() {
             self.contacts.stale = true;
             self.touch();
         }
@@ -123,7 +124,7 @@ impl Model {
     /// The model's pair separation, for a loop over many pairs (the cell's image worked out
     /// once).
     pub fn separations(&self) -> Separations {
-        Separations::of(self.settings.periodic.as_ref())
+        Separations::of(self.effects.periodic.cell.as_ref())
     }
 }
 
@@ -144,7 +145,7 @@ fn check_effects(m: &Model) -> Result<()> {
 /// (switched on after the cell was made), or a sliding Lees–Edwards cell with damping that
 /// acts on whole velocities.
 pub fn check_scene(m: &Model) -> Result<()> {
-    let Some(cell) = m.settings.periodic else { return Ok(()) };
+    let Some(cell) = m.effects.periodic.cell else { return Ok(()) };
     check_effects(m)?;
     if cell.shear.is_some_and(|s| s.rate != 0.0) {
         // Both act on an element's whole velocity, the shear's stream v_x = γ̇·z included,
