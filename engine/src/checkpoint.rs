@@ -286,12 +286,14 @@ impl Section {
             }
             Section::Moisture { settings, lanes } => {
                 let state = MoistureState { settings, lanes };
-                state.check(&Fit { elements: m.len(), walls: Vec::new() })?;
+                state.check(&fit(m))?;
                 m.effects.moisture = state;
             }
             Section::Effect { name, state } => {
-                let fit = Fit { elements: m.len(), walls: m.walls.iter().map(|w| w.name.as_str()).collect() };
-                m.effects.load(&name, &state, &fit)?
+                // Out of the model while the model is read (a refusal refuses the whole file).
+                let mut effects = std::mem::take(&mut m.effects);
+                effects.load(&name, &state, &fit(m))?;
+                m.effects = effects;
             }
             Section::AppliedLoads { lanes } => {
                 if !lanes.consistent(m.len()) {
@@ -301,7 +303,7 @@ impl Section {
             }
             Section::Confinement { settings } => {
                 let state = ConfiningState { confinement: Some(settings) };
-                state.check(&Fit { elements: m.len(), walls: m.walls.iter().map(|w| w.name.as_str()).collect() })?;
+                state.check(&fit(m))?;
                 m.effects.confining_pressure = state;
             }
             Section::Planar { setting } => {
@@ -321,7 +323,7 @@ impl Section {
             }
             Section::Periodic { cell } => {
                 let state = PeriodicState { cell: Some(cell) };
-                state.check(&Fit { elements: m.len(), walls: Vec::new() })?;
+                state.check(&fit(m))?;
                 m.effects.periodic = state;
             }
             Section::RotationAngle { angle } => {
@@ -628,6 +630,11 @@ fn check_particles(m: &Model) -> Result<(), String> {
 }
 
 /// Radii (of the particles, or at a reference) are finite numbers > 0.
+/// What an effect's state read from a checkpoint must fit: the model's elements and walls.
+fn fit(m: &Model) -> Fit<'_> {
+    Fit { elements: m.len(), walls: m.walls.iter().map(|w| w.name.as_str()).collect() }
+}
+
 fn check_radii(what: &str, radii: &[f64]) -> Result<(), String> {
     match radii.iter().enumerate().find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
         Some((i, r)) => Err(format!("particle {i} has {what} {r} m: a radius is a finite number > 0")),
