@@ -129,6 +129,23 @@ fn auto_backend_without_a_hardware_gpu_runs_on_the_cpu_and_says_why() {
     assert!(stderr(&o).contains("backend: cpu (f64"), "{}", stderr(&o));
 }
 
+// The backend line says the threads the CPU passes run on: rayon's pool, which
+// RAYON_NUM_THREADS sets (a sweep's point, a Slurm task), not the machine's cores.
+#[test]
+fn the_backend_line_says_the_threads_the_cpu_runs_on() {
+    for (threads, said) in [("1", "backend: cpu (f64, 1 thread)"), ("3", "backend: cpu (f64, 3 threads)")] {
+        let o = bin_without_gpu()
+            .args(["bench", "--backend", "cpu", "--particles", "300", "--steps", "2", "--warmup", "1", "--json"])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains(said), "RAYON_NUM_THREADS={threads}: {}", stderr(&o));
+        let json = String::from_utf8_lossy(&o.stdout);
+        assert!(json.contains(&format!("\"threads\":{threads},")), "{json}");
+    }
+}
+
 // A script on the GPU (Mesa's software Vulkan in CI): a small box of grains balanced under
 // gravity settles to the mean height the CPU finds, within 1e-3 relative.
 #[test]

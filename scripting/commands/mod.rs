@@ -129,11 +129,11 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
         Backend::Cpu => BackendChoice::Cpu,
         Backend::Gpu => BackendChoice::Gpu,
     };
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = cpu_threads();
     match select(choice).map_err(Failure::error)? {
         Compute::Gpu(ctx) if choice == BackendChoice::Auto => {
             eoutln!(
-                "backend: auto, cpu (f64, {threads} threads) or gpu (f32) on {}: a speed test at the first run decides",
+                "backend: auto, cpu (f64, {threads}) or gpu (f32) on {}: a speed test at the first run decides",
                 ctx.describe()
             );
             Ok(RunBackend::Auto(ctx))
@@ -147,9 +147,9 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
             // Passing over a software adapter is the right choice, not news on every run;
             // other reasons (no adapter, a device that failed to open) are said.
             if reason.contains("software adapter") {
-                eoutln!("backend: cpu (f64, {threads} threads)");
+                eoutln!("backend: cpu (f64, {threads})");
             } else {
-                eoutln!("backend: cpu (f64, {threads} threads): {reason}");
+                eoutln!("backend: cpu (f64, {threads}): {reason}");
             }
             Ok(RunBackend::Cpu)
         }
@@ -166,9 +166,18 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
              --backend cpu (or auto, which falls back to the CPU)",
         ));
     }
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    eoutln!("backend: cpu (f64, {threads} threads)");
+    let threads = cpu_threads();
+    eoutln!("backend: cpu (f64, {threads})");
     Ok(RunBackend::Cpu)
+}
+
+/// The CPU backend's threads, as the backend line says them: its pool's (`RAYON_NUM_THREADS`),
+/// not the machine's cores.
+fn cpu_threads() -> String {
+    match matdem_engine::backend::cpu::threads() {
+        1 => "1 thread".into(),
+        n => format!("{n} threads"),
+    }
 }
 
 /// This binary, which runs each point of a study or sweep.

@@ -40,6 +40,12 @@ macro_rules! cpu_stages {
 }
 crate::with_cpu_passes!(cpu_stages);
 
+/// The threads the CPU backend's passes run on: rayon's pool, which `RAYON_NUM_THREADS` sets
+/// (not the machine's cores: a sweep's point or a Slurm task may be given fewer).
+pub fn threads() -> usize {
+    rayon::current_num_threads()
+}
+
 /// Per-run derived data: the plan and each particle's viscous damping coefficient.
 pub struct CpuBackend {
     pub plan: StepPlan,
