@@ -245,7 +245,7 @@ pub const PROPERTIES: &[(&str, &str, &str)] = &[
     ("mass", "Model (read)", "mass of every element, kg"),
     ("material", "Model (read) / Box (set)", "material index of every element; on a box, the material it builds with"),
     ("contact_load", "Model (read)", "sum of the normal contact forces on every element, N"),
-    ("n", "Model (read)", "number of elements"),
+    ("n", "Model (read)", "number of elements (MatDEM d.aNum)"),
     ("name", "Model, Box, Material, Design (read)", "the name it was given; a design's array, e.g. L25(5^6)"),
     ("time", "Model (read)", "simulated time, s"),
     ("step", "Model (read)", "steps run so far"),

@@ -72,6 +72,10 @@ const NO_HINT: &str = "`matdem-rs doc` lists every function and property a scrip
 
 /// The hint for a function `name` called with `args` (Rhai's "(Type, …)").
 fn function_hint(name: &str, args: &str) -> String {
+    // `d.len()`, `d.count()`: an array's or a mask's habit; the model's count is a property.
+    if matches!(name, "len" | "length" | "size" | "count" | "numel") && args.starts_with("(Model") {
+        return "the model's number of elements is the property `d.n` (MatDEM d.aNum)".to_string();
+    }
     let usages = usages_of(name);
     if !usages.is_empty() {
         let given = if args.is_empty() { String::new() } else { format!(" (it was given {args})") };
@@ -366,6 +370,13 @@ mod tests {
         .starts_with("MatDEM's `sampleW` is `sample_w` here (a property of Box"));
         assert!(no_property("Unknown property 'aZ' - a getter is not registered for type 'Model'")
             .starts_with("MatDEM's `aZ` is `z` here"));
+        assert!(no_property("Unknown property 'aNum' - a getter is not registered for type 'Model'")
+            .starts_with("MatDEM's `aNum` is `n` here (a property of Model"));
+        // How many elements: a property, not an array's len() or a mask's count().
+        for call in ["len (Model)", "count (Model)", "size (Model)"] {
+            assert_eq!(not_found(call), "the model's number of elements is the property `d.n` (MatDEM d.aNum)");
+        }
+        assert!(not_found("count (Field)").starts_with("`count` is called as `mask.count() -> int`"));
         assert!(no_property("Unknown property 'mo' - a getter is not registered for type 'Model'")
             .contains("d.mo.aZ is d.z"));
     }
