@@ -142,6 +142,21 @@ impl BoxSpec {
                 )));
             }
         }
+        // A grain wider than the container cannot be placed in it (a radius given in mm,
+        // say, would build one grain through the walls).
+        let span = match self.container {
+            Container::Cuboid { width, length } => width.min(length),
+            Container::Cylinder { radius } => 2.0 * radius,
+            Container::Rectangle { width } => width,
+        };
+        let r_max = self.classes.iter().map(|c| c.r_max).fold(0.0, f64::max);
+        if 2.0 * r_max > span {
+            return Err(Error::InvalidScene(format!(
+                "the largest grains, of radius {r_max} m, are {} m across, wider than the box ({span} m): use \
+                 smaller grains (ball_r, gradation; lengths are in metres) or a wider box",
+                2.0 * r_max
+            )));
+        }
         if !(0.0..0.9).contains(&self.target_porosity) {
             return Err(Error::param("target_porosity", self.target_porosity, "must be in [0, 0.9)"));
         }
@@ -402,6 +417,39 @@ mod tests {
         let mean = gap as f64 / pairs as f64;
         assert!(pairs > n, "{pairs} near pairs");
         assert!(mean < n as f64 / 20.0, "near grains are {mean:.0} ids apart on average, of {n}");
+    }
+
+    // A grain wider than the container is refused before anything is built, with the sizes
+    // and the fix; one that just fits is built.
+    #[test]
+    fn a_grain_wider_than_the_box_is_refused_with_the_sizes() {
+        let spec = |container, r: f64| BoxSpec {
+            container,
+            height: 4e-3,
+            classes: vec![SizeClass { r_min: r / 2.0, r_max: r, mass_ratio: 1.0 }],
+            target_porosity: 0.4,
+            seed: 3,
+            top_platen: false,
+        };
+        for container in [
+            Container::Cuboid { width: 4e-3, length: 6e-3 },
+            Container::Cylinder { radius: 2e-3 },
+            Container::Rectangle { width: 4e-3 },
+        ] {
+            for r in [2.5e-3, 0.01, 1e300] {
+                let e = spec(container, r).validate().unwrap_err().to_string();
+                assert!(
+                    e.contains(&format!("the largest grains, of radius {r} m,"))
+                        && e.contains("wider than the box (0.004 m)"),
+                    "{e}"
+                );
+                assert!(e.contains("use smaller grains"), "{e}");
+            }
+            spec(container, 2e-3).validate().unwrap();
+            let mut m = Model::new();
+            m.add_material(Material::from_micro("sand", 2650.0, 2e5, 1e5, 0.0, 0.0, 0.5, 1e-3).unwrap()).unwrap();
+            assert!(spec(container, 2e-3).build_into(&mut m).is_ok(), "{container:?}");
+        }
     }
 
     #[test]
