@@ -228,9 +228,23 @@ fn messages_name_the_real_cause() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("parameter name `case` is a word Rhai reserves"), "{}", stderr(&o));
     let oedometer = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/oedometer");
-    let o =
-        bin().arg("run").arg(oedometer).args(["--set", "samples=4", "--out"]).arg(dir.join("oed")).output().unwrap();
-    assert!(stderr(&o).contains("there is no gradation No.4"), "{}", stderr(&o));
+    // A comma list (comma_list): another number, an empty item or one given twice is refused
+    // before anything runs, with what to give.
+    for (samples, said) in [
+        ("4", "samples: `4` is not a choice; give a comma list of 1, 2, 3"),
+        ("", "samples is empty; give a comma list of 1, 2, 3"),
+        ("1,,3", "samples: an empty item in \"1,,3\"; give a comma list of 1, 2, 3"),
+        ("1,3,1", "samples: `1` is given twice; give each at most once"),
+    ] {
+        let o = bin()
+            .arg("run")
+            .arg(&oedometer)
+            .args(["--set", &format!("samples={samples}"), "--out"])
+            .arg(dir.join("oed"))
+            .output()
+            .unwrap();
+        assert!(stderr(&o).contains(said) && !stderr(&o).contains("deposition"), "{}", stderr(&o));
+    }
     // A 400 kB generated line with an error at its end is shown around the error only.
     let o = run_script(&dir, "long.rhai", &format!("let a = [{}1 +];", "1, ".repeat(100_000)), &[]);
     assert_eq!(o.status.code(), Some(1));

@@ -170,6 +170,7 @@ pub const DOCS: &[(&str, &str, &str)] = &[
     ("count", "mask.count() -> int", "how many particles a mask selects"),
     ("ids", "mask.ids() -> array", "the ids a mask selects"),
     ("fmt", "fmt(x, digits) -> string", "a number with a fixed number of decimals"),
+    ("comma_list", "comma_list(text, kind) / comma_list(text, kind, name) -> array", "the items of a comma list (a simulator's text parameter: `comma_list(params.samples ?? \"1,2,3\", \"int\", \"samples\")`), in order, each read as kind: \"int\", \"float\" (finite) or one of an array of choices (whatever the case; given back as the choice is spelled); an empty item, one that does not read as its kind, or one given twice is refused, naming the parameter `name` and what to give"),
     ("check_options", "check_options(opts, [\"key\", …], \"procedure\")", "refuses a key of an options map that is not in the list, naming the nearest and listing them (a typo would otherwise be dropped without a word); () passes; the stdlib's procedures check theirs with it, and so can a script's own"),    ("len", "f.len() / mask.len() / t.len() -> int", "elements in a field or mask, rows in a table"),
     ("to_array", "f.to_array() -> array", "a field as a plain Rhai array of numbers"),
     ("to_string", "to_string(x) / `${x}`", "a short summary of a field, mask, table, box, material or test sample"),

@@ -12,6 +12,7 @@ pub mod docs;
 pub mod files;
 pub mod geometry;
 pub mod hints;
+pub mod lists;
 pub mod materials;
 pub mod metrics;
 pub mod model;
@@ -250,6 +251,7 @@ fn error_message(e: &EvalAltResult) -> String {
 pub fn register(engine: &mut Engine, host: Rc<Host>) {
     arrays::register(engine);
     options::register(engine);
+    lists::register(engine);
     geometry::register(engine);
     statistics::register(engine);
     table::register(engine, host.clone());
