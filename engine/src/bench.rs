@@ -215,7 +215,7 @@ pub fn run(mut sim: Simulation, warmup: u64, steps: u64) -> Result<(BenchReport,
         } else {
             (model_bytes(m) + sim.backend_bytes()) as f64 / nf
         },
-        threads: crate::backend::cpu::threads(),
+        threads: crate::backend::CpuBackend::threads(),
         lane_sets,
     };
     Ok((report, sim))

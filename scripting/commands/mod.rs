@@ -174,7 +174,7 @@ fn open_backend(backend: Backend) -> Result<RunBackend, Failure> {
 /// The CPU backend's threads, as the backend line says them: its pool's (`RAYON_NUM_THREADS`),
 /// not the machine's cores.
 fn cpu_threads() -> String {
-    match matdem_engine::backend::cpu::threads() {
+    match matdem_engine::backend::CpuBackend::threads() {
         1 => "1 thread".into(),
         n => format!("{n} threads"),
     }

@@ -40,12 +40,6 @@ macro_rules! cpu_stages {
 }
 crate::with_cpu_passes!(cpu_stages);
 
-/// The threads the CPU backend's passes run on: rayon's pool, which `RAYON_NUM_THREADS` sets
-/// (not the machine's cores: a sweep's point or a Slurm task may be given fewer).
-pub fn threads() -> usize {
-    rayon::current_num_threads()
-}
-
 /// Per-run derived data: the plan and each particle's viscous damping coefficient.
 pub struct CpuBackend {
     pub plan: StepPlan,
@@ -60,6 +54,12 @@ pub struct CpuBackend {
 }
 
 impl CpuBackend {
+    /// The threads the CPU backend's passes run on: rayon's pool, which `RAYON_NUM_THREADS`
+    /// sets (not the machine's cores: a sweep's point or a Slurm task may be given fewer).
+    pub fn threads() -> usize {
+        rayon::current_num_threads()
+    }
+
     /// The backend for the model's plan as it is now.
     pub fn prepare(m: &Model) -> Self {
         let plan = StepPlan::build(m);
