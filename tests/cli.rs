@@ -134,7 +134,7 @@ fn auto_backend_without_a_hardware_gpu_runs_on_the_cpu_and_says_why() {
 #[test]
 fn the_backend_line_says_the_threads_the_cpu_runs_on() {
     for (threads, said) in [("1", "backend: cpu (f64, 1 thread)"), ("3", "backend: cpu (f64, 3 threads)")] {
-        let o = bin_without_gpu()
+        let o = bin()
             .args(["bench", "--backend", "cpu", "--particles", "300", "--steps", "2", "--warmup", "1", "--json"])
             .env("RAYON_NUM_THREADS", threads)
             .output()
